@@ -1,0 +1,30 @@
+//! # fdem — the combined finite–discrete element method, driven by Rhai model scripts
+//!
+//! Bodies are deformable discrete elements meshed into constant-strain tetrahedra. Time runs
+//! explicitly with the central difference method. One time step is Munjiza's seven stages, and
+//! the module list reads as the step ([`pipeline::Simulation::step`]):
+//!
+//! 1. [`elements`] — stress in every tetrahedron from its deformation; nodal internal forces.
+//! 2. joints — joint forces between tetrahedra (not built yet).
+//! 3. fracture — joints that break (not built yet).
+//! 4. contact detection — NBS search (not built yet).
+//! 5. contact interaction — potential contact forces (not built yet).
+//! 6. [`loads`] — gravity, nodal forces, tractions, prescribed velocities.
+//! 7. [`integration`] — central difference, lumped mass, stable time step.
+//!
+//! Around them: [`mesh`] (tet4 meshes, generators, regions), [`material`] (elastic laws),
+//! [`pipeline`] (the state, the step, timers, energy), [`script`] (the Rhai layer),
+//! [`io`] (ParaView and CSV output) and [`cli`].
+
+pub mod cli;
+pub mod elements;
+pub mod integration;
+pub mod io;
+pub mod loads;
+pub mod material;
+pub mod math;
+pub mod mesh;
+pub mod pipeline;
+pub mod script;
+
+pub use pipeline::{Layout, Simulation, Stage};

@@ -1,0 +1,106 @@
+//! Stage 6 — external loads: gravity, nodal forces and surface tractions (each optionally
+//! scaled by a time function), and prescribed velocities of node sets (fixed nodes are a
+//! prescribed velocity of zero).
+//!
+//! Reads the time and positions; adds nodal forces to `f`, writes the prescribed velocity of
+//! constrained components at t + dt/2 into `v_prescribed` (stage 7 imposes it) and keeps the
+//! work of the applied forces, integrated with the trapezoidal rule in displacement:
+//! W += ½(F(t) + F(t−dt))·(x(t) − x(t−dt)) (exact for constant loads).
+
+mod time_function;
+
+pub use time_function::TimeFunction;
+
+use crate::math::{Real, Vec3};
+use crate::pipeline::state::Nodes;
+
+/// A set of nodal forces: node i gets `force[i]·scale(t)` [N].
+#[derive(Clone, Debug)]
+pub struct NodalForces {
+    pub nodes: Vec<u32>,
+    pub force: Vec<Vec3>,
+    pub scale: TimeFunction,
+    prev_x: Vec<Vec3>,
+    prev_scale: Real,
+    started: bool,
+}
+
+impl NodalForces {
+    pub fn new(nodes: Vec<u32>, force: Vec<Vec3>, scale: TimeFunction) -> Self {
+        assert_eq!(nodes.len(), force.len());
+        NodalForces { nodes, force, scale, prev_x: Vec::new(), prev_scale: 0.0, started: false }
+    }
+    /// Total force at time t [N].
+    pub fn total(&self, t: Real) -> Vec3 {
+        self.force.iter().sum::<Vec3>() * self.scale.eval(t)
+    }
+}
+
+/// Velocity prescribed on components of a node set; each component an optional function of time.
+#[derive(Clone, Debug)]
+pub struct PrescribedVelocity {
+    pub nodes: Vec<u32>,
+    pub components: [Option<TimeFunction>; 3],
+}
+
+impl PrescribedVelocity {
+    pub fn mask(&self) -> u8 {
+        (0..3).filter(|&k| self.components[k].is_some()).fold(0, |m, k| m | (1 << k))
+    }
+}
+
+/// Everything stage 6 applies.
+#[derive(Clone, Debug, Default)]
+pub struct Loads {
+    /// Gravitational acceleration g [m/s²], applied to every node by stage 7.
+    pub gravity: Vec3,
+    pub forces: Vec<NodalForces>,
+    pub prescribed: Vec<PrescribedVelocity>,
+    /// Work done by nodal forces and tractions so far [J].
+    pub force_work: Real,
+}
+
+impl Loads {
+    /// Rebuild the per-node constraint masks from the prescriptions (later ones win per component).
+    pub fn apply_constraint_masks(&self, nodes: &mut Nodes) {
+        nodes.constraint.iter_mut().for_each(|c| *c = 0);
+        for p in &self.prescribed {
+            let mask = p.mask();
+            for &n in &p.nodes {
+                nodes.constraint[n as usize] |= mask;
+            }
+        }
+    }
+}
+
+/// Stage 6: add the applied forces at time `t` and set prescribed velocities for t + dt/2.
+pub fn add_external_forces(loads: &mut Loads, nodes: &mut Nodes, t: Real, dt: Real) {
+    let mut work = 0.0;
+    for set in &mut loads.forces {
+        let s = set.scale.eval(t);
+        if !set.started {
+            set.prev_x = set.nodes.iter().map(|&n| nodes.x[n as usize]).collect();
+            set.prev_scale = s;
+            set.started = true;
+        }
+        for (i, &n) in set.nodes.iter().enumerate() {
+            let n = n as usize;
+            nodes.f[n] += set.force[i] * s;
+            work += 0.5 * (s + set.prev_scale) * set.force[i].dot(&(nodes.x[n] - set.prev_x[i]));
+            set.prev_x[i] = nodes.x[n];
+        }
+        set.prev_scale = s;
+    }
+    loads.force_work += work;
+    let t_half = t + 0.5 * dt;
+    for p in &loads.prescribed {
+        for k in 0..3 {
+            if let Some(tf) = &p.components[k] {
+                let value = tf.eval(t_half);
+                for &n in &p.nodes {
+                    nodes.v_prescribed[n as usize][k] = value;
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,1 @@
+fn main() { fdem::cli::main() }

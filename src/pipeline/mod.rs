@@ -1,0 +1,502 @@
+//! The simulation state and the time step: the seven stages of Munjiza's FEM/DEM in order,
+//! each a free function of exactly the arrays it reads and writes, each timed.
+
+pub mod state;
+
+use crate::elements::{self, ElementsWorkspace};
+use crate::integration::{self, stable_dt, IntegrationSums, StepParams};
+use crate::loads::{self, Loads};
+use crate::material::Material;
+use crate::math::{Real, Vec3};
+use crate::mesh::{boundary_faces, BoundaryFace, Mesh, Region};
+use rayon::prelude::*;
+pub use state::{Body, Layout, MaterialId, Nodes, Tets};
+use std::time::Instant;
+
+/// The seven stages of a time step (Munjiza 2004), in execution order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Stage {
+    Elements,
+    Joints,
+    Fracture,
+    ContactDetection,
+    ContactInteraction,
+    ExternalLoads,
+    Integration,
+}
+
+impl Stage {
+    pub const ALL: [Stage; 7] = [
+        Stage::Elements,
+        Stage::Joints,
+        Stage::Fracture,
+        Stage::ContactDetection,
+        Stage::ContactInteraction,
+        Stage::ExternalLoads,
+        Stage::Integration,
+    ];
+    /// Module name of the stage (also its key in timing tables and `fdem bench` JSON).
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Elements => "elements",
+            Stage::Joints => "joints",
+            Stage::Fracture => "fracture",
+            Stage::ContactDetection => "contact_detection",
+            Stage::ContactInteraction => "contact_interaction",
+            Stage::ExternalLoads => "external_loads",
+            Stage::Integration => "integration",
+        }
+    }
+    /// Whether the stage exists in this build (joints, fracture and contact come later).
+    pub fn is_built(self) -> bool {
+        matches!(self, Stage::Elements | Stage::ExternalLoads | Stage::Integration)
+    }
+}
+
+/// Accumulated wall time per stage.
+#[derive(Clone, Debug, Default)]
+pub struct StageTimers {
+    pub seconds: [f64; 7],
+}
+
+impl StageTimers {
+    pub fn get(&self, s: Stage) -> f64 {
+        self.seconds[s as usize]
+    }
+    pub fn total(&self) -> f64 {
+        self.seconds.iter().sum()
+    }
+}
+
+/// Running energy account [J]. Balance: kinetic + strain + dissipated = initial + external work.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Energy {
+    pub kinetic: Real,
+    pub strain: Real,
+    /// Work of gravity Σ m g·(x − X).
+    pub gravity_work: Real,
+    /// Work of nodal forces and tractions.
+    pub force_work: Real,
+    /// Work of the constraints (fixed and prescribed-velocity nodes).
+    pub reaction_work: Real,
+    /// Dissipated by mass-proportional damping.
+    pub mass_damping: Real,
+    /// Dissipated by viscous (η·D) element damping.
+    pub viscous_damping: Real,
+    /// Kinetic + strain energy at the first step.
+    pub initial: Real,
+}
+
+impl Energy {
+    pub fn external_work(&self) -> Real {
+        self.gravity_work + self.force_work + self.reaction_work
+    }
+    pub fn dissipated(&self) -> Real {
+        self.mass_damping + self.viscous_damping
+    }
+    /// (kinetic + strain + dissipated) − (initial + external work) [J].
+    pub fn balance_error(&self) -> Real {
+        self.kinetic + self.strain + self.dissipated() - (self.initial + self.external_work())
+    }
+    /// Balance error relative to the largest energy in the account.
+    pub fn relative_balance_error(&self) -> Real {
+        let scale = [
+            self.kinetic,
+            self.strain,
+            self.initial,
+            self.gravity_work.abs(),
+            self.force_work.abs(),
+            self.reaction_work.abs(),
+            self.dissipated(),
+        ]
+        .into_iter()
+        .fold(0.0, Real::max);
+        if scale > 0.0 {
+            self.balance_error() / scale
+        } else {
+            0.0
+        }
+    }
+}
+
+/// One row of the energy history.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EnergySample {
+    pub step: u64,
+    pub time: Real,
+    pub energy: Energy,
+}
+
+/// How the time step was chosen.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TimeStepInfo {
+    pub dt: Real,
+    pub critical: Real,
+    pub safety: Real,
+    /// Element that sets the critical step, its body and centroid.
+    pub tet: usize,
+    pub body: String,
+    pub centroid: Vec3,
+    /// True when the user fixed dt.
+    pub fixed: bool,
+}
+
+impl std::fmt::Display for TimeStepInfo {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let c = self.centroid;
+        let how = if self.fixed { "fixed by the script".to_string() } else { format!("{} × critical", self.safety) };
+        write!(
+            f,
+            "dt = {:.4e} s ({how}); critical {:.4e} s set by tet {} of body '{}' at ({:.4}, {:.4}, {:.4})",
+            self.dt, self.critical, self.tet, self.body, c.x, c.y, c.z
+        )
+    }
+}
+
+/// Errors that stop a run.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SimError {
+    /// The model is not valid (bad mesh, dt too large, nothing to simulate, …).
+    Invalid(String),
+    /// The solution blew up: non-finite values or inverted elements.
+    Unstable(String),
+}
+
+impl std::fmt::Display for SimError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SimError::Invalid(m) => write!(f, "{m}"),
+            SimError::Unstable(m) => write!(f, "unstable run: {m}"),
+        }
+    }
+}
+
+impl std::error::Error for SimError {}
+
+/// Time-integration settings.
+#[derive(Clone, Debug)]
+pub struct Settings {
+    /// dt = safety × critical step.
+    pub safety: Real,
+    /// A fixed dt [s] instead of the automatic one (must not exceed the critical step).
+    pub dt: Option<Real>,
+    /// Mass-proportional damping α [1/s].
+    pub mass_damping: Real,
+    /// Sample the energy account every this many steps.
+    pub energy_every: u64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings { safety: 0.8, dt: None, mass_damping: 0.0, energy_every: 50 }
+    }
+}
+
+/// The whole state of a FEM/DEM model.
+#[derive(Debug, Default)]
+pub struct Simulation {
+    pub nodes: Nodes,
+    pub tets: Tets,
+    pub bodies: Vec<Body>,
+    pub materials: Vec<Material>,
+    pub loads: Loads,
+    pub settings: Settings,
+    pub time: Real,
+    pub step: u64,
+    pub dt: Real,
+    dt_prev: Real,
+    pub dt_info: Option<TimeStepInfo>,
+    pub timers: StageTimers,
+    pub energy: Energy,
+    pub energy_history: Vec<EnergySample>,
+    /// Sample energies on the next step regardless of `energy_every`.
+    pub sample_next: bool,
+    ready: bool,
+    elements_ws: ElementsWorkspace,
+    integration_partials: Vec<IntegrationSums>,
+}
+
+impl Simulation {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    pub fn add_material(&mut self, m: Material) -> MaterialId {
+        self.ready = false;
+        self.materials.push(m);
+        (self.materials.len() - 1) as MaterialId
+    }
+
+    /// Add a body meshed by `mesh` (shared-node topology) with `layout`. Returns its id.
+    pub fn add_body(&mut self, name: &str, mesh: &Mesh, material: MaterialId, layout: Layout) -> Result<usize, String> {
+        if self.bodies.iter().any(|b| b.name == name) {
+            return Err(format!("a body named '{name}' already exists"));
+        }
+        if mesh.tets.is_empty() {
+            return Err(format!("body '{name}': the mesh has no tetrahedra"));
+        }
+        if material as usize >= self.materials.len() {
+            return Err(format!("body '{name}': unknown material id {material}"));
+        }
+        let problems = mesh.check();
+        if !problems.is_empty() {
+            let list: Vec<String> = problems.iter().take(5).map(|p| format!("  {p}")).collect();
+            let more = if problems.len() > 5 { format!("\n  … and {} more", problems.len() - 5) } else { String::new() };
+            return Err(format!(
+                "body '{name}': invalid mesh, {} bad tetrahedra (tet ids are the mesh's):\n{}{more}",
+                problems.len(),
+                list.join("\n")
+            ));
+        }
+        self.ready = false;
+        let id = self.bodies.len();
+        let node_start = self.nodes.len();
+        let tet_start = self.tets.len();
+        // Simulation node ids of each tet's corners.
+        let tet_nodes: Vec<[u32; 4]> = match layout {
+            Layout::Continuous => {
+                for p in &mesh.nodes {
+                    self.nodes.push(*p, id as u32);
+                }
+                mesh.tets.iter().map(|t| t.map(|n| n + node_start as u32)).collect()
+            }
+            Layout::Jointed => {
+                let mut out = Vec::with_capacity(mesh.tets.len());
+                for t in &mesh.tets {
+                    let base = self.nodes.len() as u32;
+                    for &n in t {
+                        self.nodes.push(mesh.nodes[n as usize], id as u32);
+                    }
+                    out.push([base, base + 1, base + 2, base + 3]);
+                }
+                out
+            }
+        };
+        for (e, t) in tet_nodes.iter().enumerate() {
+            let p = mesh.tet_points(e);
+            let dm = crate::math::edge_matrix(&p[0], &p[1], &p[2], &p[3]);
+            self.tets.nodes.push(*t);
+            self.tets.dm_inv.push(dm.try_inverse().expect("checked non-degenerate"));
+            self.tets.vol0.push(dm.determinant() / 6.0);
+            self.tets.material.push(material);
+            self.tets.body.push(id as u32);
+        }
+        let boundary = boundary_faces(mesh)
+            .into_iter()
+            .map(|f| {
+                let t = tet_nodes[f.tet as usize];
+                let local = crate::mesh::TET_FACES[f.local as usize];
+                BoundaryFace { tet: f.tet + tet_start as u32, local: f.local, nodes: local.map(|c| t[c]) }
+            })
+            .collect();
+        self.bodies.push(Body {
+            name: name.to_string(),
+            layout,
+            material,
+            tets: tet_start..self.tets.len(),
+            nodes: node_start..self.nodes.len(),
+            boundary,
+        });
+        Ok(id)
+    }
+
+    pub fn body_id(&self, name: &str) -> Option<usize> {
+        self.bodies.iter().position(|b| b.name == name)
+    }
+
+    /// Nodes inside `region` (optionally of one body), in id order.
+    pub fn nodes_in(&self, region: &Region, body: Option<usize>) -> Vec<u32> {
+        let range = body.map(|b| self.bodies[b].nodes.clone()).unwrap_or(0..self.nodes.len());
+        let tol = self.length_tolerance();
+        range.filter(|&n| region.contains(&self.nodes.x[n], tol)).map(|n| n as u32).collect()
+    }
+
+    /// Tets whose centroid lies inside `region` (optionally of one body).
+    pub fn tets_in(&self, region: &Region, body: Option<usize>) -> Vec<u32> {
+        let range = body.map(|b| self.bodies[b].tets.clone()).unwrap_or(0..self.tets.len());
+        let tol = self.length_tolerance();
+        range
+            .filter(|&e| {
+                let c = self.tets.nodes[e].iter().map(|&n| self.nodes.x[n as usize]).sum::<Vec3>() / 4.0;
+                region.contains(&c, tol)
+            })
+            .map(|e| e as u32)
+            .collect()
+    }
+
+    /// 1e-9 × the diagonal of the model's bounding box [m].
+    pub fn length_tolerance(&self) -> Real {
+        let mut lo = Vec3::repeat(Real::INFINITY);
+        let mut hi = Vec3::repeat(Real::NEG_INFINITY);
+        for p in &self.nodes.x {
+            lo = lo.inf(p);
+            hi = hi.sup(p);
+        }
+        if self.nodes.is_empty() {
+            1e-12
+        } else {
+            1e-9 * (hi - lo).norm().max(1e-3)
+        }
+    }
+
+    /// Mark the model changed (masses, constraints, dt are recomputed before the next step).
+    pub fn invalidate(&mut self) {
+        self.ready = false;
+    }
+
+    /// Masses, gather maps, constraint masks and the stable time step. Called by `step`.
+    pub fn prepare(&mut self) -> Result<(), SimError> {
+        if self.ready {
+            return Ok(());
+        }
+        if self.tets.is_empty() {
+            return Err(SimError::Invalid("the model has no bodies: add one with sim.add_body(..)".into()));
+        }
+        state::lumped_masses(&mut self.nodes, &self.tets, &self.materials);
+        self.elements_ws = ElementsWorkspace::new(&self.bodies, &self.tets);
+        self.integration_partials = Vec::with_capacity(self.nodes.len().div_ceil(integration::CHUNK));
+        self.loads.apply_constraint_masks(&mut self.nodes);
+        let info = self.stable_time_step()?;
+        self.dt = info.dt;
+        self.dt_info = Some(info);
+        self.ready = true;
+        Ok(())
+    }
+
+    /// Critical time step over all tets and the dt to use.
+    pub fn stable_time_step(&self) -> Result<TimeStepInfo, SimError> {
+        let (critical, tet) = (0..self.tets.len())
+            .into_par_iter()
+            .map(|e| (stable_dt::tet_critical_dt(&self.tets.dm_inv[e], &self.materials[self.tets.material[e] as usize]), e))
+            .reduce(|| (Real::INFINITY, usize::MAX), |a, b| if b.0 < a.0 || (b.0 == a.0 && b.1 < a.1) { b } else { a });
+        let body = &self.bodies[self.tets.body[tet] as usize];
+        let centroid = self.tets.nodes[tet].iter().map(|&n| self.nodes.x0[n as usize]).sum::<Vec3>() / 4.0;
+        let mut info = TimeStepInfo {
+            dt: self.settings.safety * critical,
+            critical,
+            safety: self.settings.safety,
+            tet,
+            body: body.name.clone(),
+            centroid,
+            fixed: false,
+        };
+        if let Some(dt) = self.settings.dt {
+            if dt > critical {
+                return Err(SimError::Invalid(format!(
+                    "dt = {dt:.4e} s is larger than the critical time step {critical:.4e} s set by tet {tet} of body '{}' at ({:.4}, {:.4}, {:.4}); use dt ≤ {:.4e} s or leave dt unset for the automatic step",
+                    body.name, centroid.x, centroid.y, centroid.z, critical
+                )));
+            }
+            info.dt = dt;
+            info.fixed = true;
+        }
+        Ok(info)
+    }
+
+    /// Advance one time step through the seven stages.
+    pub fn step(&mut self) -> Result<(), SimError> {
+        self.prepare()?;
+        let sample = self.step == 0 || self.sample_next || self.step % self.settings.energy_every.max(1) == 0;
+        self.sample_next = false;
+        let dt = self.dt;
+
+        // 1. elements
+        let t = Instant::now();
+        let el = elements::add_internal_forces(
+            &mut self.nodes,
+            &self.tets,
+            &self.bodies,
+            &self.materials,
+            &mut self.elements_ws,
+            sample,
+        );
+        self.timers.seconds[Stage::Elements as usize] += t.elapsed().as_secs_f64();
+
+        // 2. joints, 3. fracture, 4. contact detection, 5. contact interaction:
+        //    not built yet — no joint or contact elements exist in this version.
+
+        // 6. external loads
+        let t = Instant::now();
+        loads::add_external_forces(&mut self.loads, &mut self.nodes, self.time, dt);
+        self.timers.seconds[Stage::ExternalLoads as usize] += t.elapsed().as_secs_f64();
+
+        // 7. integration
+        let t = Instant::now();
+        let params = StepParams {
+            dt,
+            dt_prev: self.dt_prev,
+            gravity: self.loads.gravity,
+            mass_damping: self.settings.mass_damping,
+            sample,
+        };
+        let is = integration::central_difference(&mut self.nodes, params, &mut self.integration_partials);
+        self.timers.seconds[Stage::Integration as usize] += t.elapsed().as_secs_f64();
+
+        let dt_bar = 0.5 * (self.dt_prev + dt);
+        self.energy.viscous_damping += el.viscous_power * dt_bar;
+        self.energy.mass_damping += is.damping_dissipation;
+        self.energy.reaction_work += is.reaction_work;
+        self.energy.force_work = self.loads.force_work;
+        if sample {
+            self.energy.kinetic = is.kinetic;
+            self.energy.strain = el.strain_energy;
+            self.energy.gravity_work = is.gravity_work;
+            if self.step == 0 {
+                self.energy.initial = is.kinetic + el.strain_energy;
+            }
+            self.energy_history.push(EnergySample { step: self.step, time: self.time, energy: self.energy });
+            if is.non_finite > 0 || el.inverted > 0 || !self.energy.kinetic.is_finite() {
+                return Err(SimError::Unstable(self.describe_instability(el.inverted, is.non_finite)));
+            }
+        }
+        self.dt_prev = dt;
+        self.time += dt;
+        self.step += 1;
+        Ok(())
+    }
+
+    fn describe_instability(&self, inverted: usize, non_finite: usize) -> String {
+        let at = format!("at step {} (t = {:.6e} s, dt = {:.4e} s)", self.step, self.time, self.dt);
+        let hint = "reduce the time step safety factor or the loading rate, or check the material parameters";
+        if let Some(n) = (0..self.nodes.len())
+            .find(|&n| !(self.nodes.x[n].iter().all(|c| c.is_finite()) && self.nodes.v[n].iter().all(|c| c.is_finite())))
+        {
+            let b = &self.bodies[self.nodes.body[n] as usize].name;
+            let p = self.nodes.x0[n];
+            return format!(
+                "{non_finite} node(s) have non-finite position or velocity {at}; first: node {n} of body '{b}' (reference position ({:.4}, {:.4}, {:.4})); {hint}",
+                p.x, p.y, p.z
+            );
+        }
+        if let Some(e) = (0..self.tets.len()).find(|&e| !(elements::deformation_gradient(&self.tets, &self.nodes.x, e).determinant() > 0.0)) {
+            let b = &self.bodies[self.tets.body[e] as usize].name;
+            let c = self.tets.nodes[e].iter().map(|&n| self.nodes.x[n as usize]).sum::<Vec3>() / 4.0;
+            let j = elements::deformation_gradient(&self.tets, &self.nodes.x, e).determinant();
+            return format!(
+                "{inverted} element(s) inverted {at}; first: tet {e} of body '{b}' at ({:.4}, {:.4}, {:.4}) with det F = {j:.3e}; {hint}",
+                c.x, c.y, c.z
+            );
+        }
+        format!("non-finite energy {at}; {hint}")
+    }
+
+    /// Kinetic energy ½Σm|v|² from the current half-step velocities [J].
+    pub fn kinetic_energy_now(&self) -> Real {
+        self.nodes.m.iter().zip(&self.nodes.v).map(|(m, v)| 0.5 * m * v.norm_squared()).sum()
+    }
+
+    /// Strain energy of the current configuration [J].
+    pub fn strain_energy_now(&self) -> Real {
+        (0..self.tets.len())
+            .map(|e| {
+                let f = elements::deformation_gradient(&self.tets, &self.nodes.x, e);
+                self.tets.vol0[e] * self.materials[self.tets.material[e] as usize].energy_density(&f)
+            })
+            .sum()
+    }
+
+    /// Total mass of the model [kg] (valid after `prepare`).
+    pub fn total_mass(&self) -> Real {
+        self.nodes.m.iter().sum()
+    }
+}

@@ -1,0 +1,114 @@
+//! Structure-of-arrays state: nodes, tetrahedra, bodies.
+
+use crate::material::Material;
+use crate::math::{Mat3, Real, Vec3};
+use crate::mesh::BoundaryFace;
+use std::ops::Range;
+
+/// Nodal arrays (contiguous, indexed by node id).
+#[derive(Clone, Debug, Default)]
+pub struct Nodes {
+    /// Reference position X [m].
+    pub x0: Vec<Vec3>,
+    /// Current position x(t) [m].
+    pub x: Vec<Vec3>,
+    /// Velocity at the last half step v(t − dt/2) (v(0) before the first step) [m/s].
+    pub v: Vec<Vec3>,
+    /// Force accumulator for the current step [N]; zero between steps.
+    pub f: Vec<Vec3>,
+    /// Lumped mass [kg].
+    pub m: Vec<Real>,
+    /// Body id.
+    pub body: Vec<u32>,
+    /// Constrained components: bit 0 = x, 1 = y, 2 = z.
+    pub constraint: Vec<u8>,
+    /// Prescribed velocity of constrained components at t + dt/2 [m/s] (set by stage 6).
+    pub v_prescribed: Vec<Vec3>,
+    /// Force the constraints exert on constrained components in the last step [N].
+    pub reaction: Vec<Vec3>,
+}
+
+impl Nodes {
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
+    pub(crate) fn push(&mut self, p: Vec3, body: u32) {
+        self.x0.push(p);
+        self.x.push(p);
+        self.v.push(Vec3::zeros());
+        self.f.push(Vec3::zeros());
+        self.m.push(0.0);
+        self.body.push(body);
+        self.constraint.push(0);
+        self.v_prescribed.push(Vec3::zeros());
+        self.reaction.push(Vec3::zeros());
+    }
+}
+
+/// Tetrahedron arrays (contiguous, indexed by element id).
+#[derive(Clone, Debug, Default)]
+pub struct Tets {
+    pub nodes: Vec<[u32; 4]>,
+    /// Inverse of the reference edge matrix [X1−X0, X2−X0, X3−X0]⁻¹ [1/m].
+    pub dm_inv: Vec<Mat3>,
+    /// Reference volume V₀ [m³].
+    pub vol0: Vec<Real>,
+    pub material: Vec<u32>,
+    pub body: Vec<u32>,
+}
+
+impl Tets {
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+}
+
+/// How a body's tetrahedra share nodes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layout {
+    /// Every tetrahedron owns its 4 nodes (node multiplicity): tets are held together only by
+    /// joint elements, so the body can crack along any face between them.
+    Jointed,
+    /// Tetrahedra share nodes like ordinary FEM: unbreakable, ~5× fewer nodes.
+    Continuous,
+}
+
+impl Layout {
+    pub fn name(self) -> &'static str {
+        match self {
+            Layout::Jointed => "jointed",
+            Layout::Continuous => "continuous",
+        }
+    }
+}
+
+/// A body: a contiguous range of tets and of nodes, one material.
+#[derive(Clone, Debug)]
+pub struct Body {
+    pub name: String,
+    pub layout: Layout,
+    pub material: u32,
+    pub tets: Range<usize>,
+    pub nodes: Range<usize>,
+    /// Outer boundary faces, with simulation node ids and outward orientation.
+    pub boundary: Vec<BoundaryFace>,
+}
+
+/// Handle to a material in a simulation.
+pub type MaterialId = u32;
+
+pub(crate) fn lumped_masses(nodes: &mut Nodes, tets: &Tets, materials: &[Material]) {
+    nodes.m.iter_mut().for_each(|m| *m = 0.0);
+    for e in 0..tets.len() {
+        let mq = materials[tets.material[e] as usize].density * tets.vol0[e] / 4.0;
+        for &n in &tets.nodes[e] {
+            nodes.m[n as usize] += mq;
+        }
+    }
+}
