@@ -1,1 +1,232 @@
-//! Script.
+//! The scripting layer: one function builds every Rhai engine (CLI, tests, docs), with strict
+//! variables, errors on invalid map properties, explicit limits and the `stdlib/` modules.
+//! A script is the model: it builds geometry, materials, loads, hooks, and runs stages.
+
+pub mod api;
+mod bindings;
+pub mod opts;
+mod runner;
+pub mod types;
+
+use rhai::module_resolvers::{FileModuleResolver, ModuleResolversCollection, StaticModuleResolver};
+use rhai::{Engine, EvalAltResult, Module, NativeCallContext, ParseError, Position, Scope};
+use std::cell::{Cell, RefCell};
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+use types::SimHandle;
+
+/// How a script is run.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// `--set name=value` overrides of `params(..)`.
+    pub overrides: Vec<(String, String)>,
+    /// `--out DIR`: output directory for every simulation of the script.
+    pub out_dir: Option<PathBuf>,
+    /// No timing/energy summary (script prints still appear).
+    pub quiet: bool,
+    /// `fdem check`: build and validate the model, do not step it.
+    pub check_only: bool,
+    /// Show a progress bar on a terminal.
+    pub progress: bool,
+}
+
+/// State shared by the bindings of one script run.
+pub struct ScriptContext {
+    pub options: RunOptions,
+    pub script_path: PathBuf,
+    pub params_called: Cell<bool>,
+    pub sims: RefCell<Vec<SimHandle>>,
+}
+
+impl ScriptContext {
+    /// Print a line of script output (silent under `fdem check`).
+    pub fn say(&self, msg: &str) {
+        if !self.options.check_only {
+            println!("{msg}");
+        }
+    }
+    pub fn script_stem(&self) -> String {
+        self.script_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "model".into())
+    }
+}
+
+/// The `stdlib/` modules, embedded so scripts run from any directory.
+pub const STDLIB: &[(&str, &str)] = &[("stdlib/units", include_str!("../../stdlib/units.rhai"))];
+
+/// Build the Rhai engine used for every script.
+pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
+    let mut engine = Engine::new();
+    engine
+        .set_strict_variables(true)
+        .set_fail_on_invalid_map_property(true)
+        .set_max_expr_depths(128, 64)
+        .set_max_call_levels(64)
+        .set_max_operations(20_000_000_000)
+        .set_max_modules(64)
+        .set_max_string_size(16 << 20)
+        .set_max_array_size(50_000_000)
+        .set_max_map_size(100_000);
+    let c = ctx.clone();
+    engine.on_print(move |s| c.say(s));
+    engine.on_debug(|s, src, pos| eprintln!("{}:{}: {s}", src.unwrap_or("script"), pos));
+    bindings::register(&mut engine, ctx.clone());
+    // stdlib modules are compiled by this engine (they may call host functions).
+    let mut stdlib = StaticModuleResolver::new();
+    for (name, src) in STDLIB {
+        let mut ast = engine.compile(*src).unwrap_or_else(|e| panic!("{name}.rhai does not compile: {e}"));
+        ast.set_source(format!("{name}.rhai"));
+        let module = Module::eval_ast_as_new(Scope::new(), &ast, &engine).unwrap_or_else(|e| panic!("{name}.rhai: {e}"));
+        stdlib.insert(*name, module);
+    }
+    let mut resolvers = ModuleResolversCollection::new();
+    resolvers.push(stdlib);
+    let base = ctx.script_path.parent().map(Path::to_path_buf).unwrap_or_default();
+    resolvers.push(FileModuleResolver::new_with_path(base));
+    engine.set_module_resolver(resolvers);
+    engine
+}
+
+/// What a finished script leaves behind (used by tests and the CLI summary).
+pub struct ScriptReport {
+    pub sims: Vec<SimHandle>,
+}
+
+/// A script error, formatted as `file:line:col: error: message` with the source line.
+#[derive(Debug, Clone)]
+pub struct ScriptError(pub String);
+
+impl std::fmt::Display for ScriptError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for ScriptError {}
+
+/// Resolve a data path named in a script: as given if it exists, else next to the script.
+pub fn resolve_path(nc: &NativeCallContext, path: &str) -> PathBuf {
+    let p = PathBuf::from(path);
+    if p.exists() || p.is_absolute() {
+        return p;
+    }
+    if let Some(src) = nc.call_source() {
+        if let Some(dir) = Path::new(src).parent() {
+            let q = dir.join(path);
+            if q.exists() {
+                return q;
+            }
+        }
+    }
+    p
+}
+
+/// Run a script file.
+pub fn run_file(path: &Path, options: RunOptions) -> Result<ScriptReport, ScriptError> {
+    let source = std::fs::read_to_string(path).map_err(|e| ScriptError(format!("{}: cannot read the script: {e}", path.display())))?;
+    run_source(path, &source, options)
+}
+
+/// Run script text as if it were the file `path`.
+pub fn run_source(path: &Path, source: &str, options: RunOptions) -> Result<ScriptReport, ScriptError> {
+    let ctx = Rc::new(ScriptContext {
+        options,
+        script_path: path.to_path_buf(),
+        params_called: Cell::new(false),
+        sims: RefCell::new(Vec::new()),
+    });
+    let engine = build_engine(ctx.clone());
+    let label = path.display().to_string();
+    let mut ast = engine.compile(source).map_err(|e| ScriptError(format_parse_error(&label, source, &e)))?;
+    ast.set_source(label.clone());
+    let result = engine.run_ast(&ast);
+    // Finish output of every simulation, even after an error.
+    for s in ctx.sims.borrow().iter() {
+        let _ = s.0.borrow_mut().vtk.flush();
+    }
+    result.map_err(|e| ScriptError(format_eval_error(&label, source, &e)))?;
+    if !ctx.options.overrides.is_empty() && !ctx.params_called.get() {
+        let keys: Vec<&str> = ctx.options.overrides.iter().map(|(k, _)| k.as_str()).collect();
+        return Err(ScriptError(format!("{label}: error: --set {} given, but the script declares no params(#{{..}})", keys.join(", "))));
+    }
+    let sims = ctx.sims.borrow().clone();
+    Ok(ScriptReport { sims })
+}
+
+impl ScriptReport {
+    /// Timing and energy summaries of every simulation that ran.
+    pub fn summaries(&self) -> Vec<String> {
+        self.sims
+            .iter()
+            .filter_map(|s| {
+                let st = s.0.borrow();
+                (st.runs > 0).then(|| runner::summary(&st.name, &st.sim, st.wall, st.steps_in_runs, st.vtk.entries.len(), &st.out_dir))
+            })
+            .collect()
+    }
+}
+
+fn snippet(source: &str, pos: Position) -> String {
+    match (pos.line(), source.lines().nth(pos.line().unwrap_or(1).saturating_sub(1))) {
+        (Some(l), Some(text)) => {
+            let col = pos.position().unwrap_or(1).max(1);
+            format!("\n{l:>5} | {text}\n      | {}^", " ".repeat(col - 1))
+        }
+        _ => String::new(),
+    }
+}
+
+fn loc(label: &str, pos: Position) -> String {
+    match (pos.line(), pos.position()) {
+        (Some(l), Some(c)) => format!("{label}:{l}:{c}"),
+        (Some(l), None) => format!("{label}:{l}"),
+        _ => label.to_string(),
+    }
+}
+
+fn format_parse_error(label: &str, source: &str, e: &ParseError) -> String {
+    let pos = e.position();
+    format!("{}: error: {}{}", loc(label, pos), e.err_type(), snippet(source, pos))
+}
+
+/// Unwrap nested function-call errors down to the innermost one, keeping the call chain.
+fn format_eval_error(label: &str, source: &str, e: &EvalAltResult) -> String {
+    let mut chain = Vec::new();
+    let mut cur = e;
+    let mut src_label = label.to_string();
+    loop {
+        match cur {
+            EvalAltResult::ErrorInFunctionCall(name, src, inner, pos) => {
+                let shown = if name.starts_with("anon$") { "closure".to_string() } else { format!("function '{name}'") };
+                chain.push(format!("  in {shown} called at {}", loc(&src_label, *pos)));
+                if !src.is_empty() {
+                    src_label = src.clone();
+                }
+                cur = inner;
+            }
+            EvalAltResult::ErrorInModule(path, inner, pos) => {
+                chain.push(format!("  in module '{path}' imported at {}", loc(&src_label, *pos)));
+                cur = inner;
+            }
+            _ => break,
+        }
+    }
+    let pos = cur.position();
+    let msg = match cur {
+        EvalAltResult::ErrorRuntime(d, _) => d.to_string(),
+        other => {
+            let s = other.to_string();
+            // Rhai appends " (line l, position c)"; the location is printed in front already.
+            match s.rfind(" (line ") {
+                Some(i) => s[..i].to_string(),
+                None => s,
+            }
+        }
+    };
+    let snip = if src_label == label { snippet(source, pos) } else { String::new() };
+    let mut out = format!("{}: error: {msg}{snip}", loc(&src_label, pos));
+    for c in chain.iter().rev() {
+        out.push('\n');
+        out.push_str(c);
+    }
+    out
+}

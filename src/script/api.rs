@@ -1,0 +1,216 @@
+//! The script API as data: every function, its parameters, units and defaults. `fdem doc`
+//! prints it, `docs/script-reference.md` is generated from it (a test keeps them equal), and
+//! option maps are validated against it, so an allowed key is always a documented key.
+
+/// One key of an options map.
+#[derive(Clone, Copy, Debug)]
+pub struct Key {
+    pub name: &'static str,
+    /// Rhai type expected: "float", "int", "bool", "string", "vec3", "table|float", "closure", "shape".
+    pub kind: &'static str,
+    pub unit: &'static str,
+    /// Default value, or "required".
+    pub default: &'static str,
+    pub doc: &'static str,
+}
+
+/// One script function.
+#[derive(Clone, Copy, Debug)]
+pub struct FnDoc {
+    /// Name as called (`sim.run` for methods).
+    pub name: &'static str,
+    pub signature: &'static str,
+    pub summary: &'static str,
+    pub keys: &'static [Key],
+    /// API section.
+    pub section: &'static str,
+}
+
+const fn key(name: &'static str, kind: &'static str, unit: &'static str, default: &'static str, doc: &'static str) -> Key {
+    Key { name, kind, unit, default, doc }
+}
+
+pub const SECTIONS: &[(&str, &str)] = &[
+    ("Parameters and checks", "Script parameters overridable with `--set`, and self-checks."),
+    ("Simulation", "The model: create it, set integration options, run it in stages."),
+    ("Materials", "Elastic laws of the tetrahedra (stage 1). Equations in docs/theory/elements.md."),
+    ("Geometry and meshes", "Shapes (also used as selection regions), meshing, transformations."),
+    ("Bodies and selections", "Bodies are meshes placed in the simulation; selections are node, face and element sets."),
+    ("Loads and constraints", "Stage 6: gravity, forces, tractions, fixed and prescribed-velocity nodes, initial velocity."),
+    ("Hooks, monitors and output", "Periodic callbacks, monitored quantities (CSV), ParaView frames."),
+    ("Queries", "Read the state from a script or a callback (`s` is the simulation)."),
+];
+
+pub const SIMULATION_KEYS: &[Key] = &[
+    key("name", "string", "", "script file stem", "Name used in output file names."),
+    key("out_dir", "string", "", "\"out/<name>\"", "Output directory (created when first written). `fdem run --out DIR` overrides it."),
+    key("energy_every", "int", "steps", "50", "Sample the energy account every this many steps (written to energy.csv)."),
+    key("stress_output", "string", "", "\"cauchy\"", "Extra stress field written to VTK besides the Cauchy stress: \"cauchy\", \"pk1\" or \"pk2\"."),
+];
+
+pub const MATERIAL_KEYS: &[Key] = &[
+    key("density", "float", "kg/m³", "required", "Mass density ρ."),
+    key("young", "float", "Pa", "required", "Young's modulus E."),
+    key("poisson", "float", "-", "required", "Poisson's ratio ν, in (−1, 0.5)."),
+    key("viscosity", "float", "Pa·s", "0", "Viscous damping η: σ_v = η·D, D the rate of deformation."),
+];
+
+pub const BOX_KEYS: &[Key] = &[
+    key("min", "vec3", "m", "required", "Lower corner."),
+    key("max", "vec3", "m", "required", "Upper corner."),
+];
+pub const SPHERE_KEYS: &[Key] = &[
+    key("center", "vec3", "m", "required", "Centre."),
+    key("radius", "float", "m", "required", "Radius."),
+];
+pub const CYLINDER_KEYS: &[Key] = &[
+    key("base", "vec3", "m", "required", "Centre of the base disc."),
+    key("axis", "vec3", "-", "required", "Axis direction (normalised)."),
+    key("radius", "float", "m", "required", "Radius."),
+    key("length", "float", "m", "required", "Length along the axis from `base`."),
+];
+pub const HALF_SPACE_KEYS: &[Key] = &[
+    key("point", "vec3", "m", "required", "A point on the bounding plane."),
+    key("normal", "vec3", "-", "required", "The region is the side this normal points to: (x − point)·normal ≥ 0."),
+];
+pub const MESH_KEYS: &[Key] = &[
+    key("size", "float", "m", "required unless divisions", "Target edge length: each side gets round(L/size) ≥ 1 cells, each cell 6 tetrahedra."),
+    key("divisions", "array of 3 ints", "", "-", "Cells along x, y, z instead of `size`."),
+];
+pub const TET_MESH_KEYS: &[Key] = &[
+    key("nodes", "array of vec3", "m", "required", "Node coordinates."),
+    key("tets", "array of [int; 4]", "", "required", "Node ids of each tetrahedron, right-handed: (p1−p0)·((p2−p0)×(p3−p0)) > 0."),
+];
+pub const ROTATE_KEYS: &[Key] = &[
+    key("axis", "vec3", "-", "required", "Rotation axis (right-hand rule)."),
+    key("degrees", "float", "°", "required", "Angle."),
+    key("center", "vec3", "m", "[0, 0, 0]", "A point on the axis."),
+];
+pub const ADD_BODY_KEYS: &[Key] = &[key(
+    "layout",
+    "string",
+    "",
+    "\"continuous\"",
+    "\"continuous\": tetrahedra share nodes (unbreakable). \"jointed\": every tetrahedron owns its 4 nodes (node multiplicity), to be held by joint elements.",
+)];
+pub const BOUNDARY_KEYS: &[Key] = &[
+    key("normal", "vec3", "-", "any", "Keep faces whose outward normal is within `tolerance` of this direction."),
+    key("tolerance", "float", "°", "1", "Angle tolerance for `normal`."),
+    key("within", "shape", "", "anywhere", "Keep faces whose centroid lies in this region."),
+];
+pub const INTEGRATOR_KEYS: &[Key] = &[
+    key("safety", "float", "-", "0.8", "dt = safety × critical time step (exact element bound: never above the true critical step)."),
+    key("dt", "float", "s", "automatic", "Fixed time step; an error if larger than the critical step."),
+];
+pub const DAMPING_KEYS: &[Key] =
+    &[key("mass_proportional", "float", "1/s", "0", "α in the damping force −α·m·v (dynamic relaxation; critical for mode ω at α = 2ω).")];
+pub const EVERY_KEYS: &[Key] = &[
+    key("steps", "int", "steps", "-", "Call every this many steps."),
+    key("time", "float", "s", "-", "Call each time simulated time passes a multiple of this."),
+];
+pub const MONITOR_KEYS: &[Key] = &[key("every", "int", "steps", "1", "Record every this many steps (and once when the run starts).")];
+pub const RUN_KEYS: &[Key] = &[
+    key("max_time", "float", "s", "-", "Stop when the simulated time reaches this value (absolute)."),
+    key("duration", "float", "s", "-", "Run for this much simulated time from now."),
+    key("steps", "int", "steps", "-", "Run this many steps."),
+    key("stop_when", "closure", "", "-", "Stop as soon as `|s| …` returns true (checked after each `check_every` steps). Needs one of the limits above too."),
+    key("check_every", "int", "steps", "1", "How often `stop_when` is evaluated."),
+];
+pub const VELOCITY_KEYS: &[Key] = &[
+    key("x", "table|float", "m/s", "free", "Velocity along x (a number or a `table`)."),
+    key("y", "table|float", "m/s", "free", "Velocity along y."),
+    key("z", "table|float", "m/s", "free", "Velocity along z."),
+];
+
+pub const API: &[FnDoc] = &[
+    // ── Parameters and checks
+    FnDoc { section: "Parameters and checks", name: "params", signature: "params(#{ name: default, … }) -> map",
+        summary: "Declare the script's parameters with defaults. `fdem run … --set name=value` overrides them (the value is parsed with the default's type); an unknown name is an error that lists the parameters.", keys: &[] },
+    FnDoc { section: "Parameters and checks", name: "expect_within", signature: "expect_within(label, value, low, high)",
+        summary: "Self-check: fail the script (with its line) unless low ≤ value ≤ high. Skipped by `fdem check`.", keys: &[] },
+    FnDoc { section: "Parameters and checks", name: "expect_near", signature: "expect_near(label, value, reference, rel_tol)",
+        summary: "Self-check: fail unless |value − reference| ≤ rel_tol·|reference|. Skipped by `fdem check`.", keys: &[] },
+    // ── Simulation
+    FnDoc { section: "Simulation", name: "simulation", signature: "simulation(#{ … }) -> Simulation", summary: "Create an empty model.", keys: SIMULATION_KEYS },
+    FnDoc { section: "Simulation", name: "sim.integrator", signature: "sim.integrator(\"central_difference\", #{ … })",
+        summary: "Time-integration options (stage 7). The chosen dt is printed with the element that sets the critical step.", keys: INTEGRATOR_KEYS },
+    FnDoc { section: "Simulation", name: "sim.damping", signature: "sim.damping(#{ … })", summary: "Mass-proportional damping for quasi-static stages; set 0 to switch it off between runs.", keys: DAMPING_KEYS },
+    FnDoc { section: "Simulation", name: "sim.run", signature: "sim.run(#{ … })",
+        summary: "Advance the model. Runs are staged: each continues from where the last stopped. Needs max_time, duration or steps.", keys: RUN_KEYS },
+    // ── Materials
+    FnDoc { section: "Materials", name: "material", signature: "material(law, #{ … }) -> Material",
+        summary: "An elastic material. `law`: \"elastic/small_strain\" (Hooke, linear strain; not objective), \"elastic/st_venant_kirchhoff\" (Green–Lagrange strain, PK2 stress), \"elastic/munjiza\" (left Cauchy–Green, Cauchy stress; Munjiza 2004 eq. 4.220), \"elastic/neo_hookean\" (compressible). Properties: `young`, `poisson`, `density`, `viscosity`, `law`.", keys: MATERIAL_KEYS },
+    // ── Geometry
+    FnDoc { section: "Geometry and meshes", name: "box", signature: "box(#{ … }) -> Shape", summary: "Axis-aligned box. Meshable and usable as a region.", keys: BOX_KEYS },
+    FnDoc { section: "Geometry and meshes", name: "sphere", signature: "sphere(#{ … }) -> Shape", summary: "Sphere (region).", keys: SPHERE_KEYS },
+    FnDoc { section: "Geometry and meshes", name: "cylinder", signature: "cylinder(#{ … }) -> Shape", summary: "Finite cylinder (region).", keys: CYLINDER_KEYS },
+    FnDoc { section: "Geometry and meshes", name: "half_space", signature: "half_space(#{ … }) -> Shape", summary: "Half-space (region).", keys: HALF_SPACE_KEYS },
+    FnDoc { section: "Geometry and meshes", name: "shape.mesh", signature: "shape.mesh(#{ … }) -> Mesh",
+        summary: "Mesh a shape into tetrahedra. Boxes: structured, 6 Kuhn tetrahedra per cell (conforming). Other shapes are regions only in this version.", keys: MESH_KEYS },
+    FnDoc { section: "Geometry and meshes", name: "tet_mesh", signature: "tet_mesh(#{ … }) -> Mesh", summary: "A mesh from explicit nodes and tetrahedra.", keys: TET_MESH_KEYS },
+    FnDoc { section: "Geometry and meshes", name: "mesh.translate", signature: "mesh.translate([dx, dy, dz]) -> Mesh", summary: "Move the mesh (in place; also returns it) [m].", keys: &[] },
+    FnDoc { section: "Geometry and meshes", name: "mesh.rotate", signature: "mesh.rotate(#{ … }) -> Mesh", summary: "Rotate the mesh (in place; also returns it).", keys: ROTATE_KEYS },
+    FnDoc { section: "Geometry and meshes", name: "mesh.copy", signature: "mesh.copy() -> Mesh", summary: "An independent copy. Properties: `n_nodes`, `n_tets`, `volume` [m³].", keys: &[] },
+    // ── Bodies
+    FnDoc { section: "Bodies and selections", name: "sim.add_body", signature: "sim.add_body(name, mesh, material [, #{ … }]) -> Body",
+        summary: "Place a mesh in the model. Inverted or degenerate tetrahedra are an error naming the element and its place. Properties: `name`, `n_tets`, `n_nodes`, `volume` [m³], `mass` [kg], `layout`.", keys: ADD_BODY_KEYS },
+    FnDoc { section: "Bodies and selections", name: "body.copy", signature: "body.copy(name) -> Body", summary: "Add a copy of the body (same mesh, material and layout, at its current reference placement).", keys: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.translate", signature: "body.translate([dx, dy, dz])", summary: "Move a body before the first step [m].", keys: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.rotate", signature: "body.rotate(#{ … })", summary: "Rotate a body before the first step.", keys: ROTATE_KEYS },
+    FnDoc { section: "Bodies and selections", name: "body.nodes", signature: "body.nodes([shape]) -> Nodes", summary: "The body's nodes, or those inside a region (surface included, tolerance 1e-9 × model size).", keys: &[] },
+    FnDoc { section: "Bodies and selections", name: "sim.nodes", signature: "sim.nodes(shape) -> Nodes", summary: "Nodes of all bodies inside a region.", keys: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.elements", signature: "body.elements([shape]) -> Elements", summary: "The body's tetrahedra, or those whose centroid is inside a region.", keys: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.boundary", signature: "body.boundary([#{ … }]) -> Faces", summary: "Outer boundary faces of the body, optionally filtered. `faces.nodes()` gives their nodes, `faces.area` their area [m²].", keys: BOUNDARY_KEYS },
+    FnDoc { section: "Bodies and selections", name: "set + set", signature: "nodes + nodes -> Nodes", summary: "Union of node sets (also for elements). All sets have `len()`.", keys: &[] },
+    // ── Loads
+    FnDoc { section: "Loads and constraints", name: "sim.gravity", signature: "sim.gravity([gx, gy, gz])", summary: "Gravitational acceleration [m/s²] on every node.", keys: &[] },
+    FnDoc { section: "Loads and constraints", name: "sim.fix", signature: "sim.fix(nodes [, \"xyz\"])", summary: "Fix all (or the listed) displacement components of the nodes.", keys: &[] },
+    FnDoc { section: "Loads and constraints", name: "sim.prescribe_velocity", signature: "sim.prescribe_velocity(nodes, [vx, vy, vz] | #{ … })",
+        summary: "Impose the velocity of components [m/s]; each a number or a `table` of time. The reaction is reported by `s.reaction(nodes)`.", keys: VELOCITY_KEYS },
+    FnDoc { section: "Loads and constraints", name: "sim.nodal_force", signature: "sim.nodal_force(nodes, [fx, fy, fz] [, table])", summary: "Force on each node [N], optionally scaled by a table of time.", keys: &[] },
+    FnDoc { section: "Loads and constraints", name: "sim.traction", signature: "sim.traction(faces, [tx, ty, tz] [, table])",
+        summary: "Surface traction [Pa] on the reference area of faces (dead load), lumped as area/3 to each face node; optionally scaled by a table.", keys: &[] },
+    FnDoc { section: "Loads and constraints", name: "sim.initial_velocity", signature: "sim.initial_velocity(nodes, [vx, vy, vz])", summary: "Set the velocity of nodes now [m/s] (before the first step: the initial condition).", keys: &[] },
+    FnDoc { section: "Loads and constraints", name: "table", signature: "table([[t0, v0], [t1, v1], …]) -> Table", summary: "Piecewise-linear function of time, held constant beyond its ends. Times must increase.", keys: &[] },
+    FnDoc { section: "Loads and constraints", name: "read_table", signature: "read_table(path [, scale]) -> Table", summary: "A table from a text file of two columns (t, value), separated by commas or spaces; `#` lines and a non-numeric header are skipped. Values are multiplied by `scale`.", keys: &[] },
+    // ── Hooks and output
+    FnDoc { section: "Hooks, monitors and output", name: "sim.every", signature: "sim.every(#{ … }, |s| …)", summary: "Call a closure periodically during runs (e.g. `|s| s.write_vtk()`).", keys: EVERY_KEYS },
+    FnDoc { section: "Hooks, monitors and output", name: "sim.monitor", signature: "sim.monitor(name, #{ … }, |s| value) -> Monitor",
+        summary: "Record a number during runs; written to `<out_dir>/<name>.csv` after every run. Monitor methods: `last()`, `peak()` (largest value), `min()`, `max()`, `len()`, `values()`, `times()`, `write_csv()`.", keys: MONITOR_KEYS },
+    FnDoc { section: "Hooks, monitors and output", name: "sim.write_vtk", signature: "sim.write_vtk()",
+        summary: "Write a ParaView frame `<name>_NNNNNN.vtu` and update `<name>.pvd`: displacement, velocity (points); Cauchy stress, von Mises, body, material (cells).", keys: &[] },
+    // ── Queries
+    FnDoc { section: "Queries", name: "s.time", signature: "s.time, s.step, s.dt, s.n_nodes, s.n_tets", summary: "Simulated time [s], steps done, time step [s], sizes.", keys: &[] },
+    FnDoc { section: "Queries", name: "s.kinetic_energy", signature: "s.kinetic_energy(), s.strain_energy()", summary: "Current kinetic and strain energy [J].", keys: &[] },
+    FnDoc { section: "Queries", name: "s.energy", signature: "s.energy() -> map", summary: "Energy account at the last sample [J]: kinetic, strain, external_work, gravity_work, force_work, reaction_work, damping, balance_error, relative_error.", keys: &[] },
+    FnDoc { section: "Queries", name: "s.displacement", signature: "s.displacement(nodes) -> [x, y, z]", summary: "Mean displacement of the nodes [m]. Also `s.position(nodes)` [m] and `s.velocity(nodes)` [m/s] (means).", keys: &[] },
+    FnDoc { section: "Queries", name: "s.reaction", signature: "s.reaction(nodes) -> [x, y, z]", summary: "Sum of the constraint forces on the nodes in the last step [N].", keys: &[] },
+    FnDoc { section: "Queries", name: "s.mean_stress", signature: "s.mean_stress(elements) -> [[..], [..], [..]]", summary: "Volume-weighted mean Cauchy stress of the elements [Pa]; `s.max_von_mises(elements)` the largest von Mises stress [Pa].", keys: &[] },
+];
+
+/// The documented keys of a function.
+pub fn keys_of(name: &str) -> &'static [Key] {
+    API.iter().find(|f| f.name == name).map(|f| f.keys).unwrap_or(&[])
+}
+
+/// The reference as Markdown (what `fdem doc` prints and docs/script-reference.md holds).
+pub fn markdown() -> String {
+    let mut out = String::from(
+        "# Script reference\n\nGenerated by `fdem doc` from `src/script/api.rs`; the same table validates option maps, \
+so every key listed here is accepted and every other key is an error that names the allowed ones.\n\n\
+Units are SI. Vectors are arrays `[x, y, z]`; integers are accepted where a float is expected.\n",
+    );
+    for (section, intro) in SECTIONS {
+        out.push_str(&format!("\n## {section}\n\n{intro}\n"));
+        for f in API.iter().filter(|f| f.section == *section) {
+            out.push_str(&format!("\n### `{}`\n\n{}\n", f.signature, f.summary));
+            if !f.keys.is_empty() {
+                out.push_str("\n| key | type | unit | default | meaning |\n|---|---|---|---|---|\n");
+                for k in f.keys {
+                    out.push_str(&format!("| `{}` | {} | {} | {} | {} |\n", k.name, k.kind, k.unit, k.default, k.doc));
+                }
+            }
+        }
+    }
+    out
+}

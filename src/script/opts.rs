@@ -1,0 +1,147 @@
+//! Option maps: validated against the documented keys of `api.rs`, converted with errors that
+//! name the function, the key and what was expected.
+
+use super::api::Key;
+use crate::math::{Real, Vec3};
+use rhai::{Array, Dynamic, EvalAltResult, FnPtr, Map};
+
+pub type RhaiResult<T> = Result<T, Box<EvalAltResult>>;
+
+/// A runtime error for the script (Rhai adds the call site's line and column).
+pub fn err<T>(msg: impl Into<String>) -> RhaiResult<T> {
+    Err(msg.into().into())
+}
+
+/// A float from an int or float value.
+pub fn to_float(d: &Dynamic) -> Option<Real> {
+    d.as_float().ok().or_else(|| d.as_int().ok().map(|i| i as Real))
+}
+
+pub fn to_vec3(d: &Dynamic) -> Option<Vec3> {
+    let a = d.read_lock::<Array>()?;
+    if a.len() != 3 {
+        return None;
+    }
+    Some(Vec3::new(to_float(&a[0])?, to_float(&a[1])?, to_float(&a[2])?))
+}
+
+pub fn vec3_arg(d: &Array, what: &str) -> RhaiResult<Vec3> {
+    to_vec3(&Dynamic::from_array(d.clone())).map_or_else(|| err(format!("{what}: expected an array of 3 numbers [x, y, z], got {d:?}")), Ok)
+}
+
+pub fn vec3_to_array(v: Vec3) -> Array {
+    vec![v.x.into(), v.y.into(), v.z.into()]
+}
+
+/// A validated options map of one function.
+pub struct Opts {
+    pub func: &'static str,
+    map: Map,
+}
+
+impl Opts {
+    /// Check every key of `map` against `keys`; an unknown key is an error naming the allowed ones.
+    pub fn new(func: &'static str, map: Map, keys: &[Key]) -> RhaiResult<Self> {
+        for k in map.keys() {
+            if !keys.iter().any(|key| key.name == k.as_str()) {
+                let allowed: Vec<&str> = keys.iter().map(|k| k.name).collect();
+                let hint = suggest(k, &allowed).map(|s| format!(" (did you mean '{s}'?)")).unwrap_or_default();
+                return err(format!("{func}(): unknown key '{k}'{hint}; allowed keys: {}", allowed.join(", ")));
+            }
+        }
+        Ok(Opts { func, map })
+    }
+
+    pub fn has(&self, k: &str) -> bool {
+        self.map.contains_key(k)
+    }
+
+    pub fn get(&self, k: &str) -> Option<&Dynamic> {
+        self.map.get(k)
+    }
+
+    fn type_err<T>(&self, k: &str, expected: &str, v: &Dynamic) -> RhaiResult<T> {
+        err(format!("{}(): key '{k}' must be {expected}, got {} ({v})", self.func, v.type_name()))
+    }
+
+    fn missing<T>(&self, k: &str) -> RhaiResult<T> {
+        err(format!("{}(): missing required key '{k}'", self.func))
+    }
+
+    pub fn float(&self, k: &str) -> RhaiResult<Option<Real>> {
+        match self.map.get(k) {
+            None => Ok(None),
+            Some(v) => match to_float(v) {
+                Some(x) if x.is_finite() => Ok(Some(x)),
+                _ => self.type_err(k, "a finite number", v),
+            },
+        }
+    }
+    pub fn req_float(&self, k: &str) -> RhaiResult<Real> {
+        self.float(k)?.map_or_else(|| self.missing(k), Ok)
+    }
+    pub fn positive(&self, k: &str) -> RhaiResult<Option<Real>> {
+        match self.float(k)? {
+            Some(x) if x <= 0.0 => err(format!("{}(): key '{k}' must be > 0, got {x}", self.func)),
+            o => Ok(o),
+        }
+    }
+    pub fn int(&self, k: &str) -> RhaiResult<Option<i64>> {
+        match self.map.get(k) {
+            None => Ok(None),
+            Some(v) => v.as_int().map(Some).or_else(|_| self.type_err(k, "an integer", v)),
+        }
+    }
+    pub fn positive_int(&self, k: &str) -> RhaiResult<Option<u64>> {
+        match self.int(k)? {
+            Some(i) if i < 1 => err(format!("{}(): key '{k}' must be ≥ 1, got {i}", self.func)),
+            o => Ok(o.map(|i| i as u64)),
+        }
+    }
+    pub fn string(&self, k: &str) -> RhaiResult<Option<String>> {
+        match self.map.get(k) {
+            None => Ok(None),
+            Some(v) if v.is_string() => Ok(Some(v.clone().into_string().unwrap())),
+            Some(v) => self.type_err(k, "a string", v),
+        }
+    }
+    pub fn vec3(&self, k: &str) -> RhaiResult<Option<Vec3>> {
+        match self.map.get(k) {
+            None => Ok(None),
+            Some(v) => to_vec3(v).map(Some).map_or_else(|| self.type_err(k, "an array of 3 numbers [x, y, z]", v), Ok),
+        }
+    }
+    pub fn req_vec3(&self, k: &str) -> RhaiResult<Vec3> {
+        self.vec3(k)?.map_or_else(|| self.missing(k), Ok)
+    }
+    pub fn fn_ptr(&self, k: &str) -> RhaiResult<Option<FnPtr>> {
+        match self.map.get(k) {
+            None => Ok(None),
+            Some(v) => v.clone().try_cast::<FnPtr>().map(Some).map_or_else(|| self.type_err(k, "a closure |s| …", v), Ok),
+        }
+    }
+    pub fn typed<T: Clone + 'static>(&self, k: &str, what: &str) -> RhaiResult<Option<T>> {
+        match self.map.get(k) {
+            None => Ok(None),
+            Some(v) => v.clone().try_cast::<T>().map(Some).map_or_else(|| self.type_err(k, what, v), Ok),
+        }
+    }
+}
+
+/// The allowed key closest to a misspelled one (edit distance ≤ 2).
+pub fn suggest<'a>(k: &str, allowed: &[&'a str]) -> Option<&'a str> {
+    allowed.iter().map(|a| (edit_distance(k, a), *a)).filter(|(d, _)| *d <= 2).min_by_key(|(d, _)| *d).map(|(_, a)| a)
+}
+
+fn edit_distance(a: &str, b: &str) -> usize {
+    let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for i in 1..=a.len() {
+        let mut cur = vec![i; b.len() + 1];
+        for j in 1..=b.len() {
+            cur[j] = (prev[j] + 1).min(cur[j - 1] + 1).min(prev[j - 1] + usize::from(a[i - 1] != b[j - 1]));
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}

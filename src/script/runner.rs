@@ -1,0 +1,308 @@
+//! `sim.run(..)`: the time loop as seen from a script — steps, periodic hooks, monitors,
+//! `stop_when`, progress on a terminal, and the output written after every run.
+
+use super::opts::{Opts, RhaiResult};
+use super::types::{MonitorHandle, SimHandle};
+use super::ScriptContext;
+use crate::io::{frame::encode_frame, write_csv};
+use crate::pipeline::{SimError, Simulation, Stage};
+use rhai::{Dynamic, FnPtr, NativeCallContext};
+use std::io::{IsTerminal, Write};
+use std::time::Instant;
+
+/// Run the simulation until one of the limits in `o` is reached.
+pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) -> RhaiResult<()> {
+    let max_time = o.float("max_time")?;
+    let duration = o.positive("duration")?;
+    let steps = o.positive_int("steps")?;
+    let stop_when = o.fn_ptr("stop_when")?;
+    let check_every = o.positive_int("check_every")?.unwrap_or(1);
+    if max_time.is_none() && duration.is_none() && steps.is_none() {
+        return super::opts::err("run(): give a limit: max_time, duration or steps (stop_when alone could run forever)");
+    }
+    {
+        let mut st = s.0.borrow_mut();
+        st.sim.prepare().map_err(|e| format!("run(): {e}"))?;
+        let line = st.sim.dt_info.as_ref().map(|i| i.to_string()).unwrap_or_default();
+        if st.printed_dt.as_deref() != Some(line.as_str()) {
+            ctx.say(&format!("[{}] {line}", st.name));
+            st.printed_dt = Some(line);
+        }
+    }
+    if ctx.options.check_only {
+        return Ok(());
+    }
+    let (t_start, step_start, dt) = {
+        let st = s.0.borrow();
+        (st.sim.time, st.sim.step, st.sim.dt)
+    };
+    let t_end = match (max_time, duration) {
+        (Some(a), Some(b)) => a.min(t_start + b),
+        (Some(a), None) => a,
+        (None, Some(b)) => t_start + b,
+        (None, None) => f64::INFINITY,
+    };
+    let step_end = steps.map(|n| step_start + n).unwrap_or(u64::MAX);
+    let mut progress = Progress::new(ctx.options.progress && std::io::stderr().is_terminal());
+    // Monitors get a first value when the model has not moved yet.
+    let monitors: Vec<MonitorHandle> = s.0.borrow().monitors.clone();
+    for m in &monitors {
+        if m.0.borrow().values.is_empty() {
+            record(nc, s, m)?;
+        }
+    }
+    let wall = Instant::now();
+    let result = (|| -> RhaiResult<()> {
+        loop {
+            let (time, step) = {
+                let st = s.0.borrow();
+                (st.sim.time, st.sim.step)
+            };
+            if step >= step_end || time >= t_end - 1e-9 * dt {
+                return Ok(());
+            }
+            s.0.borrow_mut().sim.step().map_err(|e| sim_error(&e))?;
+            call_hooks(nc, s)?;
+            let step = step + 1;
+            for m in &monitors {
+                let every = m.0.borrow().every;
+                if step % every == 0 {
+                    record(nc, s, m)?;
+                }
+            }
+            if let Some(f) = &stop_when {
+                if (step - step_start) % check_every == 0 {
+                    let r: Dynamic = f.call_within_context(nc, (s.clone(),))?;
+                    match r.as_bool() {
+                        Ok(true) => return Ok(()),
+                        Ok(false) => {}
+                        Err(t) => return super::opts::err(format!("run(): stop_when must return true or false, got {t}")),
+                    }
+                }
+            }
+            if progress.enabled {
+                let frac_t = if t_end.is_finite() { (time - t_start) / (t_end - t_start) } else { 0.0 };
+                let frac_s = if step_end < u64::MAX { (step - step_start) as f64 / (step_end - step_start) as f64 } else { 0.0 };
+                progress.update(frac_t.max(frac_s), step - step_start, time);
+            }
+        }
+    })();
+    progress.finish();
+    {
+        let mut st = s.0.borrow_mut();
+        st.wall += wall.elapsed().as_secs_f64();
+        let done = st.sim.step - step_start;
+        st.steps_in_runs += done;
+        st.runs += 1;
+    }
+    // Output is written whether the run ended normally or not.
+    let written = write_run_output(s);
+    result?;
+    written.map_err(|e| e.into())
+}
+
+fn sim_error(e: &SimError) -> Box<rhai::EvalAltResult> {
+    format!("run(): {e}").into()
+}
+
+fn call_hooks(nc: &NativeCallContext, s: &SimHandle) -> RhaiResult<()> {
+    let n = s.0.borrow().hooks.len();
+    for i in 0..n {
+        let due: Option<FnPtr> = {
+            let mut st = s.0.borrow_mut();
+            let (time, step) = (st.sim.time, st.sim.step);
+            let h = &mut st.hooks[i];
+            let due = match (h.every_steps, h.every_time) {
+                (Some(k), _) => step % k == 0,
+                (None, Some(t)) if time >= h.next_time * (1.0 - 1e-12) => {
+                    while h.next_time <= time * (1.0 + 1e-12) {
+                        h.next_time += t;
+                    }
+                    true
+                }
+                _ => false,
+            };
+            due.then(|| h.f.clone())
+        };
+        if let Some(f) = due {
+            let _: Dynamic = f.call_within_context(nc, (s.clone(),))?;
+        }
+    }
+    Ok(())
+}
+
+fn record(nc: &NativeCallContext, s: &SimHandle, m: &MonitorHandle) -> RhaiResult<()> {
+    let f = m.0.borrow().f.clone();
+    let v: Dynamic = f.call_within_context(nc, (s.clone(),))?;
+    let value = super::opts::to_float(&v).ok_or_else(|| format!("monitor '{}': the closure must return a number, got {} ({v})", m.0.borrow().name, v.type_name()))?;
+    let (t, step) = {
+        let st = s.0.borrow();
+        (st.sim.time, st.sim.step)
+    };
+    let mut d = m.0.borrow_mut();
+    d.times.push(t);
+    d.steps.push(step);
+    d.values.push(value);
+    Ok(())
+}
+
+/// Write a monitor's history as CSV (step, time, value).
+pub fn write_monitor(m: &MonitorHandle) -> Result<(), String> {
+    let d = m.0.borrow();
+    let rows = (0..d.values.len()).map(|i| vec![d.steps[i] as f64, d.times[i], d.values[i]]);
+    write_csv(&d.path, &["step", "time", &d.name], rows).map_err(|e| format!("writing {}: {e}", d.path.display()))
+}
+
+fn write_run_output(s: &SimHandle) -> Result<(), String> {
+    let monitors = s.0.borrow().monitors.clone();
+    for m in &monitors {
+        write_monitor(m)?;
+    }
+    let mut st = s.0.borrow_mut();
+    let path = st.out_dir.join("energy.csv");
+    let rows = st.sim.energy_history.iter().map(|e| {
+        let en = &e.energy;
+        vec![
+            e.step as f64,
+            e.time,
+            en.kinetic,
+            en.strain,
+            en.gravity_work,
+            en.force_work,
+            en.reaction_work,
+            en.mass_damping,
+            en.viscous_damping,
+            en.balance_error(),
+        ]
+    });
+    let header = [
+        "step",
+        "time",
+        "kinetic",
+        "strain",
+        "gravity_work",
+        "force_work",
+        "reaction_work",
+        "mass_damping",
+        "viscous_damping",
+        "balance_error",
+    ];
+    write_csv(&path, &header, rows).map_err(|e| format!("writing {}: {e}", path.display()))?;
+    st.vtk.flush()
+}
+
+/// `sim.write_vtk()`: encode a frame now and queue it for the background writer.
+pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
+    let mut st = s.0.borrow_mut();
+    st.sim.prepare().map_err(|e| format!("write_vtk(): {e}"))?;
+    let bytes = encode_frame(&st.sim, st.stress_output).map_err(|e| format!("write_vtk(): {e}"))?;
+    let t = st.sim.time;
+    st.vtk.push(t, bytes).map_err(|e| format!("write_vtk(): {e}"))?;
+    Ok(())
+}
+
+/// The per-stage timing table and the energy summary printed at the end of `fdem run`.
+pub fn summary(name: &str, sim: &Simulation, wall: f64, steps: u64, frames: usize, out_dir: &std::path::Path) -> String {
+    let mut s = String::new();
+    let rate = if wall > 0.0 { steps as f64 * sim.tets.len() as f64 / wall } else { 0.0 };
+    s.push_str(&format!(
+        "── {name}: {steps} steps to t = {:.6e} s (dt = {:.4e} s), {} tets, {} nodes; {:.2} s wall, {:.2} M tet-steps/s\n",
+        sim.time,
+        sim.dt,
+        sim.tets.len(),
+        sim.nodes.len(),
+        wall,
+        rate / 1e6
+    ));
+    let total = sim.timers.total();
+    s.push_str("   stage                 time [s]    share\n");
+    for stage in Stage::ALL {
+        if stage.is_built() {
+            let t = sim.timers.get(stage);
+            let share = if total > 0.0 { 100.0 * t / total } else { 0.0 };
+            s.push_str(&format!("   {:<20} {:>9.3} {:>7.1} %\n", stage.name(), t, share));
+        } else {
+            s.push_str(&format!("   {:<20} {:>9} {:>9}   (not built yet)\n", stage.name(), "-", "-"));
+        }
+    }
+    s.push_str(&format!("   {:<20} {:>9.3}\n", "total", total));
+    let e = &sim.energy;
+    let at = sim.energy_history.last().map(|h| h.time).unwrap_or(0.0);
+    s.push_str(&format!("   energy [J] at t = {at:.6e} s (last sample)\n"));
+    s.push_str(&format!("   {:<20} {:>14.6e}\n", "kinetic", e.kinetic));
+    s.push_str(&format!("   {:<20} {:>14.6e}\n", "strain", e.strain));
+    s.push_str(&format!(
+        "   {:<20} {:>14.6e}   (gravity {:.4e}, forces {:.4e}, constraints {:.4e})\n",
+        "external work",
+        e.external_work(),
+        e.gravity_work,
+        e.force_work,
+        e.reaction_work
+    ));
+    s.push_str(&format!(
+        "   {:<20} {:>14.6e}   (mass damping {:.4e}, viscous {:.4e})\n",
+        "dissipated",
+        e.dissipated(),
+        e.mass_damping,
+        e.viscous_damping
+    ));
+    s.push_str(&format!("   {:<20} {:>14.6e}\n", "initial (kin+strain)", e.initial));
+    s.push_str(&format!(
+        "   {:<20} {:>14.6e}   ({:.3} % of the largest term)\n",
+        "balance error",
+        e.balance_error(),
+        100.0 * e.relative_balance_error()
+    ));
+    s.push_str(&format!("   output: {} ({frames} VTK frames, energy.csv, monitors)\n", out_dir.display()));
+    s
+}
+
+/// A one-line progress bar on stderr: shown after the first second, redrawn 5 times a second.
+struct Progress {
+    enabled: bool,
+    start: Instant,
+    last: Instant,
+    drawn: bool,
+}
+
+impl Progress {
+    fn new(enabled: bool) -> Self {
+        let now = Instant::now();
+        Progress { enabled, start: now, last: now, drawn: false }
+    }
+
+    fn update(&mut self, frac: f64, steps: u64, t: f64) {
+        let now = Instant::now();
+        let elapsed = now.duration_since(self.start).as_secs_f64();
+        if elapsed < 1.0 || now.duration_since(self.last).as_secs_f64() < 0.2 {
+            return;
+        }
+        self.last = now;
+        let frac = frac.clamp(0.0, 1.0);
+        let width = 30;
+        let filled = (frac * width as f64) as usize;
+        let rate = steps as f64 / elapsed;
+        let eta = if frac > 0.0 { format!("ETA {}", fmt_secs(elapsed * (1.0 - frac) / frac)) } else { String::from("ETA ?") };
+        let bar = format!("{}{}", "█".repeat(filled), "░".repeat(width - filled));
+        eprint!("\r{bar} {:>5.1} %  step {steps}  t = {t:.4e} s  {:.0} steps/s  {eta}   ", 100.0 * frac, rate);
+        let _ = std::io::stderr().flush();
+        self.drawn = true;
+    }
+
+    fn finish(&mut self) {
+        if self.drawn {
+            eprint!("\r{}\r", " ".repeat(100));
+            let _ = std::io::stderr().flush();
+        }
+    }
+}
+
+fn fmt_secs(s: f64) -> String {
+    if s < 60.0 {
+        format!("{s:.0} s")
+    } else if s < 3600.0 {
+        format!("{}m{:02.0}s", (s / 60.0) as u64, s % 60.0)
+    } else {
+        format!("{}h{:02}m", (s / 3600.0) as u64, ((s % 3600.0) / 60.0) as u64)
+    }
+}

@@ -1,0 +1,101 @@
+//! Values that scripts hold: the simulation, bodies, selections, shapes, meshes, materials,
+//! tables and monitors.
+
+use crate::io::VtkSeries;
+use crate::loads::TimeFunction;
+use crate::material::{Material, StressMeasure};
+use crate::mesh::{BoundaryFace, Mesh, Region};
+use crate::pipeline::Simulation;
+use rhai::FnPtr;
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::rc::Rc;
+
+/// Shared handle to a simulation and its script-side state.
+#[derive(Clone)]
+pub struct SimHandle(pub Rc<RefCell<SimState>>);
+
+pub struct SimState {
+    pub sim: Simulation,
+    pub name: String,
+    pub out_dir: PathBuf,
+    pub stress_output: StressMeasure,
+    pub hooks: Vec<Hook>,
+    pub monitors: Vec<MonitorHandle>,
+    pub vtk: VtkSeries,
+    /// Material uid (from `material(..)`) → material id in this simulation.
+    pub material_ids: HashMap<u64, u32>,
+    /// Source meshes of bodies (for `body.copy`), in body order.
+    pub body_meshes: Vec<Mesh>,
+    /// Number of completed `run` calls.
+    pub runs: usize,
+    /// Last printed time-step line (printed again only when it changes).
+    pub printed_dt: Option<String>,
+    /// Wall time spent inside runs [s].
+    pub wall: f64,
+    pub steps_in_runs: u64,
+}
+
+/// A periodic callback.
+pub struct Hook {
+    pub every_steps: Option<u64>,
+    pub every_time: Option<f64>,
+    pub next_time: f64,
+    pub f: FnPtr,
+}
+
+#[derive(Clone)]
+pub struct MonitorHandle(pub Rc<RefCell<MonitorData>>);
+
+pub struct MonitorData {
+    pub name: String,
+    pub every: u64,
+    pub f: FnPtr,
+    pub times: Vec<f64>,
+    pub steps: Vec<u64>,
+    pub values: Vec<f64>,
+    pub path: PathBuf,
+}
+
+#[derive(Clone)]
+pub struct BodyHandle {
+    pub sim: SimHandle,
+    pub id: usize,
+}
+
+#[derive(Clone, Debug)]
+pub struct NodeSet(pub Rc<Vec<u32>>);
+
+#[derive(Clone, Debug)]
+pub struct ElementSet(pub Rc<Vec<u32>>);
+
+#[derive(Clone, Debug)]
+pub struct FaceSet {
+    pub faces: Rc<Vec<BoundaryFace>>,
+    /// Reference area [m²].
+    pub area: f64,
+}
+
+#[derive(Clone, Debug)]
+pub struct Shape(pub Region);
+
+#[derive(Clone, Debug)]
+pub struct MeshValue(pub Rc<Mesh>);
+
+#[derive(Clone, Debug)]
+pub struct MaterialValue {
+    pub uid: u64,
+    pub material: Material,
+}
+
+#[derive(Clone, Debug)]
+pub struct Table(pub TimeFunction);
+
+/// Union of two sorted id lists.
+pub fn union(a: &[u32], b: &[u32]) -> Vec<u32> {
+    let mut v: Vec<u32> = a.iter().chain(b).copied().collect();
+    v.sort_unstable();
+    v.dedup();
+    v
+}
