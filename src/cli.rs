@@ -10,7 +10,11 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 #[derive(Parser)]
-#[command(name = "fdem", version, about = "Combined finite-discrete element method (FEM/DEM), driven by Rhai model scripts")]
+#[command(
+    name = "fdem",
+    version,
+    about = "Combined finite-discrete element method (FEM/DEM), driven by Rhai model scripts"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -70,12 +74,24 @@ enum Command {
 pub fn main() {
     let cli = Cli::parse();
     let code = match cli.command {
-        Command::Run { script, set, out, threads, quiet } => {
+        Command::Run {
+            script,
+            set,
+            out,
+            threads,
+            quiet,
+        } => {
             set_threads(threads);
             match parse_sets(&set) {
                 Err(e) => fail(&e),
                 Ok(overrides) => {
-                    let options = RunOptions { overrides, out_dir: out, quiet, check_only: false, progress: !quiet };
+                    let options = RunOptions {
+                        overrides,
+                        out_dir: out,
+                        quiet,
+                        check_only: false,
+                        progress: !quiet,
+                    };
                     match script::run_file(&script, options) {
                         Ok(report) => {
                             if !quiet {
@@ -93,7 +109,12 @@ pub fn main() {
         Command::Check { script, set } => match parse_sets(&set) {
             Err(e) => fail(&e),
             Ok(overrides) => {
-                let options = RunOptions { overrides, check_only: true, quiet: true, ..Default::default() };
+                let options = RunOptions {
+                    overrides,
+                    check_only: true,
+                    quiet: true,
+                    ..Default::default()
+                };
                 match script::run_file(&script, options) {
                     Ok(report) => {
                         for s in &report.sims {
@@ -109,13 +130,18 @@ pub fn main() {
                                 sim.total_mass()
                             );
                             match (ready, &sim.dt_info) {
-                                (Err(e), _) => std::process::exit(fail(&format!("{}: {e}", script.display()))),
+                                (Err(e), _) => {
+                                    std::process::exit(fail(&format!("{}: {e}", script.display())))
+                                }
                                 (Ok(()), Some(i)) => println!("    {i}"),
                                 _ => {}
                             }
                         }
                         if report.sims.is_empty() {
-                            println!("ok: {} parses and runs its setup; it creates no simulation", script.display());
+                            println!(
+                                "ok: {} parses and runs its setup; it creates no simulation",
+                                script.display()
+                            );
                         }
                         0
                     }
@@ -127,7 +153,15 @@ pub fn main() {
             print!("{}", script::api::markdown());
             0
         }
-        Command::Bench { case, tets, steps, law, layout, threads, json } => {
+        Command::Bench {
+            case,
+            tets,
+            steps,
+            law,
+            layout,
+            threads,
+            json,
+        } => {
             set_threads(threads);
             match bench(&case, tets, steps, &law, &layout) {
                 Ok(r) => {
@@ -152,7 +186,10 @@ fn fail(msg: &str) -> i32 {
 
 fn set_threads(threads: Option<usize>) {
     if let Some(n) = threads {
-        if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
+        if let Err(e) = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+        {
             eprintln!("warning: could not set {n} threads: {e}");
         }
     }
@@ -161,7 +198,9 @@ fn set_threads(threads: Option<usize>) {
 fn parse_sets(set: &[String]) -> Result<Vec<(String, String)>, String> {
     set.iter()
         .map(|s| match s.split_once('=') {
-            Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), v.trim().to_string())),
+            Some((k, v)) if !k.trim().is_empty() => {
+                Ok((k.trim().to_string(), v.trim().to_string()))
+            }
             _ => Err(format!("--set {s}: expected NAME=VALUE")),
         })
         .collect()
@@ -169,15 +208,26 @@ fn parse_sets(set: &[String]) -> Result<Vec<(String, String)>, String> {
 
 /// A box of about `tets` tetrahedra with a smooth initial velocity field, stepped `steps`
 /// times; returns the JSON record (seconds per stage keyed by stage module name).
-pub fn bench(case: &str, tets: usize, steps: u64, law: &str, layout: &str) -> Result<serde_json::Value, String> {
+pub fn bench(
+    case: &str,
+    tets: usize,
+    steps: u64,
+    law: &str,
+    layout: &str,
+) -> Result<serde_json::Value, String> {
     if case != "elastic" {
         return Err(format!("bench: unknown case '{case}'; available: elastic (joints, contact and fragmentation cases come with those stages)"));
     }
-    let formulation = Formulation::from_name(law).ok_or_else(|| format!("bench: unknown law '{law}'"))?;
+    let formulation =
+        Formulation::from_name(law).ok_or_else(|| format!("bench: unknown law '{law}'"))?;
     let layout = match layout {
         "jointed" => Layout::Jointed,
         "continuous" => Layout::Continuous,
-        _ => return Err(format!("bench: layout '{layout}' is not jointed or continuous")),
+        _ => {
+            return Err(format!(
+                "bench: layout '{layout}' is not jointed or continuous"
+            ))
+        }
     };
     let (sim, setup) = {
         let t = Instant::now();

@@ -1,1 +1,3 @@
-fn main() { fdem::cli::main() }
+fn main() {
+    fdem::cli::main()
+}

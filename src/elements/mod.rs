@@ -86,11 +86,25 @@ pub fn internal_force_tet4(
 
 /// Run the kernel on tet `e`, reading its nodes' x and v.
 #[inline(always)]
-pub fn tet_result(tets: &Tets, mats: &[Material], x: &[Vec3], v: &[Vec3], e: usize, want_energy: bool) -> TetResult {
+pub fn tet_result(
+    tets: &Tets,
+    mats: &[Material],
+    x: &[Vec3],
+    v: &[Vec3],
+    e: usize,
+    want_energy: bool,
+) -> TetResult {
     let n = tets.nodes[e];
     let xs = n.map(|i| x[i as usize]);
     let vs = n.map(|i| v[i as usize]);
-    internal_force_tet4(&xs, &vs, &tets.dm_inv[e], tets.vol0[e], &mats[tets.material[e] as usize], want_energy)
+    internal_force_tet4(
+        &xs,
+        &vs,
+        &tets.dm_inv[e],
+        tets.vol0[e],
+        &mats[tets.material[e] as usize],
+        want_energy,
+    )
 }
 
 /// Scratch owned by the elements stage, sized once at setup (no allocation per step).
@@ -140,20 +154,32 @@ impl ElementsWorkspace {
                         fill[i] += 1;
                     }
                 }
-                Some(SharedGather { slots: vec![[Vec3::zeros(); 4]; b.tets.len()], offsets, slot_ids })
+                Some(SharedGather {
+                    slots: vec![[Vec3::zeros(); 4]; b.tets.len()],
+                    offsets,
+                    slot_ids,
+                })
             })
             .collect();
-        let max_chunks = bodies.iter().map(|b| b.tets.len().div_ceil(CHUNK)).max().unwrap_or(0);
-        ElementsWorkspace { shared, partials: Vec::with_capacity(max_chunks) }
+        let max_chunks = bodies
+            .iter()
+            .map(|b| b.tets.len().div_ceil(CHUNK))
+            .max()
+            .unwrap_or(0);
+        ElementsWorkspace {
+            shared,
+            partials: Vec::with_capacity(max_chunks),
+        }
     }
 }
 
 fn owns_nodes_in_order(b: &Body, tets: &Tets) -> bool {
     b.layout == Layout::Jointed
         && b.nodes.len() == 4 * b.tets.len()
-        && b.tets.clone().enumerate().all(|(le, e)| {
-            (0..4).all(|c| tets.nodes[e][c] as usize == b.nodes.start + 4 * le + c)
-        })
+        && b.tets
+            .clone()
+            .enumerate()
+            .all(|(le, e)| (0..4).all(|c| tets.nodes[e][c] as usize == b.nodes.start + 4 * le + c))
 }
 
 /// Stage 1: add the internal (elastic + viscous) forces of every tetrahedron to `nodes.f`.
@@ -181,7 +207,8 @@ pub fn add_internal_forces(
                     .map(|(c, fs)| {
                         let mut s = ElementSums::default();
                         for (i, f4) in fs.chunks_exact_mut(4).enumerate() {
-                            let r = tet_result(tets, materials, x, v, e0 + c * CHUNK + i, want_energy);
+                            let r =
+                                tet_result(tets, materials, x, v, e0 + c * CHUNK + i, want_energy);
                             for k in 0..4 {
                                 f4[k] += r.forces[k];
                             }
@@ -198,7 +225,8 @@ pub fn add_internal_forces(
                     .map(|(c, slots)| {
                         let mut s = ElementSums::default();
                         for (i, slot) in slots.iter_mut().enumerate() {
-                            let r = tet_result(tets, materials, x, v, e0 + c * CHUNK + i, want_energy);
+                            let r =
+                                tet_result(tets, materials, x, v, e0 + c * CHUNK + i, want_energy);
                             *slot = r.forces;
                             accumulate(&mut s, &r);
                         }
@@ -206,11 +234,15 @@ pub fn add_internal_forces(
                     })
                     .collect_into_vec(&mut ws.partials);
                 let (offsets, slot_ids, slots) = (&g.offsets, &g.slot_ids, &g.slots);
-                f_body.par_iter_mut().enumerate().with_min_len(4 * CHUNK).for_each(|(i, f)| {
-                    for &s in &slot_ids[offsets[i] as usize..offsets[i + 1] as usize] {
-                        *f += slots[s as usize / 4][s as usize % 4];
-                    }
-                });
+                f_body
+                    .par_iter_mut()
+                    .enumerate()
+                    .with_min_len(4 * CHUNK)
+                    .for_each(|(i, f)| {
+                        for &s in &slot_ids[offsets[i] as usize..offsets[i + 1] as usize] {
+                            *f += slots[s as usize / 4][s as usize % 4];
+                        }
+                    });
             }
         }
         for p in &ws.partials {

@@ -52,13 +52,27 @@ pub struct StepParams {
 }
 
 /// Stage 7: advance velocities and positions by one central-difference step.
-pub fn central_difference(nodes: &mut Nodes, p: StepParams, partials: &mut Vec<IntegrationSums>) -> IntegrationSums {
+pub fn central_difference(
+    nodes: &mut Nodes,
+    p: StepParams,
+    partials: &mut Vec<IntegrationSums>,
+) -> IntegrationSums {
     let dt_bar = 0.5 * (p.dt_prev + p.dt);
     let c = 0.5 * p.mass_damping * dt_bar;
     let (c_old, c_inv) = (1.0 - c, 1.0 / (1.0 + c));
     // v(t) = v_old + w·(v_new − v_old): the velocity at the integer time level.
     let w = 0.5 * p.dt_prev / dt_bar;
-    let Nodes { x0, x, v, f, m, constraint, v_prescribed, reaction, .. } = nodes;
+    let Nodes {
+        x0,
+        x,
+        v,
+        f,
+        m,
+        constraint,
+        v_prescribed,
+        reaction,
+        ..
+    } = nodes;
     let (x0, m, constraint, v_prescribed) = (&*x0, &*m, &*constraint, &*v_prescribed);
     x.par_chunks_mut(CHUNK)
         .zip(v.par_chunks_mut(CHUNK))
@@ -80,7 +94,8 @@ pub fn central_difference(nodes: &mut Nodes, p: StepParams, partials: &mut Vec<I
                     for k in 0..3 {
                         if mask & (1 << k) != 0 {
                             v_new[k] = v_prescribed[n][k];
-                            r[k] = mass * ((v_new[k] - v_old[k]) / dt_bar - p.gravity[k]) - fs[i][k];
+                            r[k] =
+                                mass * ((v_new[k] - v_old[k]) / dt_bar - p.gravity[k]) - fs[i][k];
                         }
                     }
                     let v_t = v_old + (v_new - v_old) * w;
@@ -94,7 +109,8 @@ pub fn central_difference(nodes: &mut Nodes, p: StepParams, partials: &mut Vec<I
                         if mask & 2 == 0 { 1.0 } else { 0.0 },
                         if mask & 4 == 0 { 1.0 } else { 0.0 },
                     );
-                    s.damping_dissipation += p.mass_damping * mass * v_t.component_mul(&free).norm_squared() * dt_bar;
+                    s.damping_dissipation +=
+                        p.mass_damping * mass * v_t.component_mul(&free).norm_squared() * dt_bar;
                     if p.sample {
                         s.kinetic += 0.5 * mass * v_t.norm_squared();
                         s.gravity_work += mass * p.gravity.dot(&(xs[i] - x0[n]));
@@ -103,19 +119,23 @@ pub fn central_difference(nodes: &mut Nodes, p: StepParams, partials: &mut Vec<I
                 xs[i] += v_new * p.dt;
                 vs[i] = v_new;
                 fs[i] = Vec3::zeros();
-                if p.sample && !(xs[i].iter().all(|c| c.is_finite()) && v_new.iter().all(|c| c.is_finite())) {
+                if p.sample
+                    && !(xs[i].iter().all(|c| c.is_finite()) && v_new.iter().all(|c| c.is_finite()))
+                {
                     s.non_finite += 1;
                 }
             }
             s
         })
         .collect_into_vec(partials);
-    partials.iter().fold(IntegrationSums::default(), |mut a, s| {
-        a.kinetic += s.kinetic;
-        a.gravity_work += s.gravity_work;
-        a.reaction_work += s.reaction_work;
-        a.damping_dissipation += s.damping_dissipation;
-        a.non_finite += s.non_finite;
-        a
-    })
+    partials
+        .iter()
+        .fold(IntegrationSums::default(), |mut a, s| {
+            a.kinetic += s.kinetic;
+            a.gravity_work += s.gravity_work;
+            a.reaction_work += s.reaction_work;
+            a.damping_dissipation += s.damping_dissipation;
+            a.non_finite += s.non_finite;
+            a
+        })
 }

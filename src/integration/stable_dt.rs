@@ -56,10 +56,17 @@ fn voigt_elasticity(m: &Material) -> M6 {
 pub fn tet_max_frequency(dm_inv: &Mat3, m: &Material) -> (Real, Real) {
     let g = strain_displacement(dm_inv);
     let c = voigt_elasticity(m);
-    let l = c.cholesky().expect("elasticity matrix is positive definite for -1 < ν < 0.5").l();
+    let l = c
+        .cholesky()
+        .expect("elasticity matrix is positive definite for -1 < ν < 0.5")
+        .l();
     let a = l.transpose() * (g * g.transpose()) * l;
     let eig = a.symmetric_eigen();
-    let (imax, lmax) = eig.eigenvalues.iter().enumerate().fold((0, 0.0), |acc, (i, &v)| if v > acc.1 { (i, v) } else { acc });
+    let (imax, lmax) =
+        eig.eigenvalues.iter().enumerate().fold(
+            (0, 0.0),
+            |acc, (i, &v)| if v > acc.1 { (i, v) } else { acc },
+        );
     let omega = (4.0 * lmax / m.density).sqrt();
     let mut xi = 0.0;
     if m.viscosity > 0.0 {
@@ -90,7 +97,12 @@ mod tests {
     #[test]
     fn matches_full_eigenproblem() {
         let m = Material::new(Formulation::SmallStrain, 2000.0, 1e9, 0.3, 0.0).unwrap();
-        let p = [Vec3::zeros(), Vec3::new(1.0, 0.1, 0.0), Vec3::new(0.2, 0.9, 0.1), Vec3::new(0.1, 0.3, 1.2)];
+        let p = [
+            Vec3::zeros(),
+            Vec3::new(1.0, 0.1, 0.0),
+            Vec3::new(0.2, 0.9, 0.1),
+            Vec3::new(0.1, 0.3, 1.2),
+        ];
         let dm = Mat3::from_columns(&[p[1] - p[0], p[2] - p[0], p[3] - p[0]]);
         let dm_inv = dm.try_inverse().unwrap();
         let vol = dm.determinant() / 6.0;

@@ -1,6 +1,6 @@
 //! Build one ParaView frame of a simulation: point and cell fields in VTK layout.
 
-use super::vtu::{encode_vtu, DataArray, Field, VtuFrame};
+use super::vtu::{encode_vtu_with, DataArray, Encoding, Field, VtuFrame};
 use crate::elements::deformation_gradient;
 use crate::material::StressMeasure;
 use crate::math::von_mises;
@@ -11,10 +11,18 @@ use rayon::prelude::*;
 /// `displacement` [m] and `velocity` [m/s] (half-step); cell data `stress` (Cauchy, 9
 /// components, Pa), `von_mises` [Pa], `body`, `material`, and `stress_pk1`/`stress_pk2` when
 /// `extra` asks for it.
-pub fn encode_frame(sim: &Simulation, extra: StressMeasure) -> Result<Vec<u8>, String> {
+pub fn encode_frame(
+    sim: &Simulation,
+    extra: StressMeasure,
+    encoding: Encoding,
+) -> Result<Vec<u8>, String> {
     let n = &sim.nodes;
     let points: Vec<[f64; 3]> = n.x.iter().map(|p| [p.x, p.y, p.z]).collect();
-    let disp: Vec<[f64; 3]> = n.x.iter().zip(&n.x0).map(|(x, x0)| [x.x - x0.x, x.y - x0.y, x.z - x0.z]).collect();
+    let disp: Vec<[f64; 3]> =
+        n.x.iter()
+            .zip(&n.x0)
+            .map(|(x, x0)| [x.x - x0.x, x.y - x0.y, x.z - x0.z])
+            .collect();
     let vel: Vec<[f64; 3]> = n.v.iter().map(|v| [v.x, v.y, v.z]).collect();
     let stress_of = |measure: StressMeasure| -> Vec<[f64; 9]> {
         (0..sim.tets.len())
@@ -22,33 +30,67 @@ pub fn encode_frame(sim: &Simulation, extra: StressMeasure) -> Result<Vec<u8>, S
             .map(|e| {
                 let f = deformation_gradient(&sim.tets, &n.x, e);
                 let s = sim.materials[sim.tets.material[e] as usize].stress(&f, measure);
-                [s[(0, 0)], s[(0, 1)], s[(0, 2)], s[(1, 0)], s[(1, 1)], s[(1, 2)], s[(2, 0)], s[(2, 1)], s[(2, 2)]]
+                [
+                    s[(0, 0)],
+                    s[(0, 1)],
+                    s[(0, 2)],
+                    s[(1, 0)],
+                    s[(1, 1)],
+                    s[(1, 2)],
+                    s[(2, 0)],
+                    s[(2, 1)],
+                    s[(2, 2)],
+                ]
             })
             .collect()
     };
     let cauchy = stress_of(StressMeasure::Cauchy);
-    let vm: Vec<f64> = cauchy.iter().map(|s| von_mises(&crate::math::Mat3::from_row_slice(s))).collect();
+    let vm: Vec<f64> = cauchy
+        .iter()
+        .map(|s| von_mises(&crate::math::Mat3::from_row_slice(s)))
+        .collect();
     let body: Vec<i32> = sim.tets.body.iter().map(|&b| b as i32).collect();
     let material: Vec<i32> = sim.tets.material.iter().map(|&m| m as i32).collect();
     let extra_stress = (extra != StressMeasure::Cauchy).then(|| stress_of(extra));
     let extra_name = format!("stress_{}", extra.name());
     let mut cell_data = vec![
-        Field { name: "stress", data: DataArray::TensorF64(&cauchy) },
-        Field { name: "von_mises", data: DataArray::ScalarF64(&vm) },
-        Field { name: "body", data: DataArray::ScalarI32(&body) },
-        Field { name: "material", data: DataArray::ScalarI32(&material) },
+        Field {
+            name: "stress",
+            data: DataArray::TensorF64(&cauchy),
+        },
+        Field {
+            name: "von_mises",
+            data: DataArray::ScalarF64(&vm),
+        },
+        Field {
+            name: "body",
+            data: DataArray::ScalarI32(&body),
+        },
+        Field {
+            name: "material",
+            data: DataArray::ScalarI32(&material),
+        },
     ];
     if let Some(s) = &extra_stress {
-        cell_data.push(Field { name: &extra_name, data: DataArray::TensorF64(s) });
+        cell_data.push(Field {
+            name: &extra_name,
+            data: DataArray::TensorF64(s),
+        });
     }
     let frame = VtuFrame {
         points: &points,
         tets: &sim.tets.nodes,
         point_data: vec![
-            Field { name: "displacement", data: DataArray::VectorF64(&disp) },
-            Field { name: "velocity", data: DataArray::VectorF64(&vel) },
+            Field {
+                name: "displacement",
+                data: DataArray::VectorF64(&disp),
+            },
+            Field {
+                name: "velocity",
+                data: DataArray::VectorF64(&vel),
+            },
         ],
         cell_data,
     };
-    encode_vtu(&frame)
+    encode_vtu_with(&frame, encoding)
 }

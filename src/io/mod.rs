@@ -12,7 +12,11 @@ use std::thread::JoinHandle;
 pub use vtu::write_atomic;
 
 /// Write a CSV file atomically: a header row and rows of numbers (full precision).
-pub fn write_csv(path: &Path, header: &[&str], rows: impl Iterator<Item = Vec<f64>>) -> std::io::Result<()> {
+pub fn write_csv(
+    path: &Path,
+    header: &[&str],
+    rows: impl Iterator<Item = Vec<f64>>,
+) -> std::io::Result<()> {
     let mut s = header.join(",");
     s.push('\n');
     for row in rows {
@@ -28,7 +32,12 @@ pub fn write_csv(path: &Path, header: &[&str], rows: impl Iterator<Item = Vec<f6
 
 enum Job {
     /// Write the bytes to the path, then rewrite the pvd with these entries.
-    Frame { path: PathBuf, bytes: Vec<u8>, pvd_path: PathBuf, pvd: Vec<u8> },
+    Frame {
+        path: PathBuf,
+        bytes: Vec<u8>,
+        pvd_path: PathBuf,
+        pvd: Vec<u8>,
+    },
     Flush(mpsc::Sender<std::io::Result<()>>),
 }
 
@@ -45,7 +54,14 @@ pub struct VtkSeries {
 
 impl VtkSeries {
     pub fn new(dir: PathBuf, name: String) -> Self {
-        VtkSeries { dir, name, entries: Vec::new(), tx: None, worker: None, error: Default::default() }
+        VtkSeries {
+            dir,
+            name,
+            entries: Vec::new(),
+            tx: None,
+            worker: None,
+            error: Default::default(),
+        }
     }
 
     fn sender(&mut self) -> &mpsc::Sender<Job> {
@@ -55,10 +71,17 @@ impl VtkSeries {
             self.worker = Some(std::thread::spawn(move || {
                 for job in rx {
                     match job {
-                        Job::Frame { path, bytes, pvd_path, pvd } => {
-                            let r = write_atomic(&path, &bytes).and_then(|_| write_atomic(&pvd_path, &pvd));
+                        Job::Frame {
+                            path,
+                            bytes,
+                            pvd_path,
+                            pvd,
+                        } => {
+                            let r = write_atomic(&path, &bytes)
+                                .and_then(|_| write_atomic(&pvd_path, &pvd));
                             if let Err(e) = r {
-                                *error.lock().unwrap() = Some(format!("writing {}: {e}", path.display()));
+                                *error.lock().unwrap() =
+                                    Some(format!("writing {}: {e}", path.display()));
                             }
                         }
                         Job::Flush(ack) => {
@@ -80,8 +103,15 @@ impl VtkSeries {
         let path = self.dir.join(&file);
         let pvd = vtu::encode_pvd(&self.entries);
         let pvd_path = self.dir.join(format!("{}.pvd", self.name));
-        let job = Job::Frame { path: path.clone(), bytes, pvd_path, pvd };
-        self.sender().send(job).map_err(|_| std::io::Error::other("VTK writer thread stopped"))?;
+        let job = Job::Frame {
+            path: path.clone(),
+            bytes,
+            pvd_path,
+            pvd,
+        };
+        self.sender()
+            .send(job)
+            .map_err(|_| std::io::Error::other("VTK writer thread stopped"))?;
         Ok(path)
     }
 

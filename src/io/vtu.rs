@@ -153,6 +153,41 @@ pub fn encode_vtu(frame: &VtuFrame) -> Result<Vec<u8>, String> {
 /// reused from frame to frame instead of allocating a new one each time.
 /// On error `out` is left empty.
 pub fn encode_vtu_into(frame: &VtuFrame, out: &mut Vec<u8>) -> Result<(), String> {
+    encode_vtu_into_with(frame, out, Encoding::Raw)
+}
+
+/// How the appended data block is encoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Encoding {
+    /// Raw little-endian bytes: fastest, smallest; read by VTK/ParaView and meshio.
+    Raw,
+    /// Base64 of each (header + data) block: a third larger and slower, but readable by
+    /// readers without raw support (vtkio reads only this form).
+    Base64,
+}
+
+impl Encoding {
+    pub fn name(self) -> &'static str {
+        match self {
+            Encoding::Raw => "raw",
+            Encoding::Base64 => "base64",
+        }
+    }
+}
+
+/// [`encode_vtu`] with a chosen encoding of the appended data.
+pub fn encode_vtu_with(frame: &VtuFrame, encoding: Encoding) -> Result<Vec<u8>, String> {
+    let mut out = Vec::new();
+    encode_vtu_into_with(frame, &mut out, encoding)?;
+    Ok(out)
+}
+
+/// [`encode_vtu_into`] with a chosen encoding of the appended data.
+pub fn encode_vtu_into_with(
+    frame: &VtuFrame,
+    out: &mut Vec<u8>,
+    encoding: Encoding,
+) -> Result<(), String> {
     out.clear();
     let n_points = frame.points.len();
     let n_cells = frame.tets.len();
@@ -163,6 +198,8 @@ pub fn encode_vtu_into(frame: &VtuFrame, out: &mut Vec<u8>) -> Result<(), String
     let mut xml =
         String::with_capacity(1024 + 160 * (frame.point_data.len() + frame.cell_data.len()));
     let mut offset: usize = 0;
+    let mut blocks: Vec<usize> =
+        Vec::with_capacity(4 + frame.point_data.len() + frame.cell_data.len());
     let mut data_array = |xml: &mut String, ty: &str, name: &str, ncomp: usize, nbytes: usize| {
         xml.push_str("        <DataArray type=\"");
         xml.push_str(ty);
@@ -173,7 +210,11 @@ pub fn encode_vtu_into(frame: &VtuFrame, out: &mut Vec<u8>) -> Result<(), String
             let _ = write!(xml, " NumberOfComponents=\"{ncomp}\"");
         }
         let _ = writeln!(xml, " format=\"appended\" offset=\"{offset}\"/>");
-        offset += 8 + nbytes;
+        blocks.push(8 + nbytes);
+        offset += match encoding {
+            Encoding::Raw => 8 + nbytes,
+            Encoding::Base64 => 4 * (8 + nbytes).div_ceil(3),
+        };
     };
 
     xml.push_str("<?xml version=\"1.0\"?>\n");
@@ -211,8 +252,12 @@ pub fn encode_vtu_into(frame: &VtuFrame, out: &mut Vec<u8>) -> Result<(), String
     xml.push_str("      </Cells>\n");
     xml.push_str("    </Piece>\n");
     xml.push_str("  </UnstructuredGrid>\n");
-    xml.push_str("  <AppendedData encoding=\"raw\">\n   _");
-    let binary_len = offset;
+    let _ = write!(
+        xml,
+        "  <AppendedData encoding=\"{}\">\n   _",
+        encoding.name()
+    );
+    let binary_len: usize = blocks.iter().sum();
     const FOOTER: &[u8] = b"\n  </AppendedData>\n</VTKFile>\n";
 
     out.reserve_exact(xml.len() + binary_len + FOOTER.len());
@@ -257,8 +302,42 @@ pub fn encode_vtu_into(frame: &VtuFrame, out: &mut Vec<u8>) -> Result<(), String
     out.resize(out.len() + n_cells, VTK_TETRA);
 
     debug_assert_eq!(out.len() - binary_start, binary_len);
+    if encoding == Encoding::Base64 {
+        let raw = out.split_off(binary_start);
+        out.reserve_exact(offset + FOOTER.len());
+        let mut at = 0;
+        for len in blocks {
+            base64_into(&raw[at..at + len], out);
+            at += len;
+        }
+    }
     out.extend_from_slice(FOOTER);
     Ok(())
+}
+
+/// Standard base64 (RFC 4648, with padding) of `bytes`, appended to `out`.
+fn base64_into(bytes: &[u8], out: &mut Vec<u8>) {
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        out.push(ALPHABET[(n >> 18) as usize & 63]);
+        out.push(ALPHABET[(n >> 12) as usize & 63]);
+        out.push(if chunk.len() > 1 {
+            ALPHABET[(n >> 6) as usize & 63]
+        } else {
+            b'='
+        });
+        out.push(if chunk.len() > 2 {
+            ALPHABET[n as usize & 63]
+        } else {
+            b'='
+        });
+    }
 }
 
 /// Write atomically: write to `<path>.tmp` in the same directory, then rename over
@@ -369,6 +448,24 @@ fn push_escaped(xml: &mut String, s: &str) {
 
 #[cfg(test)]
 mod tests {
+
+    /// RFC 4648 §10 test vectors.
+    #[test]
+    fn base64_matches_rfc4648() {
+        for (plain, enc) in [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foob", "Zm9vYg=="),
+            ("fooba", "Zm9vYmE="),
+            ("foobar", "Zm9vYmFy"),
+        ] {
+            let mut out = Vec::new();
+            base64_into(plain.as_bytes(), &mut out);
+            assert_eq!(String::from_utf8(out).unwrap(), enc);
+        }
+    }
     use super::*;
 
     fn two_tets() -> (Vec<[f64; 3]>, Vec<[u32; 4]>) {

@@ -28,7 +28,14 @@ pub struct NodalForces {
 impl NodalForces {
     pub fn new(nodes: Vec<u32>, force: Vec<Vec3>, scale: TimeFunction) -> Self {
         assert_eq!(nodes.len(), force.len());
-        NodalForces { nodes, force, scale, prev_x: Vec::new(), prev_scale: 0.0, started: false }
+        NodalForces {
+            nodes,
+            force,
+            scale,
+            prev_x: Vec::new(),
+            prev_scale: 0.0,
+            started: false,
+        }
     }
     /// Total force at time t [N].
     pub fn total(&self, t: Real) -> Vec3 {
@@ -45,7 +52,9 @@ pub struct PrescribedVelocity {
 
 impl PrescribedVelocity {
     pub fn mask(&self) -> u8 {
-        (0..3).filter(|&k| self.components[k].is_some()).fold(0, |m, k| m | (1 << k))
+        (0..3)
+            .filter(|&k| self.components[k].is_some())
+            .fold(0, |m, k| m | (1 << k))
     }
 }
 

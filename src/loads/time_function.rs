@@ -26,7 +26,11 @@ impl TimeFunction {
                 ));
             }
         }
-        if let Some((i, _)) = points.iter().enumerate().find(|(_, p)| !(p.0.is_finite() && p.1.is_finite())) {
+        if let Some((i, _)) = points
+            .iter()
+            .enumerate()
+            .find(|(_, p)| !(p.0.is_finite() && p.1.is_finite()))
+        {
             return Err(format!("time table point {i} is not finite"));
         }
         let (t, value) = points.into_iter().unzip();

@@ -292,7 +292,10 @@ mod tests {
                     fp[(i, j)] += h;
                     fm[(i, j)] -= h;
                     let d = (m.energy_density(&fp) - m.energy_density(&fm)) / (2.0 * h);
-                    assert!((d - p[(i, j)]).abs() < 1e-6 * p.norm(), "{form:?} ({i},{j})");
+                    assert!(
+                        (d - p[(i, j)]).abs() < 1e-6 * p.norm(),
+                        "{form:?} ({i},{j})"
+                    );
                 }
             }
         }

@@ -78,7 +78,11 @@ mod tests {
 
     #[test]
     fn box_volume_and_orientation() {
-        let m = box_mesh(Vec3::new(-1.0, 0.0, 2.0), Vec3::new(2.0, 0.5, 3.0), [3, 2, 4]);
+        let m = box_mesh(
+            Vec3::new(-1.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.5, 3.0),
+            [3, 2, 4],
+        );
         assert_eq!(m.tets.len(), 6 * 3 * 2 * 4);
         assert_eq!(m.nodes.len(), 4 * 3 * 5);
         assert!(m.check().is_empty());

@@ -133,7 +133,12 @@ impl Mesh {
             } else {
                 continue;
             };
-            errors.push(MeshError { tet: e, centroid: self.tet_centroid(e), volume: v, kind });
+            errors.push(MeshError {
+                tet: e,
+                centroid: self.tet_centroid(e),
+                volume: v,
+                kind,
+            });
         }
         errors
     }

@@ -49,7 +49,10 @@ impl Stage {
     }
     /// Whether the stage exists in this build (joints, fracture and contact come later).
     pub fn is_built(self) -> bool {
-        matches!(self, Stage::Elements | Stage::ExternalLoads | Stage::Integration)
+        matches!(
+            self,
+            Stage::Elements | Stage::ExternalLoads | Stage::Integration
+        )
     }
 }
 
@@ -144,7 +147,11 @@ pub struct TimeStepInfo {
 impl std::fmt::Display for TimeStepInfo {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let c = self.centroid;
-        let how = if self.fixed { "fixed by the script".to_string() } else { format!("{} × critical", self.safety) };
+        let how = if self.fixed {
+            "fixed by the script".to_string()
+        } else {
+            format!("{} × critical", self.safety)
+        };
         write!(
             f,
             "dt = {:.4e} s ({how}); critical {:.4e} s set by tet {} of body '{}' at ({:.4}, {:.4}, {:.4})",
@@ -188,7 +195,12 @@ pub struct Settings {
 
 impl Default for Settings {
     fn default() -> Self {
-        Settings { safety: 0.8, dt: None, mass_damping: 0.0, energy_every: 50 }
+        Settings {
+            safety: 0.8,
+            dt: None,
+            mass_damping: 0.0,
+            energy_every: 50,
+        }
     }
 }
 
@@ -228,7 +240,13 @@ impl Simulation {
     }
 
     /// Add a body meshed by `mesh` (shared-node topology) with `layout`. Returns its id.
-    pub fn add_body(&mut self, name: &str, mesh: &Mesh, material: MaterialId, layout: Layout) -> Result<usize, String> {
+    pub fn add_body(
+        &mut self,
+        name: &str,
+        mesh: &Mesh,
+        material: MaterialId,
+        layout: Layout,
+    ) -> Result<usize, String> {
         if self.bodies.iter().any(|b| b.name == name) {
             return Err(format!("a body named '{name}' already exists"));
         }
@@ -241,7 +259,11 @@ impl Simulation {
         let problems = mesh.check();
         if !problems.is_empty() {
             let list: Vec<String> = problems.iter().take(5).map(|p| format!("  {p}")).collect();
-            let more = if problems.len() > 5 { format!("\n  … and {} more", problems.len() - 5) } else { String::new() };
+            let more = if problems.len() > 5 {
+                format!("\n  … and {} more", problems.len() - 5)
+            } else {
+                String::new()
+            };
             return Err(format!(
                 "body '{name}': invalid mesh, {} bad tetrahedra (tet ids are the mesh's):\n{}{more}",
                 problems.len(),
@@ -258,7 +280,10 @@ impl Simulation {
                 for p in &mesh.nodes {
                     self.nodes.push(*p, id as u32);
                 }
-                mesh.tets.iter().map(|t| t.map(|n| n + node_start as u32)).collect()
+                mesh.tets
+                    .iter()
+                    .map(|t| t.map(|n| n + node_start as u32))
+                    .collect()
             }
             Layout::Jointed => {
                 let mut out = Vec::with_capacity(mesh.tets.len());
@@ -276,7 +301,9 @@ impl Simulation {
             let p = mesh.tet_points(e);
             let dm = crate::math::edge_matrix(&p[0], &p[1], &p[2], &p[3]);
             self.tets.nodes.push(*t);
-            self.tets.dm_inv.push(dm.try_inverse().expect("checked non-degenerate"));
+            self.tets
+                .dm_inv
+                .push(dm.try_inverse().expect("checked non-degenerate"));
             self.tets.vol0.push(dm.determinant() / 6.0);
             self.tets.material.push(material);
             self.tets.body.push(id as u32);
@@ -286,7 +313,11 @@ impl Simulation {
             .map(|f| {
                 let t = tet_nodes[f.tet as usize];
                 let local = crate::mesh::TET_FACES[f.local as usize];
-                BoundaryFace { tet: f.tet + tet_start as u32, local: f.local, nodes: local.map(|c| t[c]) }
+                BoundaryFace {
+                    tet: f.tet + tet_start as u32,
+                    local: f.local,
+                    nodes: local.map(|c| t[c]),
+                }
             })
             .collect();
         self.bodies.push(Body {
@@ -306,18 +337,29 @@ impl Simulation {
 
     /// Nodes inside `region` (optionally of one body), in id order.
     pub fn nodes_in(&self, region: &Region, body: Option<usize>) -> Vec<u32> {
-        let range = body.map(|b| self.bodies[b].nodes.clone()).unwrap_or(0..self.nodes.len());
+        let range = body
+            .map(|b| self.bodies[b].nodes.clone())
+            .unwrap_or(0..self.nodes.len());
         let tol = self.length_tolerance();
-        range.filter(|&n| region.contains(&self.nodes.x[n], tol)).map(|n| n as u32).collect()
+        range
+            .filter(|&n| region.contains(&self.nodes.x[n], tol))
+            .map(|n| n as u32)
+            .collect()
     }
 
     /// Tets whose centroid lies inside `region` (optionally of one body).
     pub fn tets_in(&self, region: &Region, body: Option<usize>) -> Vec<u32> {
-        let range = body.map(|b| self.bodies[b].tets.clone()).unwrap_or(0..self.tets.len());
+        let range = body
+            .map(|b| self.bodies[b].tets.clone())
+            .unwrap_or(0..self.tets.len());
         let tol = self.length_tolerance();
         range
             .filter(|&e| {
-                let c = self.tets.nodes[e].iter().map(|&n| self.nodes.x[n as usize]).sum::<Vec3>() / 4.0;
+                let c = self.tets.nodes[e]
+                    .iter()
+                    .map(|&n| self.nodes.x[n as usize])
+                    .sum::<Vec3>()
+                    / 4.0;
                 region.contains(&c, tol)
             })
             .map(|e| e as u32)
@@ -350,11 +392,14 @@ impl Simulation {
             return Ok(());
         }
         if self.tets.is_empty() {
-            return Err(SimError::Invalid("the model has no bodies: add one with sim.add_body(..)".into()));
+            return Err(SimError::Invalid(
+                "the model has no bodies: add one with sim.add_body(..)".into(),
+            ));
         }
         state::lumped_masses(&mut self.nodes, &self.tets, &self.materials);
         self.elements_ws = ElementsWorkspace::new(&self.bodies, &self.tets);
-        self.integration_partials = Vec::with_capacity(self.nodes.len().div_ceil(integration::CHUNK));
+        self.integration_partials =
+            Vec::with_capacity(self.nodes.len().div_ceil(integration::CHUNK));
         self.loads.apply_constraint_masks(&mut self.nodes);
         let info = self.stable_time_step()?;
         self.dt = info.dt;
@@ -367,10 +412,31 @@ impl Simulation {
     pub fn stable_time_step(&self) -> Result<TimeStepInfo, SimError> {
         let (critical, tet) = (0..self.tets.len())
             .into_par_iter()
-            .map(|e| (stable_dt::tet_critical_dt(&self.tets.dm_inv[e], &self.materials[self.tets.material[e] as usize]), e))
-            .reduce(|| (Real::INFINITY, usize::MAX), |a, b| if b.0 < a.0 || (b.0 == a.0 && b.1 < a.1) { b } else { a });
+            .map(|e| {
+                (
+                    stable_dt::tet_critical_dt(
+                        &self.tets.dm_inv[e],
+                        &self.materials[self.tets.material[e] as usize],
+                    ),
+                    e,
+                )
+            })
+            .reduce(
+                || (Real::INFINITY, usize::MAX),
+                |a, b| {
+                    if b.0 < a.0 || (b.0 == a.0 && b.1 < a.1) {
+                        b
+                    } else {
+                        a
+                    }
+                },
+            );
         let body = &self.bodies[self.tets.body[tet] as usize];
-        let centroid = self.tets.nodes[tet].iter().map(|&n| self.nodes.x0[n as usize]).sum::<Vec3>() / 4.0;
+        let centroid = self.tets.nodes[tet]
+            .iter()
+            .map(|&n| self.nodes.x0[n as usize])
+            .sum::<Vec3>()
+            / 4.0;
         let mut info = TimeStepInfo {
             dt: self.settings.safety * critical,
             critical,
@@ -396,7 +462,9 @@ impl Simulation {
     /// Advance one time step through the seven stages.
     pub fn step(&mut self) -> Result<(), SimError> {
         self.prepare()?;
-        let sample = self.step == 0 || self.sample_next || self.step % self.settings.energy_every.max(1) == 0;
+        let sample = self.step == 0
+            || self.sample_next
+            || self.step % self.settings.energy_every.max(1) == 0;
         self.sample_next = false;
         let dt = self.dt;
 
@@ -429,7 +497,11 @@ impl Simulation {
             mass_damping: self.settings.mass_damping,
             sample,
         };
-        let is = integration::central_difference(&mut self.nodes, params, &mut self.integration_partials);
+        let is = integration::central_difference(
+            &mut self.nodes,
+            params,
+            &mut self.integration_partials,
+        );
         self.timers.seconds[Stage::Integration as usize] += t.elapsed().as_secs_f64();
 
         let dt_bar = 0.5 * (self.dt_prev + dt);
@@ -444,9 +516,15 @@ impl Simulation {
             if self.step == 0 {
                 self.energy.initial = is.kinetic + el.strain_energy;
             }
-            self.energy_history.push(EnergySample { step: self.step, time: self.time, energy: self.energy });
+            self.energy_history.push(EnergySample {
+                step: self.step,
+                time: self.time,
+                energy: self.energy,
+            });
             if is.non_finite > 0 || el.inverted > 0 || !self.energy.kinetic.is_finite() {
-                return Err(SimError::Unstable(self.describe_instability(el.inverted, is.non_finite)));
+                return Err(SimError::Unstable(
+                    self.describe_instability(el.inverted, is.non_finite),
+                ));
             }
         }
         self.dt_prev = dt;
@@ -456,11 +534,15 @@ impl Simulation {
     }
 
     fn describe_instability(&self, inverted: usize, non_finite: usize) -> String {
-        let at = format!("at step {} (t = {:.6e} s, dt = {:.4e} s)", self.step, self.time, self.dt);
+        let at = format!(
+            "at step {} (t = {:.6e} s, dt = {:.4e} s)",
+            self.step, self.time, self.dt
+        );
         let hint = "reduce the time step safety factor or the loading rate, or check the material parameters";
-        if let Some(n) = (0..self.nodes.len())
-            .find(|&n| !(self.nodes.x[n].iter().all(|c| c.is_finite()) && self.nodes.v[n].iter().all(|c| c.is_finite())))
-        {
+        if let Some(n) = (0..self.nodes.len()).find(|&n| {
+            !(self.nodes.x[n].iter().all(|c| c.is_finite())
+                && self.nodes.v[n].iter().all(|c| c.is_finite()))
+        }) {
             let b = &self.bodies[self.nodes.body[n] as usize].name;
             let p = self.nodes.x0[n];
             return format!(
@@ -468,9 +550,15 @@ impl Simulation {
                 p.x, p.y, p.z
             );
         }
-        if let Some(e) = (0..self.tets.len()).find(|&e| !(elements::deformation_gradient(&self.tets, &self.nodes.x, e).determinant() > 0.0)) {
+        if let Some(e) = (0..self.tets.len()).find(|&e| {
+            !(elements::deformation_gradient(&self.tets, &self.nodes.x, e).determinant() > 0.0)
+        }) {
             let b = &self.bodies[self.tets.body[e] as usize].name;
-            let c = self.tets.nodes[e].iter().map(|&n| self.nodes.x[n as usize]).sum::<Vec3>() / 4.0;
+            let c = self.tets.nodes[e]
+                .iter()
+                .map(|&n| self.nodes.x[n as usize])
+                .sum::<Vec3>()
+                / 4.0;
             let j = elements::deformation_gradient(&self.tets, &self.nodes.x, e).determinant();
             return format!(
                 "{inverted} element(s) inverted {at}; first: tet {e} of body '{b}' at ({:.4}, {:.4}, {:.4}) with det F = {j:.3e}; {hint}",
@@ -482,7 +570,12 @@ impl Simulation {
 
     /// Kinetic energy ½Σm|v|² from the current half-step velocities [J].
     pub fn kinetic_energy_now(&self) -> Real {
-        self.nodes.m.iter().zip(&self.nodes.v).map(|(m, v)| 0.5 * m * v.norm_squared()).sum()
+        self.nodes
+            .m
+            .iter()
+            .zip(&self.nodes.v)
+            .map(|(m, v)| 0.5 * m * v.norm_squared())
+            .sum()
     }
 
     /// Strain energy of the current configuration [J].
@@ -490,7 +583,8 @@ impl Simulation {
         (0..self.tets.len())
             .map(|e| {
                 let f = elements::deformation_gradient(&self.tets, &self.nodes.x, e);
-                self.tets.vol0[e] * self.materials[self.tets.material[e] as usize].energy_density(&f)
+                self.tets.vol0[e]
+                    * self.materials[self.tets.material[e] as usize].energy_density(&f)
             })
             .sum()
     }

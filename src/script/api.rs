@@ -26,8 +26,20 @@ pub struct FnDoc {
     pub section: &'static str,
 }
 
-const fn key(name: &'static str, kind: &'static str, unit: &'static str, default: &'static str, doc: &'static str) -> Key {
-    Key { name, kind, unit, default, doc }
+const fn key(
+    name: &'static str,
+    kind: &'static str,
+    unit: &'static str,
+    default: &'static str,
+    doc: &'static str,
+) -> Key {
+    Key {
+        name,
+        kind,
+        unit,
+        default,
+        doc,
+    }
 }
 
 pub const SECTIONS: &[(&str, &str)] = &[
@@ -46,13 +58,26 @@ pub const SIMULATION_KEYS: &[Key] = &[
     key("out_dir", "string", "", "\"out/<name>\"", "Output directory (created when first written). `fdem run --out DIR` overrides it."),
     key("energy_every", "int", "steps", "50", "Sample the energy account every this many steps (written to energy.csv)."),
     key("stress_output", "string", "", "\"cauchy\"", "Extra stress field written to VTK besides the Cauchy stress: \"cauchy\", \"pk1\" or \"pk2\"."),
+    key("vtk_encoding", "string", "", "\"raw\"", "Appended data of `.vtu` files: \"raw\" (fast; ParaView, VTK, meshio) or \"base64\" (for readers without raw support, e.g. vtkio)."),
 ];
 
 pub const MATERIAL_KEYS: &[Key] = &[
     key("density", "float", "kg/m³", "required", "Mass density ρ."),
     key("young", "float", "Pa", "required", "Young's modulus E."),
-    key("poisson", "float", "-", "required", "Poisson's ratio ν, in (−1, 0.5)."),
-    key("viscosity", "float", "Pa·s", "0", "Viscous damping η: σ_v = η·D, D the rate of deformation."),
+    key(
+        "poisson",
+        "float",
+        "-",
+        "required",
+        "Poisson's ratio ν, in (−1, 0.5).",
+    ),
+    key(
+        "viscosity",
+        "float",
+        "Pa·s",
+        "0",
+        "Viscous damping η: σ_v = η·D, D the rate of deformation.",
+    ),
 ];
 
 pub const BOX_KEYS: &[Key] = &[
@@ -65,24 +90,78 @@ pub const SPHERE_KEYS: &[Key] = &[
 ];
 pub const CYLINDER_KEYS: &[Key] = &[
     key("base", "vec3", "m", "required", "Centre of the base disc."),
-    key("axis", "vec3", "-", "required", "Axis direction (normalised)."),
+    key(
+        "axis",
+        "vec3",
+        "-",
+        "required",
+        "Axis direction (normalised).",
+    ),
     key("radius", "float", "m", "required", "Radius."),
-    key("length", "float", "m", "required", "Length along the axis from `base`."),
+    key(
+        "length",
+        "float",
+        "m",
+        "required",
+        "Length along the axis from `base`.",
+    ),
 ];
 pub const HALF_SPACE_KEYS: &[Key] = &[
-    key("point", "vec3", "m", "required", "A point on the bounding plane."),
-    key("normal", "vec3", "-", "required", "The region is the side this normal points to: (x − point)·normal ≥ 0."),
+    key(
+        "point",
+        "vec3",
+        "m",
+        "required",
+        "A point on the bounding plane.",
+    ),
+    key(
+        "normal",
+        "vec3",
+        "-",
+        "required",
+        "The region is the side this normal points to: (x − point)·normal ≥ 0.",
+    ),
 ];
 pub const MESH_KEYS: &[Key] = &[
-    key("size", "float", "m", "required unless divisions", "Target edge length: each side gets round(L/size) ≥ 1 cells, each cell 6 tetrahedra."),
-    key("divisions", "array of 3 ints", "", "-", "Cells along x, y, z instead of `size`."),
+    key(
+        "size",
+        "float",
+        "m",
+        "required unless divisions",
+        "Target edge length: each side gets round(L/size) ≥ 1 cells, each cell 6 tetrahedra.",
+    ),
+    key(
+        "divisions",
+        "array of 3 ints",
+        "",
+        "-",
+        "Cells along x, y, z instead of `size`.",
+    ),
 ];
 pub const TET_MESH_KEYS: &[Key] = &[
-    key("nodes", "array of vec3", "m", "required", "Node coordinates."),
-    key("tets", "array of [int; 4]", "", "required", "Node ids of each tetrahedron, right-handed: (p1−p0)·((p2−p0)×(p3−p0)) > 0."),
+    key(
+        "nodes",
+        "array of vec3",
+        "m",
+        "required",
+        "Node coordinates.",
+    ),
+    key(
+        "tets",
+        "array of [int; 4]",
+        "",
+        "required",
+        "Node ids of each tetrahedron, right-handed: (p1−p0)·((p2−p0)×(p3−p0)) > 0.",
+    ),
 ];
 pub const ROTATE_KEYS: &[Key] = &[
-    key("axis", "vec3", "-", "required", "Rotation axis (right-hand rule)."),
+    key(
+        "axis",
+        "vec3",
+        "-",
+        "required",
+        "Rotation axis (right-hand rule).",
+    ),
     key("degrees", "float", "°", "required", "Angle."),
     key("center", "vec3", "m", "[0, 0, 0]", "A point on the axis."),
 ];
@@ -94,21 +173,56 @@ pub const ADD_BODY_KEYS: &[Key] = &[key(
     "\"continuous\": tetrahedra share nodes (unbreakable). \"jointed\": every tetrahedron owns its 4 nodes (node multiplicity), to be held by joint elements.",
 )];
 pub const BOUNDARY_KEYS: &[Key] = &[
-    key("normal", "vec3", "-", "any", "Keep faces whose outward normal is within `tolerance` of this direction."),
-    key("tolerance", "float", "°", "1", "Angle tolerance for `normal`."),
-    key("within", "shape", "", "anywhere", "Keep faces whose centroid lies in this region."),
+    key(
+        "normal",
+        "vec3",
+        "-",
+        "any",
+        "Keep faces whose outward normal is within `tolerance` of this direction.",
+    ),
+    key(
+        "tolerance",
+        "float",
+        "°",
+        "1",
+        "Angle tolerance for `normal`.",
+    ),
+    key(
+        "within",
+        "shape",
+        "",
+        "anywhere",
+        "Keep faces whose centroid lies in this region.",
+    ),
 ];
 pub const INTEGRATOR_KEYS: &[Key] = &[
     key("safety", "float", "-", "0.8", "dt = safety × critical time step (exact element bound: never above the true critical step)."),
     key("dt", "float", "s", "automatic", "Fixed time step; an error if larger than the critical step."),
 ];
-pub const DAMPING_KEYS: &[Key] =
-    &[key("mass_proportional", "float", "1/s", "0", "α in the damping force −α·m·v (dynamic relaxation; critical for mode ω at α = 2ω).")];
+pub const DAMPING_KEYS: &[Key] = &[key(
+    "mass_proportional",
+    "float",
+    "1/s",
+    "0",
+    "α in the damping force −α·m·v (dynamic relaxation; critical for mode ω at α = 2ω).",
+)];
 pub const EVERY_KEYS: &[Key] = &[
     key("steps", "int", "steps", "-", "Call every this many steps."),
-    key("time", "float", "s", "-", "Call each time simulated time passes a multiple of this."),
+    key(
+        "time",
+        "float",
+        "s",
+        "-",
+        "Call each time simulated time passes a multiple of this.",
+    ),
 ];
-pub const MONITOR_KEYS: &[Key] = &[key("every", "int", "steps", "1", "Record every this many steps (and once when the run starts).")];
+pub const MONITOR_KEYS: &[Key] = &[key(
+    "every",
+    "int",
+    "steps",
+    "1",
+    "Record every this many steps (and once when the run starts).",
+)];
 pub const RUN_KEYS: &[Key] = &[
     key("max_time", "float", "s", "-", "Stop when the simulated time reaches this value (absolute)."),
     key("duration", "float", "s", "-", "Run for this much simulated time from now."),
@@ -117,7 +231,13 @@ pub const RUN_KEYS: &[Key] = &[
     key("check_every", "int", "steps", "1", "How often `stop_when` is evaluated."),
 ];
 pub const VELOCITY_KEYS: &[Key] = &[
-    key("x", "table|float", "m/s", "free", "Velocity along x (a number or a `table`)."),
+    key(
+        "x",
+        "table|float",
+        "m/s",
+        "free",
+        "Velocity along x (a number or a `table`).",
+    ),
     key("y", "table|float", "m/s", "free", "Velocity along y."),
     key("z", "table|float", "m/s", "free", "Velocity along z."),
 ];
@@ -190,7 +310,10 @@ pub const API: &[FnDoc] = &[
 
 /// The documented keys of a function.
 pub fn keys_of(name: &str) -> &'static [Key] {
-    API.iter().find(|f| f.name == name).map(|f| f.keys).unwrap_or(&[])
+    API.iter()
+        .find(|f| f.name == name)
+        .map(|f| f.keys)
+        .unwrap_or(&[])
 }
 
 /// The reference as Markdown (what `fdem doc` prints and docs/script-reference.md holds).
@@ -205,9 +328,14 @@ Units are SI. Vectors are arrays `[x, y, z]`; integers are accepted where a floa
         for f in API.iter().filter(|f| f.section == *section) {
             out.push_str(&format!("\n### `{}`\n\n{}\n", f.signature, f.summary));
             if !f.keys.is_empty() {
-                out.push_str("\n| key | type | unit | default | meaning |\n|---|---|---|---|---|\n");
+                out.push_str(
+                    "\n| key | type | unit | default | meaning |\n|---|---|---|---|---|\n",
+                );
                 for k in f.keys {
-                    out.push_str(&format!("| `{}` | {} | {} | {} | {} |\n", k.name, k.kind, k.unit, k.default, k.doc));
+                    out.push_str(&format!(
+                        "| `{}` | {} | {} | {} | {} |\n",
+                        k.name, k.kind, k.unit, k.default, k.doc
+                    ));
                 }
             }
         }

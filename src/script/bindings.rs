@@ -43,15 +43,33 @@ fn register_types(engine: &mut Engine) {
         .register_type_with_name::<MaterialValue>("Material")
         .register_type_with_name::<Table>("Table")
         .register_type_with_name::<MonitorHandle>("Monitor");
-    engine.register_fn("to_string", |b: &mut BodyHandle| format!("Body '{}'", b.sim.0.borrow().sim.bodies[b.id].name));
-    engine.register_fn("to_string", |n: &mut NodeSet| format!("Nodes({})", n.0.len()));
-    engine.register_fn("to_string", |n: &mut ElementSet| format!("Elements({})", n.0.len()));
-    engine.register_fn("to_string", |f: &mut FaceSet| format!("Faces({}, area {:e} m²)", f.faces.len(), f.area));
-    engine.register_fn("to_string", |m: &mut MeshValue| format!("Mesh({} nodes, {} tets)", m.0.nodes.len(), m.0.tets.len()));
-    engine.register_fn("to_string", |m: &mut MaterialValue| format!("Material({})", m.material.formulation.name()));
-    engine.register_fn("to_string", |s: &mut Shape| format!("Shape({})", s.0.kind()));
-    engine.register_fn("to_string", |s: &mut SimHandle| format!("Simulation '{}'", s.0.borrow().name));
-    engine.register_fn("to_string", |m: &mut MonitorHandle| format!("Monitor '{}'", m.0.borrow().name));
+    engine.register_fn("to_string", |b: &mut BodyHandle| {
+        format!("Body '{}'", b.sim.0.borrow().sim.bodies[b.id].name)
+    });
+    engine.register_fn("to_string", |n: &mut NodeSet| {
+        format!("Nodes({})", n.0.len())
+    });
+    engine.register_fn("to_string", |n: &mut ElementSet| {
+        format!("Elements({})", n.0.len())
+    });
+    engine.register_fn("to_string", |f: &mut FaceSet| {
+        format!("Faces({}, area {:e} m²)", f.faces.len(), f.area)
+    });
+    engine.register_fn("to_string", |m: &mut MeshValue| {
+        format!("Mesh({} nodes, {} tets)", m.0.nodes.len(), m.0.tets.len())
+    });
+    engine.register_fn("to_string", |m: &mut MaterialValue| {
+        format!("Material({})", m.material.formulation.name())
+    });
+    engine.register_fn("to_string", |s: &mut Shape| {
+        format!("Shape({})", s.0.kind())
+    });
+    engine.register_fn("to_string", |s: &mut SimHandle| {
+        format!("Simulation '{}'", s.0.borrow().name)
+    });
+    engine.register_fn("to_string", |m: &mut MonitorHandle| {
+        format!("Monitor '{}'", m.0.borrow().name)
+    });
 }
 
 // ─── Parameters and checks ───────────────────────────────────────────────────────
@@ -96,18 +114,25 @@ fn register_params(engine: &mut Engine, ctx: Rc<ScriptContext>) {
         Ok(out)
     });
     let c = ctx.clone();
-    engine.register_fn("expect_within", move |label: &str, value: Dynamic, lo: Dynamic, hi: Dynamic| -> RhaiResult<()> {
-        if c.options.check_only {
-            return Ok(());
-        }
-        let (v, lo, hi) = (num(&value, label)?, num(&lo, "low")?, num(&hi, "high")?);
-        if v >= lo && v <= hi {
-            c.say(&format!("check ok: {label} = {v:.6e} in [{lo:.6e}, {hi:.6e}]"));
-            Ok(())
-        } else {
-            err(format!("self-check failed: {label} = {v:.6e}, expected within [{lo:.6e}, {hi:.6e}]"))
-        }
-    });
+    engine.register_fn(
+        "expect_within",
+        move |label: &str, value: Dynamic, lo: Dynamic, hi: Dynamic| -> RhaiResult<()> {
+            if c.options.check_only {
+                return Ok(());
+            }
+            let (v, lo, hi) = (num(&value, label)?, num(&lo, "low")?, num(&hi, "high")?);
+            if v >= lo && v <= hi {
+                c.say(&format!(
+                    "check ok: {label} = {v:.6e} in [{lo:.6e}, {hi:.6e}]"
+                ));
+                Ok(())
+            } else {
+                err(format!(
+                    "self-check failed: {label} = {v:.6e}, expected within [{lo:.6e}, {hi:.6e}]"
+                ))
+            }
+        },
+    );
     let c = ctx;
     engine.register_fn("expect_near", move |label: &str, value: Dynamic, reference: Dynamic, tol: Dynamic| -> RhaiResult<()> {
         if c.options.check_only {
@@ -125,7 +150,15 @@ fn register_params(engine: &mut Engine, ctx: Rc<ScriptContext>) {
 }
 
 fn num(d: &Dynamic, what: &str) -> RhaiResult<Real> {
-    to_float(d).map_or_else(|| err(format!("{what}: expected a number, got {} ({d})", d.type_name())), Ok)
+    to_float(d).map_or_else(
+        || {
+            err(format!(
+                "{what}: expected a number, got {} ({d})",
+                d.type_name()
+            ))
+        },
+        Ok,
+    )
 }
 
 // ─── Geometry ────────────────────────────────────────────────────────────────────
@@ -135,14 +168,22 @@ fn register_geometry(engine: &mut Engine) {
         let o = Opts::new("box", m, keys_of("box"))?;
         let (min, max) = (o.req_vec3("min")?, o.req_vec3("max")?);
         if (0..3).any(|i| max[i] <= min[i]) {
-            return err(format!("box(): max {max:?} must exceed min {min:?} in every coordinate").replace('\n', ""));
+            return err(
+                format!("box(): max {max:?} must exceed min {min:?} in every coordinate")
+                    .replace('\n', ""),
+            );
         }
         Ok(Shape(Region::Box { min, max }))
     });
     engine.register_fn("sphere", |m: Map| -> RhaiResult<Shape> {
         let o = Opts::new("sphere", m, keys_of("sphere"))?;
-        let radius = o.positive("radius")?.map_or_else(|| err("sphere(): missing required key 'radius'"), Ok)?;
-        Ok(Shape(Region::Sphere { center: o.req_vec3("center")?, radius }))
+        let radius = o
+            .positive("radius")?
+            .map_or_else(|| err("sphere(): missing required key 'radius'"), Ok)?;
+        Ok(Shape(Region::Sphere {
+            center: o.req_vec3("center")?,
+            radius,
+        }))
     });
     engine.register_fn("cylinder", |m: Map| -> RhaiResult<Shape> {
         let o = Opts::new("cylinder", m, keys_of("cylinder"))?;
@@ -150,9 +191,18 @@ fn register_geometry(engine: &mut Engine) {
         if axis.norm() == 0.0 {
             return err("cylinder(): axis must not be zero");
         }
-        let radius = o.positive("radius")?.map_or_else(|| err("cylinder(): missing required key 'radius'"), Ok)?;
-        let length = o.positive("length")?.map_or_else(|| err("cylinder(): missing required key 'length'"), Ok)?;
-        Ok(Shape(Region::Cylinder { base: o.req_vec3("base")?, axis: axis.normalize(), radius, length }))
+        let radius = o
+            .positive("radius")?
+            .map_or_else(|| err("cylinder(): missing required key 'radius'"), Ok)?;
+        let length = o
+            .positive("length")?
+            .map_or_else(|| err("cylinder(): missing required key 'length'"), Ok)?;
+        Ok(Shape(Region::Cylinder {
+            base: o.req_vec3("base")?,
+            axis: axis.normalize(),
+            radius,
+            length,
+        }))
     });
     engine.register_fn("half_space", |m: Map| -> RhaiResult<Shape> {
         let o = Opts::new("half_space", m, keys_of("half_space"))?;
@@ -160,7 +210,10 @@ fn register_geometry(engine: &mut Engine) {
         if normal.norm() == 0.0 {
             return err("half_space(): normal must not be zero");
         }
-        Ok(Shape(Region::HalfSpace { point: o.req_vec3("point")?, normal: normal.normalize() }))
+        Ok(Shape(Region::HalfSpace {
+            point: o.req_vec3("point")?,
+            normal: normal.normalize(),
+        }))
     });
     engine.register_fn("mesh", |s: &mut Shape, m: Map| -> RhaiResult<MeshValue> {
         let o = Opts::new("mesh", m, keys_of("shape.mesh"))?;
@@ -190,35 +243,61 @@ fn register_geometry(engine: &mut Engine) {
     });
     engine.register_fn("tet_mesh", |m: Map| -> RhaiResult<MeshValue> {
         let o = Opts::new("tet_mesh", m, keys_of("tet_mesh"))?;
-        let nodes_d = o.typed::<Array>("nodes", "an array of [x, y, z]")?.map_or_else(|| err("tet_mesh(): missing required key 'nodes'"), Ok)?;
-        let tets_d = o.typed::<Array>("tets", "an array of [a, b, c, d]")?.map_or_else(|| err("tet_mesh(): missing required key 'tets'"), Ok)?;
+        let nodes_d = o
+            .typed::<Array>("nodes", "an array of [x, y, z]")?
+            .map_or_else(|| err("tet_mesh(): missing required key 'nodes'"), Ok)?;
+        let tets_d = o
+            .typed::<Array>("tets", "an array of [a, b, c, d]")?
+            .map_or_else(|| err("tet_mesh(): missing required key 'tets'"), Ok)?;
         let mut nodes = Vec::with_capacity(nodes_d.len());
         for (i, n) in nodes_d.iter().enumerate() {
-            nodes.push(to_vec3(n).map_or_else(|| err(format!("tet_mesh(): node {i} must be [x, y, z], got {n}")), Ok)?);
+            nodes.push(to_vec3(n).map_or_else(
+                || err(format!("tet_mesh(): node {i} must be [x, y, z], got {n}")),
+                Ok,
+            )?);
         }
         let mut tets = Vec::with_capacity(tets_d.len());
         for (e, t) in tets_d.iter().enumerate() {
-            let ids: Option<Vec<i64>> = t.read_lock::<Array>().and_then(|a| a.iter().map(|v| v.as_int().ok()).collect());
+            let ids: Option<Vec<i64>> = t
+                .read_lock::<Array>()
+                .and_then(|a| a.iter().map(|v| v.as_int().ok()).collect());
             match ids.as_deref() {
-                Some(&[a, b, c, d]) if [a, b, c, d].iter().all(|&i| i >= 0 && (i as usize) < nodes.len()) => {
+                Some(&[a, b, c, d])
+                    if [a, b, c, d]
+                        .iter()
+                        .all(|&i| i >= 0 && (i as usize) < nodes.len()) =>
+                {
                     tets.push([a as u32, b as u32, c as u32, d as u32])
                 }
-                _ => return err(format!("tet_mesh(): tet {e} must be 4 node ids in 0..{}, got {t}", nodes.len())),
+                _ => {
+                    return err(format!(
+                        "tet_mesh(): tet {e} must be 4 node ids in 0..{}, got {t}",
+                        nodes.len()
+                    ))
+                }
             }
         }
         Ok(MeshValue(Rc::new(Mesh::new(nodes, tets))))
     });
-    engine.register_fn("translate", |m: &mut MeshValue, d: Array| -> RhaiResult<MeshValue> {
-        let d = vec3_arg(&d, "translate()")?;
-        Rc::make_mut(&mut m.0).translate(d);
-        Ok(m.clone())
+    engine.register_fn(
+        "translate",
+        |m: &mut MeshValue, d: Array| -> RhaiResult<MeshValue> {
+            let d = vec3_arg(&d, "translate()")?;
+            Rc::make_mut(&mut m.0).translate(d);
+            Ok(m.clone())
+        },
+    );
+    engine.register_fn(
+        "rotate",
+        |m: &mut MeshValue, o: Map| -> RhaiResult<MeshValue> {
+            let (axis, angle, center) = rotation_opts(o)?;
+            Rc::make_mut(&mut m.0).rotate(axis, angle, center);
+            Ok(m.clone())
+        },
+    );
+    engine.register_fn("copy", |m: &mut MeshValue| {
+        MeshValue(Rc::new((*m.0).clone()))
     });
-    engine.register_fn("rotate", |m: &mut MeshValue, o: Map| -> RhaiResult<MeshValue> {
-        let (axis, angle, center) = rotation_opts(o)?;
-        Rc::make_mut(&mut m.0).rotate(axis, angle, center);
-        Ok(m.clone())
-    });
-    engine.register_fn("copy", |m: &mut MeshValue| MeshValue(Rc::new((*m.0).clone())));
     engine.register_get("n_nodes", |m: &mut MeshValue| m.0.nodes.len() as i64);
     engine.register_get("n_tets", |m: &mut MeshValue| m.0.tets.len() as i64);
     engine.register_get("volume", |m: &mut MeshValue| m.0.volume());
@@ -230,7 +309,11 @@ fn rotation_opts(m: Map) -> RhaiResult<(Vec3, Real, Vec3)> {
     if axis.norm() == 0.0 {
         return err("rotate(): axis must not be zero");
     }
-    Ok((axis, o.req_float("degrees")?.to_radians(), o.vec3("center")?.unwrap_or_default()))
+    Ok((
+        axis,
+        o.req_float("degrees")?.to_radians(),
+        o.vec3("center")?.unwrap_or_default(),
+    ))
 }
 
 // ─── Simulation, materials, integration ─────────────────────────────────────────
@@ -259,8 +342,14 @@ fn register_simulation(engine: &mut Engine, ctx: Rc<ScriptContext>) {
                 Ok,
             )?,
         };
+        let vtk_encoding = match o.string("vtk_encoding")?.as_deref() {
+            None | Some("raw") => crate::io::vtu::Encoding::Raw,
+            Some("base64") => crate::io::vtu::Encoding::Base64,
+            Some(x) => return err(format!("simulation(): vtk_encoding '{x}' is not \"raw\" or \"base64\"")),
+        };
         let handle = SimHandle(Rc::new(RefCell::new(SimState {
             sim,
+            vtk_encoding,
             vtk: VtkSeries::new(out_dir.clone(), name.clone()),
             name,
             out_dir,
@@ -277,46 +366,64 @@ fn register_simulation(engine: &mut Engine, ctx: Rc<ScriptContext>) {
         c.sims.borrow_mut().push(handle.clone());
         Ok(handle)
     });
-    engine.register_fn("material", |law: &str, m: Map| -> RhaiResult<MaterialValue> {
-        let Some(formulation) = Formulation::from_name(law) else {
-            let names: Vec<&str> = Formulation::ALL.iter().map(|f| f.name()).collect();
-            return err(format!("material(): unknown law \"{law}\"; available: {}", names.join(", ")));
-        };
-        let o = Opts::new("material", m, keys_of("material"))?;
-        let material = Material::new(
-            formulation,
-            o.req_float("density")?,
-            o.req_float("young")?,
-            o.req_float("poisson")?,
-            o.float("viscosity")?.unwrap_or(0.0),
-        )
-        .map_err(|e| format!("material(): {e}"))?;
-        Ok(MaterialValue { uid: MATERIAL_UID.fetch_add(1, Ordering::Relaxed), material })
-    });
+    engine.register_fn(
+        "material",
+        |law: &str, m: Map| -> RhaiResult<MaterialValue> {
+            let Some(formulation) = Formulation::from_name(law) else {
+                let names: Vec<&str> = Formulation::ALL.iter().map(|f| f.name()).collect();
+                return err(format!(
+                    "material(): unknown law \"{law}\"; available: {}",
+                    names.join(", ")
+                ));
+            };
+            let o = Opts::new("material", m, keys_of("material"))?;
+            let material = Material::new(
+                formulation,
+                o.req_float("density")?,
+                o.req_float("young")?,
+                o.req_float("poisson")?,
+                o.float("viscosity")?.unwrap_or(0.0),
+            )
+            .map_err(|e| format!("material(): {e}"))?;
+            Ok(MaterialValue {
+                uid: MATERIAL_UID.fetch_add(1, Ordering::Relaxed),
+                material,
+            })
+        },
+    );
     engine.register_get("young", |m: &mut MaterialValue| m.material.young);
     engine.register_get("poisson", |m: &mut MaterialValue| m.material.poisson);
     engine.register_get("density", |m: &mut MaterialValue| m.material.density);
     engine.register_get("viscosity", |m: &mut MaterialValue| m.material.viscosity);
-    engine.register_get("law", |m: &mut MaterialValue| m.material.formulation.name().to_string());
-
-    engine.register_fn("integrator", |s: &mut SimHandle, kind: &str, m: Map| -> RhaiResult<()> {
-        if kind != "central_difference" {
-            return err(format!("integrator(): unknown integrator \"{kind}\"; available: central_difference"));
-        }
-        let o = Opts::new("integrator", m, keys_of("sim.integrator"))?;
-        let mut st = s.0.borrow_mut();
-        if let Some(safety) = o.float("safety")? {
-            if !(safety > 0.0 && safety <= 1.0) {
-                return err(format!("integrator(): safety must lie in (0, 1], got {safety}"));
-            }
-            st.sim.settings.safety = safety;
-        }
-        if let Some(dt) = o.positive("dt")? {
-            st.sim.settings.dt = Some(dt);
-        }
-        st.sim.invalidate();
-        Ok(())
+    engine.register_get("law", |m: &mut MaterialValue| {
+        m.material.formulation.name().to_string()
     });
+
+    engine.register_fn(
+        "integrator",
+        |s: &mut SimHandle, kind: &str, m: Map| -> RhaiResult<()> {
+            if kind != "central_difference" {
+                return err(format!(
+                    "integrator(): unknown integrator \"{kind}\"; available: central_difference"
+                ));
+            }
+            let o = Opts::new("integrator", m, keys_of("sim.integrator"))?;
+            let mut st = s.0.borrow_mut();
+            if let Some(safety) = o.float("safety")? {
+                if !(safety > 0.0 && safety <= 1.0) {
+                    return err(format!(
+                        "integrator(): safety must lie in (0, 1], got {safety}"
+                    ));
+                }
+                st.sim.settings.safety = safety;
+            }
+            if let Some(dt) = o.positive("dt")? {
+                st.sim.settings.dt = Some(dt);
+            }
+            st.sim.invalidate();
+            Ok(())
+        },
+    );
     engine.register_fn("damping", |s: &mut SimHandle, m: Map| -> RhaiResult<()> {
         let o = Opts::new("damping", m, keys_of("sim.damping"))?;
         if let Some(a) = o.float("mass_proportional")? {
@@ -328,17 +435,28 @@ fn register_simulation(engine: &mut Engine, ctx: Rc<ScriptContext>) {
         Ok(())
     });
     let c = ctx;
-    engine.register_fn("run", move |nc: NativeCallContext, s: &mut SimHandle, m: Map| -> RhaiResult<()> {
-        let o = Opts::new("run", m, keys_of("sim.run"))?;
-        runner::run(&nc, &c, s, o)
+    engine.register_fn(
+        "run",
+        move |nc: NativeCallContext, s: &mut SimHandle, m: Map| -> RhaiResult<()> {
+            let o = Opts::new("run", m, keys_of("sim.run"))?;
+            runner::run(&nc, &c, s, o)
+        },
+    );
+    engine.register_fn("write_vtk", |s: &mut SimHandle| -> RhaiResult<()> {
+        runner::write_vtk(s)
     });
-    engine.register_fn("write_vtk", |s: &mut SimHandle| -> RhaiResult<()> { runner::write_vtk(s) });
 }
 
 // ─── Bodies and selections ───────────────────────────────────────────────────────
 
 fn register_bodies(engine: &mut Engine) {
-    fn add_body(s: &mut SimHandle, name: &str, mesh: MeshValue, mat: MaterialValue, o: Option<Map>) -> RhaiResult<BodyHandle> {
+    fn add_body(
+        s: &mut SimHandle,
+        name: &str,
+        mesh: MeshValue,
+        mat: MaterialValue,
+        o: Option<Map>,
+    ) -> RhaiResult<BodyHandle> {
         let layout = match o {
             None => Layout::Continuous,
             Some(m) => {
@@ -346,7 +464,11 @@ fn register_bodies(engine: &mut Engine) {
                 match o.string("layout")?.as_deref() {
                     None | Some("continuous") => Layout::Continuous,
                     Some("jointed") => Layout::Jointed,
-                    Some(x) => return err(format!("add_body(): layout \"{x}\" is not \"continuous\" or \"jointed\"")),
+                    Some(x) => {
+                        return err(format!(
+                            "add_body(): layout \"{x}\" is not \"continuous\" or \"jointed\""
+                        ))
+                    }
                 }
             }
         };
@@ -362,53 +484,121 @@ fn register_bodies(engine: &mut Engine) {
                 id
             }
         };
-        let id = st.sim.add_body(name, &mesh.0, mid, layout).map_err(|e| format!("add_body(): {e}"))?;
+        let id = st
+            .sim
+            .add_body(name, &mesh.0, mid, layout)
+            .map_err(|e| format!("add_body(): {e}"))?;
         st.body_meshes.push((*mesh.0).clone());
         drop(st);
         Ok(BodyHandle { sim: s.clone(), id })
     }
-    engine.register_fn("add_body", |s: &mut SimHandle, name: &str, mesh: MeshValue, mat: MaterialValue| add_body(s, name, mesh, mat, None));
-    engine.register_fn("add_body", |s: &mut SimHandle, name: &str, mesh: MeshValue, mat: MaterialValue, o: Map| {
-        add_body(s, name, mesh, mat, Some(o))
-    });
-    engine.register_fn("copy", |b: &mut BodyHandle, name: &str| -> RhaiResult<BodyHandle> {
-        let (mesh, mat_uid_material, layout) = {
-            let st = b.sim.0.borrow();
-            let body = &st.sim.bodies[b.id];
-            let m = st.sim.materials[body.material as usize].clone();
-            let uid = st.material_ids.iter().find(|(_, &v)| v == body.material).map(|(k, _)| *k).unwrap_or(0);
-            (st.body_meshes[b.id].clone(), MaterialValue { uid, material: m }, body.layout)
-        };
-        let layout = Map::from_iter([("layout".into(), Dynamic::from(layout.name().to_string()))]);
-        add_body(&mut b.sim.clone(), name, MeshValue(Rc::new(mesh)), mat_uid_material, Some(layout))
-    });
-    engine.register_fn("translate", |b: &mut BodyHandle, d: Array| -> RhaiResult<()> {
-        let d = vec3_arg(&d, "translate()")?;
-        move_body(b, |p| p + d)
-    });
+    engine.register_fn(
+        "add_body",
+        |s: &mut SimHandle, name: &str, mesh: MeshValue, mat: MaterialValue| {
+            add_body(s, name, mesh, mat, None)
+        },
+    );
+    engine.register_fn(
+        "add_body",
+        |s: &mut SimHandle, name: &str, mesh: MeshValue, mat: MaterialValue, o: Map| {
+            add_body(s, name, mesh, mat, Some(o))
+        },
+    );
+    engine.register_fn(
+        "copy",
+        |b: &mut BodyHandle, name: &str| -> RhaiResult<BodyHandle> {
+            let (mesh, mat_uid_material, layout) = {
+                let st = b.sim.0.borrow();
+                let body = &st.sim.bodies[b.id];
+                let m = st.sim.materials[body.material as usize].clone();
+                let uid = st
+                    .material_ids
+                    .iter()
+                    .find(|(_, &v)| v == body.material)
+                    .map(|(k, _)| *k)
+                    .unwrap_or(0);
+                (
+                    st.body_meshes[b.id].clone(),
+                    MaterialValue { uid, material: m },
+                    body.layout,
+                )
+            };
+            let layout =
+                Map::from_iter([("layout".into(), Dynamic::from(layout.name().to_string()))]);
+            add_body(
+                &mut b.sim.clone(),
+                name,
+                MeshValue(Rc::new(mesh)),
+                mat_uid_material,
+                Some(layout),
+            )
+        },
+    );
+    engine.register_fn(
+        "translate",
+        |b: &mut BodyHandle, d: Array| -> RhaiResult<()> {
+            let d = vec3_arg(&d, "translate()")?;
+            move_body(b, |p| p + d)
+        },
+    );
     engine.register_fn("rotate", |b: &mut BodyHandle, o: Map| -> RhaiResult<()> {
         let (axis, angle, center) = rotation_opts(o)?;
         let r = rotation_matrix(&axis, angle);
         move_body(b, |p| center + r * (p - center))
     });
-    engine.register_get("name", |b: &mut BodyHandle| b.sim.0.borrow().sim.bodies[b.id].name.clone());
-    engine.register_get("layout", |b: &mut BodyHandle| b.sim.0.borrow().sim.bodies[b.id].layout.name().to_string());
-    engine.register_get("n_tets", |b: &mut BodyHandle| b.sim.0.borrow().sim.bodies[b.id].tets.len() as i64);
-    engine.register_get("n_nodes", |b: &mut BodyHandle| b.sim.0.borrow().sim.bodies[b.id].nodes.len() as i64);
+    engine.register_get("name", |b: &mut BodyHandle| {
+        b.sim.0.borrow().sim.bodies[b.id].name.clone()
+    });
+    engine.register_get("layout", |b: &mut BodyHandle| {
+        b.sim.0.borrow().sim.bodies[b.id].layout.name().to_string()
+    });
+    engine.register_get("n_tets", |b: &mut BodyHandle| {
+        b.sim.0.borrow().sim.bodies[b.id].tets.len() as i64
+    });
+    engine.register_get("n_nodes", |b: &mut BodyHandle| {
+        b.sim.0.borrow().sim.bodies[b.id].nodes.len() as i64
+    });
     engine.register_get("volume", |b: &mut BodyHandle| {
         let st = b.sim.0.borrow();
-        st.sim.bodies[b.id].tets.clone().map(|e| st.sim.tets.vol0[e]).sum::<Real>()
+        st.sim.bodies[b.id]
+            .tets
+            .clone()
+            .map(|e| st.sim.tets.vol0[e])
+            .sum::<Real>()
     });
     engine.register_get("mass", |b: &mut BodyHandle| {
         let st = b.sim.0.borrow();
         let body = &st.sim.bodies[b.id];
-        body.tets.clone().map(|e| st.sim.tets.vol0[e]).sum::<Real>() * st.sim.materials[body.material as usize].density
+        body.tets.clone().map(|e| st.sim.tets.vol0[e]).sum::<Real>()
+            * st.sim.materials[body.material as usize].density
     });
-    engine.register_fn("nodes", |b: &mut BodyHandle| NodeSet(Rc::new(b.sim.0.borrow().sim.bodies[b.id].nodes.clone().map(|n| n as u32).collect())));
-    engine.register_fn("nodes", |b: &mut BodyHandle, r: Shape| NodeSet(Rc::new(b.sim.0.borrow().sim.nodes_in(&r.0, Some(b.id)))));
-    engine.register_fn("nodes", |s: &mut SimHandle, r: Shape| NodeSet(Rc::new(s.0.borrow().sim.nodes_in(&r.0, None))));
-    engine.register_fn("elements", |b: &mut BodyHandle| ElementSet(Rc::new(b.sim.0.borrow().sim.bodies[b.id].tets.clone().map(|e| e as u32).collect())));
-    engine.register_fn("elements", |b: &mut BodyHandle, r: Shape| ElementSet(Rc::new(b.sim.0.borrow().sim.tets_in(&r.0, Some(b.id)))));
+    engine.register_fn("nodes", |b: &mut BodyHandle| {
+        NodeSet(Rc::new(
+            b.sim.0.borrow().sim.bodies[b.id]
+                .nodes
+                .clone()
+                .map(|n| n as u32)
+                .collect(),
+        ))
+    });
+    engine.register_fn("nodes", |b: &mut BodyHandle, r: Shape| {
+        NodeSet(Rc::new(b.sim.0.borrow().sim.nodes_in(&r.0, Some(b.id))))
+    });
+    engine.register_fn("nodes", |s: &mut SimHandle, r: Shape| {
+        NodeSet(Rc::new(s.0.borrow().sim.nodes_in(&r.0, None)))
+    });
+    engine.register_fn("elements", |b: &mut BodyHandle| {
+        ElementSet(Rc::new(
+            b.sim.0.borrow().sim.bodies[b.id]
+                .tets
+                .clone()
+                .map(|e| e as u32)
+                .collect(),
+        ))
+    });
+    engine.register_fn("elements", |b: &mut BodyHandle, r: Shape| {
+        ElementSet(Rc::new(b.sim.0.borrow().sim.tets_in(&r.0, Some(b.id))))
+    });
     engine.register_fn("boundary", |b: &mut BodyHandle| boundary(b, Map::new()));
     engine.register_fn("boundary", boundary);
     engine.register_fn("nodes", |f: &mut FaceSet| {
@@ -421,8 +611,12 @@ fn register_bodies(engine: &mut Engine) {
     engine.register_fn("len", |f: &mut FaceSet| f.faces.len() as i64);
     engine.register_fn("len", |n: &mut NodeSet| n.0.len() as i64);
     engine.register_fn("len", |n: &mut ElementSet| n.0.len() as i64);
-    engine.register_fn("+", |a: NodeSet, b: NodeSet| NodeSet(Rc::new(union(&a.0, &b.0))));
-    engine.register_fn("+", |a: ElementSet, b: ElementSet| ElementSet(Rc::new(union(&a.0, &b.0))));
+    engine.register_fn("+", |a: NodeSet, b: NodeSet| {
+        NodeSet(Rc::new(union(&a.0, &b.0)))
+    });
+    engine.register_fn("+", |a: ElementSet, b: ElementSet| {
+        ElementSet(Rc::new(union(&a.0, &b.0)))
+    });
 }
 
 fn move_body(b: &mut BodyHandle, f: impl Fn(Vec3) -> Vec3) -> RhaiResult<()> {
@@ -444,7 +638,9 @@ fn move_body(b: &mut BodyHandle, f: impl Fn(Vec3) -> Vec3) -> RhaiResult<()> {
     for e in tets {
         let p = st.sim.tets.nodes[e].map(|n| st.sim.nodes.x0[n as usize]);
         let dm = crate::math::edge_matrix(&p[0], &p[1], &p[2], &p[3]);
-        st.sim.tets.dm_inv[e] = dm.try_inverse().expect("rigid motion keeps tets non-degenerate");
+        st.sim.tets.dm_inv[e] = dm
+            .try_inverse()
+            .expect("rigid motion keeps tets non-degenerate");
     }
     st.sim.invalidate();
     Ok(())
@@ -472,7 +668,10 @@ fn boundary(b: &mut BodyHandle, m: Map) -> RhaiResult<FaceSet> {
         .copied()
         .inspect(|f| area += f.area_normal(x0).norm())
         .collect();
-    Ok(FaceSet { faces: Rc::new(faces), area })
+    Ok(FaceSet {
+        faces: Rc::new(faces),
+        area,
+    })
 }
 
 // ─── Loads ───────────────────────────────────────────────────────────────────────
@@ -484,7 +683,11 @@ fn parse_components(spec: &str) -> RhaiResult<[bool; 3]> {
             'x' => c[0] = true,
             'y' => c[1] = true,
             'z' => c[2] = true,
-            _ => return err(format!("fix(): components \"{spec}\" must use only the letters x, y, z")),
+            _ => {
+                return err(format!(
+                    "fix(): components \"{spec}\" must use only the letters x, y, z"
+                ))
+            }
         }
     }
     if c == [false; 3] {
@@ -497,7 +700,15 @@ fn time_fn(d: &Dynamic, what: &str) -> RhaiResult<TimeFunction> {
     if let Some(t) = d.clone().try_cast::<Table>() {
         return Ok(t.0);
     }
-    to_float(d).map(TimeFunction::Constant).map_or_else(|| err(format!("{what}: expected a number or a table, got {} ({d})", d.type_name())), Ok)
+    to_float(d).map(TimeFunction::Constant).map_or_else(
+        || {
+            err(format!(
+                "{what}: expected a number or a table, got {} ({d})",
+                d.type_name()
+            ))
+        },
+        Ok,
+    )
 }
 
 fn register_loads(engine: &mut Engine) {
@@ -508,7 +719,10 @@ fn register_loads(engine: &mut Engine) {
     fn fix(s: &mut SimHandle, n: NodeSet, comps: [bool; 3]) {
         let components = comps.map(|c| c.then_some(TimeFunction::Constant(0.0)));
         let mut st = s.0.borrow_mut();
-        st.sim.loads.prescribed.push(PrescribedVelocity { nodes: (*n.0).clone(), components });
+        st.sim.loads.prescribed.push(PrescribedVelocity {
+            nodes: (*n.0).clone(),
+            components,
+        });
         for &i in n.0.iter() {
             for k in 0..3 {
                 if comps[k] {
@@ -519,49 +733,74 @@ fn register_loads(engine: &mut Engine) {
         st.sim.invalidate();
     }
     engine.register_fn("fix", |s: &mut SimHandle, n: NodeSet| fix(s, n, [true; 3]));
-    engine.register_fn("fix", |s: &mut SimHandle, n: NodeSet, c: &str| -> RhaiResult<()> {
-        fix(s, n, parse_components(c)?);
-        Ok(())
-    });
+    engine.register_fn(
+        "fix",
+        |s: &mut SimHandle, n: NodeSet, c: &str| -> RhaiResult<()> {
+            fix(s, n, parse_components(c)?);
+            Ok(())
+        },
+    );
     fn prescribe(s: &mut SimHandle, n: NodeSet, components: [Option<TimeFunction>; 3]) {
         let mut st = s.0.borrow_mut();
-        st.sim.loads.prescribed.push(PrescribedVelocity { nodes: (*n.0).clone(), components });
+        st.sim.loads.prescribed.push(PrescribedVelocity {
+            nodes: (*n.0).clone(),
+            components,
+        });
         st.sim.invalidate();
     }
-    engine.register_fn("prescribe_velocity", |s: &mut SimHandle, n: NodeSet, v: Array| -> RhaiResult<()> {
-        if v.len() != 3 {
-            return err("prescribe_velocity(): expected [vx, vy, vz] or a map #{ x: …, z: … }");
-        }
-        let mut c: [Option<TimeFunction>; 3] = Default::default();
-        for k in 0..3 {
-            c[k] = Some(time_fn(&v[k], "prescribe_velocity()")?);
-        }
-        prescribe(s, n, c);
-        Ok(())
-    });
-    engine.register_fn("prescribe_velocity", |s: &mut SimHandle, n: NodeSet, m: Map| -> RhaiResult<()> {
-        let o = Opts::new("prescribe_velocity", m, keys_of("sim.prescribe_velocity"))?;
-        let mut c: [Option<TimeFunction>; 3] = Default::default();
-        for (k, name) in ["x", "y", "z"].iter().enumerate() {
-            if let Some(d) = o.get(name) {
-                c[k] = Some(time_fn(d, "prescribe_velocity()")?);
+    engine.register_fn(
+        "prescribe_velocity",
+        |s: &mut SimHandle, n: NodeSet, v: Array| -> RhaiResult<()> {
+            if v.len() != 3 {
+                return err("prescribe_velocity(): expected [vx, vy, vz] or a map #{ x: …, z: … }");
             }
-        }
-        if c.iter().all(|c| c.is_none()) {
-            return err("prescribe_velocity(): give at least one of x, y, z");
-        }
-        prescribe(s, n, c);
-        Ok(())
-    });
+            let mut c: [Option<TimeFunction>; 3] = Default::default();
+            for k in 0..3 {
+                c[k] = Some(time_fn(&v[k], "prescribe_velocity()")?);
+            }
+            prescribe(s, n, c);
+            Ok(())
+        },
+    );
+    engine.register_fn(
+        "prescribe_velocity",
+        |s: &mut SimHandle, n: NodeSet, m: Map| -> RhaiResult<()> {
+            let o = Opts::new("prescribe_velocity", m, keys_of("sim.prescribe_velocity"))?;
+            let mut c: [Option<TimeFunction>; 3] = Default::default();
+            for (k, name) in ["x", "y", "z"].iter().enumerate() {
+                if let Some(d) = o.get(name) {
+                    c[k] = Some(time_fn(d, "prescribe_velocity()")?);
+                }
+            }
+            if c.iter().all(|c| c.is_none()) {
+                return err("prescribe_velocity(): give at least one of x, y, z");
+            }
+            prescribe(s, n, c);
+            Ok(())
+        },
+    );
     fn nodal_force(s: &mut SimHandle, n: NodeSet, f: Array, scale: TimeFunction) -> RhaiResult<()> {
         let f = vec3_arg(&f, "nodal_force()")?;
         let mut st = s.0.borrow_mut();
-        st.sim.loads.forces.push(NodalForces::new((*n.0).clone(), vec![f; n.0.len()], scale));
+        st.sim
+            .loads
+            .forces
+            .push(NodalForces::new((*n.0).clone(), vec![f; n.0.len()], scale));
         Ok(())
     }
-    engine.register_fn("nodal_force", |s: &mut SimHandle, n: NodeSet, f: Array| nodal_force(s, n, f, TimeFunction::Constant(1.0)));
-    engine.register_fn("nodal_force", |s: &mut SimHandle, n: NodeSet, f: Array, t: Table| nodal_force(s, n, f, t.0));
-    fn traction(s: &mut SimHandle, faces: FaceSet, t: Array, scale: TimeFunction) -> RhaiResult<()> {
+    engine.register_fn("nodal_force", |s: &mut SimHandle, n: NodeSet, f: Array| {
+        nodal_force(s, n, f, TimeFunction::Constant(1.0))
+    });
+    engine.register_fn(
+        "nodal_force",
+        |s: &mut SimHandle, n: NodeSet, f: Array, t: Table| nodal_force(s, n, f, t.0),
+    );
+    fn traction(
+        s: &mut SimHandle,
+        faces: FaceSet,
+        t: Array,
+        scale: TimeFunction,
+    ) -> RhaiResult<()> {
         let t = vec3_arg(&t, "traction()")?;
         let mut st = s.0.borrow_mut();
         let mut per_node: std::collections::BTreeMap<u32, Vec3> = Default::default();
@@ -572,59 +811,100 @@ fn register_loads(engine: &mut Engine) {
             }
         }
         let (nodes, force): (Vec<u32>, Vec<Vec3>) = per_node.into_iter().unzip();
-        st.sim.loads.forces.push(NodalForces::new(nodes, force, scale));
+        st.sim
+            .loads
+            .forces
+            .push(NodalForces::new(nodes, force, scale));
         Ok(())
     }
-    engine.register_fn("traction", |s: &mut SimHandle, f: FaceSet, t: Array| traction(s, f, t, TimeFunction::Constant(1.0)));
-    engine.register_fn("traction", |s: &mut SimHandle, f: FaceSet, t: Array, tab: Table| traction(s, f, t, tab.0));
-    engine.register_fn("initial_velocity", |s: &mut SimHandle, n: NodeSet, v: Array| -> RhaiResult<()> {
-        let v = vec3_arg(&v, "initial_velocity()")?;
-        let mut st = s.0.borrow_mut();
-        for &i in n.0.iter() {
-            st.sim.nodes.v[i as usize] = v;
-        }
-        Ok(())
+    engine.register_fn("traction", |s: &mut SimHandle, f: FaceSet, t: Array| {
+        traction(s, f, t, TimeFunction::Constant(1.0))
     });
+    engine.register_fn(
+        "traction",
+        |s: &mut SimHandle, f: FaceSet, t: Array, tab: Table| traction(s, f, t, tab.0),
+    );
+    engine.register_fn(
+        "initial_velocity",
+        |s: &mut SimHandle, n: NodeSet, v: Array| -> RhaiResult<()> {
+            let v = vec3_arg(&v, "initial_velocity()")?;
+            let mut st = s.0.borrow_mut();
+            for &i in n.0.iter() {
+                st.sim.nodes.v[i as usize] = v;
+            }
+            Ok(())
+        },
+    );
     engine.register_fn("table", |points: Array| -> RhaiResult<Table> {
         let mut pts = Vec::with_capacity(points.len());
         for (i, p) in points.iter().enumerate() {
-            let pair: Option<(Real, Real)> = p.read_lock::<Array>().and_then(|a| match a.as_slice() {
-                [t, v] => Some((to_float(t)?, to_float(v)?)),
-                _ => None,
-            });
-            pts.push(pair.map_or_else(|| err(format!("table(): point {i} must be [t, value], got {p}")), Ok)?);
+            let pair: Option<(Real, Real)> =
+                p.read_lock::<Array>().and_then(|a| match a.as_slice() {
+                    [t, v] => Some((to_float(t)?, to_float(v)?)),
+                    _ => None,
+                });
+            pts.push(pair.map_or_else(
+                || err(format!("table(): point {i} must be [t, value], got {p}")),
+                Ok,
+            )?);
         }
-        Ok(Table(TimeFunction::table(pts).map_err(|e| format!("table(): {e}"))?))
+        Ok(Table(
+            TimeFunction::table(pts).map_err(|e| format!("table(): {e}"))?,
+        ))
     });
     fn read_table(nc: &NativeCallContext, path: &str, scale: Real) -> RhaiResult<Table> {
         let resolved = super::resolve_path(nc, path);
-        let text = std::fs::read_to_string(&resolved).map_err(|e| format!("read_table(): cannot read '{}': {e}", resolved.display()))?;
+        let text = std::fs::read_to_string(&resolved)
+            .map_err(|e| format!("read_table(): cannot read '{}': {e}", resolved.display()))?;
         let mut pts = Vec::new();
         for (ln, line) in text.lines().enumerate() {
             let line = line.trim();
             if line.is_empty() || line.starts_with('#') {
                 continue;
             }
-            let cols: Vec<&str> = line.split(|c: char| c == ',' || c.is_whitespace()).filter(|s| !s.is_empty()).collect();
+            let cols: Vec<&str> = line
+                .split(|c: char| c == ',' || c.is_whitespace())
+                .filter(|s| !s.is_empty())
+                .collect();
             let parsed: Option<Vec<f64>> = cols.iter().map(|c| c.parse().ok()).collect();
             match parsed.as_deref() {
                 Some([t, v, ..]) => pts.push((*t, *v * scale)),
                 _ if pts.is_empty() => continue, // header
-                _ => return err(format!("read_table(): {}:{}: expected two numbers, got '{line}'", resolved.display(), ln + 1)),
+                _ => {
+                    return err(format!(
+                        "read_table(): {}:{}: expected two numbers, got '{line}'",
+                        resolved.display(),
+                        ln + 1
+                    ))
+                }
             }
         }
-        Ok(Table(TimeFunction::table(pts).map_err(|e| format!("read_table(): {}: {e}", resolved.display()))?))
+        Ok(Table(TimeFunction::table(pts).map_err(|e| {
+            format!("read_table(): {}: {e}", resolved.display())
+        })?))
     }
-    engine.register_fn("read_table", |nc: NativeCallContext, path: &str| read_table(&nc, path, 1.0));
-    engine.register_fn("read_table", |nc: NativeCallContext, path: &str, scale: Dynamic| -> RhaiResult<Table> {
-        read_table(&nc, path, num(&scale, "read_table() scale")?)
+    engine.register_fn("read_table", |nc: NativeCallContext, path: &str| {
+        read_table(&nc, path, 1.0)
     });
-    engine.register_fn("eval", |t: &mut Table, time: Dynamic| -> RhaiResult<Real> { Ok(t.0.eval(num(&time, "eval()")?)) });
+    engine.register_fn(
+        "read_table",
+        |nc: NativeCallContext, path: &str, scale: Dynamic| -> RhaiResult<Table> {
+            read_table(&nc, path, num(&scale, "read_table() scale")?)
+        },
+    );
+    engine.register_fn("eval", |t: &mut Table, time: Dynamic| -> RhaiResult<Real> {
+        Ok(t.0.eval(num(&time, "eval()")?))
+    });
 }
 
 // ─── Queries ─────────────────────────────────────────────────────────────────────
 
-fn mean_of(s: &SimHandle, n: &NodeSet, what: &str, f: impl Fn(&Simulation, usize) -> Vec3) -> RhaiResult<Array> {
+fn mean_of(
+    s: &SimHandle,
+    n: &NodeSet,
+    what: &str,
+    f: impl Fn(&Simulation, usize) -> Vec3,
+) -> RhaiResult<Array> {
     if n.0.is_empty() {
         return err(format!("{what}(): the node set is empty"));
     }
@@ -641,15 +921,21 @@ fn register_queries(engine: &mut Engine) {
         st.sim.prepare().map_err(|e| e.to_string())?;
         Ok(st.sim.dt)
     });
-    engine.register_get("n_nodes", |s: &mut SimHandle| s.0.borrow().sim.nodes.len() as i64);
-    engine.register_get("n_tets", |s: &mut SimHandle| s.0.borrow().sim.tets.len() as i64);
+    engine.register_get("n_nodes", |s: &mut SimHandle| {
+        s.0.borrow().sim.nodes.len() as i64
+    });
+    engine.register_get("n_tets", |s: &mut SimHandle| {
+        s.0.borrow().sim.tets.len() as i64
+    });
     engine.register_get("name", |s: &mut SimHandle| s.0.borrow().name.clone());
     engine.register_fn("kinetic_energy", |s: &mut SimHandle| -> RhaiResult<Real> {
         let mut st = s.0.borrow_mut();
         st.sim.prepare().map_err(|e| e.to_string())?;
         Ok(st.sim.kinetic_energy_now())
     });
-    engine.register_fn("strain_energy", |s: &mut SimHandle| s.0.borrow().sim.strain_energy_now());
+    engine.register_fn("strain_energy", |s: &mut SimHandle| {
+        s.0.borrow().sim.strain_energy_now()
+    });
     engine.register_fn("energy", |s: &mut SimHandle| {
         let e = s.0.borrow().sim.energy;
         let mut m = Map::new();
@@ -669,37 +955,56 @@ fn register_queries(engine: &mut Engine) {
         }
         m
     });
-    engine.register_fn("displacement", |s: &mut SimHandle, n: NodeSet| mean_of(s, &n, "displacement", |sim, i| sim.nodes.x[i] - sim.nodes.x0[i]));
-    engine.register_fn("position", |s: &mut SimHandle, n: NodeSet| mean_of(s, &n, "position", |sim, i| sim.nodes.x[i]));
-    engine.register_fn("velocity", |s: &mut SimHandle, n: NodeSet| mean_of(s, &n, "velocity", |sim, i| sim.nodes.v[i]));
+    engine.register_fn("displacement", |s: &mut SimHandle, n: NodeSet| {
+        mean_of(s, &n, "displacement", |sim, i| {
+            sim.nodes.x[i] - sim.nodes.x0[i]
+        })
+    });
+    engine.register_fn("position", |s: &mut SimHandle, n: NodeSet| {
+        mean_of(s, &n, "position", |sim, i| sim.nodes.x[i])
+    });
+    engine.register_fn("velocity", |s: &mut SimHandle, n: NodeSet| {
+        mean_of(s, &n, "velocity", |sim, i| sim.nodes.v[i])
+    });
     engine.register_fn("reaction", |s: &mut SimHandle, n: NodeSet| {
         let st = s.0.borrow();
         vec3_to_array(n.0.iter().map(|&i| st.sim.nodes.reaction[i as usize]).sum())
     });
-    engine.register_fn("mean_stress", |s: &mut SimHandle, el: ElementSet| -> RhaiResult<Array> {
-        if el.0.is_empty() {
-            return err("mean_stress(): the element set is empty");
-        }
-        let st = s.0.borrow();
-        let sim = &st.sim;
-        let (mut sum, mut vol) = (Mat3::zeros(), 0.0);
-        for &e in el.0.iter() {
-            let e = e as usize;
-            let f = crate::elements::deformation_gradient(&sim.tets, &sim.nodes.x, e);
-            let sigma = sim.materials[sim.tets.material[e] as usize].stress(&f, StressMeasure::Cauchy);
-            sum += sigma * sim.tets.vol0[e];
-            vol += sim.tets.vol0[e];
-        }
-        let m = sum / vol;
-        Ok((0..3).map(|i| Dynamic::from_array(vec![m[(i, 0)].into(), m[(i, 1)].into(), m[(i, 2)].into()])).collect())
-    });
+    engine.register_fn(
+        "mean_stress",
+        |s: &mut SimHandle, el: ElementSet| -> RhaiResult<Array> {
+            if el.0.is_empty() {
+                return err("mean_stress(): the element set is empty");
+            }
+            let st = s.0.borrow();
+            let sim = &st.sim;
+            let (mut sum, mut vol) = (Mat3::zeros(), 0.0);
+            for &e in el.0.iter() {
+                let e = e as usize;
+                let f = crate::elements::deformation_gradient(&sim.tets, &sim.nodes.x, e);
+                let sigma =
+                    sim.materials[sim.tets.material[e] as usize].stress(&f, StressMeasure::Cauchy);
+                sum += sigma * sim.tets.vol0[e];
+                vol += sim.tets.vol0[e];
+            }
+            let m = sum / vol;
+            Ok((0..3)
+                .map(|i| {
+                    Dynamic::from_array(vec![m[(i, 0)].into(), m[(i, 1)].into(), m[(i, 2)].into()])
+                })
+                .collect())
+        },
+    );
     engine.register_fn("max_von_mises", |s: &mut SimHandle, el: ElementSet| {
         let st = s.0.borrow();
         let sim = &st.sim;
         el.0.iter()
             .map(|&e| {
                 let f = crate::elements::deformation_gradient(&sim.tets, &sim.nodes.x, e as usize);
-                von_mises(&sim.materials[sim.tets.material[e as usize] as usize].stress(&f, StressMeasure::Cauchy))
+                von_mises(
+                    &sim.materials[sim.tets.material[e as usize] as usize]
+                        .stress(&f, StressMeasure::Cauchy),
+                )
             })
             .fold(0.0, Real::max)
     });
@@ -708,48 +1013,97 @@ fn register_queries(engine: &mut Engine) {
 // ─── Hooks and monitors ──────────────────────────────────────────────────────────
 
 fn register_hooks(engine: &mut Engine, _ctx: Rc<ScriptContext>) {
-    engine.register_fn("every", |s: &mut SimHandle, m: Map, f: FnPtr| -> RhaiResult<()> {
-        let o = Opts::new("every", m, keys_of("sim.every"))?;
-        let steps = o.positive_int("steps")?;
-        let time = o.positive("time")?;
-        if steps.is_some() == time.is_some() {
-            return err("every(): give exactly one of 'steps' or 'time'");
-        }
-        let mut st = s.0.borrow_mut();
-        let next_time = time.map(|t| ((st.sim.time / t).floor() + 1.0) * t).unwrap_or(0.0);
-        st.hooks.push(Hook { every_steps: steps, every_time: time, next_time, f });
-        Ok(())
+    engine.register_fn(
+        "every",
+        |s: &mut SimHandle, m: Map, f: FnPtr| -> RhaiResult<()> {
+            let o = Opts::new("every", m, keys_of("sim.every"))?;
+            let steps = o.positive_int("steps")?;
+            let time = o.positive("time")?;
+            if steps.is_some() == time.is_some() {
+                return err("every(): give exactly one of 'steps' or 'time'");
+            }
+            let mut st = s.0.borrow_mut();
+            let next_time = time
+                .map(|t| ((st.sim.time / t).floor() + 1.0) * t)
+                .unwrap_or(0.0);
+            st.hooks.push(Hook {
+                every_steps: steps,
+                every_time: time,
+                next_time,
+                f,
+            });
+            Ok(())
+        },
+    );
+    engine.register_fn(
+        "monitor",
+        |s: &mut SimHandle, name: &str, m: Map, f: FnPtr| -> RhaiResult<MonitorHandle> {
+            let o = Opts::new("monitor", m, keys_of("sim.monitor"))?;
+            let every = o.positive_int("every")?.unwrap_or(1);
+            if name.is_empty() || name.contains(['/', '\\']) {
+                return err(format!(
+                    "monitor(): name '{name}' must be non-empty and contain no path separators"
+                ));
+            }
+            let mut st = s.0.borrow_mut();
+            if st.monitors.iter().any(|m| m.0.borrow().name == name) {
+                return err(format!(
+                    "monitor(): a monitor named '{name}' already exists"
+                ));
+            }
+            let path = st.out_dir.join(format!("{name}.csv"));
+            let h = MonitorHandle(Rc::new(RefCell::new(MonitorData {
+                name: name.to_string(),
+                every,
+                f,
+                times: Vec::new(),
+                steps: Vec::new(),
+                values: Vec::new(),
+                path,
+            })));
+            st.monitors.push(h.clone());
+            Ok(h)
+        },
+    );
+    engine.register_fn("last", |m: &mut MonitorHandle| {
+        m.0.borrow().values.last().copied().unwrap_or(0.0)
     });
-    engine.register_fn("monitor", |s: &mut SimHandle, name: &str, m: Map, f: FnPtr| -> RhaiResult<MonitorHandle> {
-        let o = Opts::new("monitor", m, keys_of("sim.monitor"))?;
-        let every = o.positive_int("every")?.unwrap_or(1);
-        if name.is_empty() || name.contains(['/', '\\']) {
-            return err(format!("monitor(): name '{name}' must be non-empty and contain no path separators"));
-        }
-        let mut st = s.0.borrow_mut();
-        if st.monitors.iter().any(|m| m.0.borrow().name == name) {
-            return err(format!("monitor(): a monitor named '{name}' already exists"));
-        }
-        let path = st.out_dir.join(format!("{name}.csv"));
-        let h = MonitorHandle(Rc::new(RefCell::new(MonitorData {
-            name: name.to_string(),
-            every,
-            f,
-            times: Vec::new(),
-            steps: Vec::new(),
-            values: Vec::new(),
-            path,
-        })));
-        st.monitors.push(h.clone());
-        Ok(h)
+    engine.register_fn("peak", |m: &mut MonitorHandle| {
+        m.0.borrow().values.iter().copied().fold(0.0_f64, Real::max)
     });
-    engine.register_fn("last", |m: &mut MonitorHandle| m.0.borrow().values.last().copied().unwrap_or(0.0));
-    engine.register_fn("peak", |m: &mut MonitorHandle| m.0.borrow().values.iter().copied().fold(0.0_f64, Real::max));
-    engine.register_fn("max", |m: &mut MonitorHandle| m.0.borrow().values.iter().copied().fold(Real::NEG_INFINITY, Real::max));
-    engine.register_fn("min", |m: &mut MonitorHandle| m.0.borrow().values.iter().copied().fold(Real::INFINITY, Real::min));
-    engine.register_fn("len", |m: &mut MonitorHandle| m.0.borrow().values.len() as i64);
-    engine.register_fn("values", |m: &mut MonitorHandle| m.0.borrow().values.iter().map(|&v| Dynamic::from(v)).collect::<Array>());
-    engine.register_fn("times", |m: &mut MonitorHandle| m.0.borrow().times.iter().map(|&v| Dynamic::from(v)).collect::<Array>());
-    engine.register_fn("write_csv", |m: &mut MonitorHandle| -> RhaiResult<()> { runner::write_monitor(m).map_err(|e| e.into()) });
+    engine.register_fn("max", |m: &mut MonitorHandle| {
+        m.0.borrow()
+            .values
+            .iter()
+            .copied()
+            .fold(Real::NEG_INFINITY, Real::max)
+    });
+    engine.register_fn("min", |m: &mut MonitorHandle| {
+        m.0.borrow()
+            .values
+            .iter()
+            .copied()
+            .fold(Real::INFINITY, Real::min)
+    });
+    engine.register_fn("len", |m: &mut MonitorHandle| {
+        m.0.borrow().values.len() as i64
+    });
+    engine.register_fn("values", |m: &mut MonitorHandle| {
+        m.0.borrow()
+            .values
+            .iter()
+            .map(|&v| Dynamic::from(v))
+            .collect::<Array>()
+    });
+    engine.register_fn("times", |m: &mut MonitorHandle| {
+        m.0.borrow()
+            .times
+            .iter()
+            .map(|&v| Dynamic::from(v))
+            .collect::<Array>()
+    });
+    engine.register_fn("write_csv", |m: &mut MonitorHandle| -> RhaiResult<()> {
+        runner::write_monitor(m).map_err(|e| e.into())
+    });
     let _ = api::API;
 }

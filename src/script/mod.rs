@@ -46,7 +46,10 @@ impl ScriptContext {
         }
     }
     pub fn script_stem(&self) -> String {
-        self.script_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "model".into())
+        self.script_path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "model".into())
     }
 }
 
@@ -73,14 +76,21 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     // stdlib modules are compiled by this engine (they may call host functions).
     let mut stdlib = StaticModuleResolver::new();
     for (name, src) in STDLIB {
-        let mut ast = engine.compile(*src).unwrap_or_else(|e| panic!("{name}.rhai does not compile: {e}"));
+        let mut ast = engine
+            .compile(*src)
+            .unwrap_or_else(|e| panic!("{name}.rhai does not compile: {e}"));
         ast.set_source(format!("{name}.rhai"));
-        let module = Module::eval_ast_as_new(Scope::new(), &ast, &engine).unwrap_or_else(|e| panic!("{name}.rhai: {e}"));
+        let module = Module::eval_ast_as_new(Scope::new(), &ast, &engine)
+            .unwrap_or_else(|e| panic!("{name}.rhai: {e}"));
         stdlib.insert(*name, module);
     }
     let mut resolvers = ModuleResolversCollection::new();
     resolvers.push(stdlib);
-    let base = ctx.script_path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let base = ctx
+        .script_path
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_default();
     resolvers.push(FileModuleResolver::new_with_path(base));
     engine.set_module_resolver(resolvers);
     engine
@@ -122,12 +132,17 @@ pub fn resolve_path(nc: &NativeCallContext, path: &str) -> PathBuf {
 
 /// Run a script file.
 pub fn run_file(path: &Path, options: RunOptions) -> Result<ScriptReport, ScriptError> {
-    let source = std::fs::read_to_string(path).map_err(|e| ScriptError(format!("{}: cannot read the script: {e}", path.display())))?;
+    let source = std::fs::read_to_string(path)
+        .map_err(|e| ScriptError(format!("{}: cannot read the script: {e}", path.display())))?;
     run_source(path, &source, options)
 }
 
 /// Run script text as if it were the file `path`.
-pub fn run_source(path: &Path, source: &str, options: RunOptions) -> Result<ScriptReport, ScriptError> {
+pub fn run_source(
+    path: &Path,
+    source: &str,
+    options: RunOptions,
+) -> Result<ScriptReport, ScriptError> {
     let ctx = Rc::new(ScriptContext {
         options,
         script_path: path.to_path_buf(),
@@ -136,7 +151,9 @@ pub fn run_source(path: &Path, source: &str, options: RunOptions) -> Result<Scri
     });
     let engine = build_engine(ctx.clone());
     let label = path.display().to_string();
-    let mut ast = engine.compile(source).map_err(|e| ScriptError(format_parse_error(&label, source, &e)))?;
+    let mut ast = engine
+        .compile(source)
+        .map_err(|e| ScriptError(format_parse_error(&label, source, &e)))?;
     ast.set_source(label.clone());
     let result = engine.run_ast(&ast);
     // Finish output of every simulation, even after an error.
@@ -145,8 +162,16 @@ pub fn run_source(path: &Path, source: &str, options: RunOptions) -> Result<Scri
     }
     result.map_err(|e| ScriptError(format_eval_error(&label, source, &e)))?;
     if !ctx.options.overrides.is_empty() && !ctx.params_called.get() {
-        let keys: Vec<&str> = ctx.options.overrides.iter().map(|(k, _)| k.as_str()).collect();
-        return Err(ScriptError(format!("{label}: error: --set {} given, but the script declares no params(#{{..}})", keys.join(", "))));
+        let keys: Vec<&str> = ctx
+            .options
+            .overrides
+            .iter()
+            .map(|(k, _)| k.as_str())
+            .collect();
+        return Err(ScriptError(format!(
+            "{label}: error: --set {} given, but the script declares no params(#{{..}})",
+            keys.join(", ")
+        )));
     }
     let sims = ctx.sims.borrow().clone();
     Ok(ScriptReport { sims })
@@ -159,14 +184,28 @@ impl ScriptReport {
             .iter()
             .filter_map(|s| {
                 let st = s.0.borrow();
-                (st.runs > 0).then(|| runner::summary(&st.name, &st.sim, st.wall, st.steps_in_runs, st.vtk.entries.len(), &st.out_dir))
+                (st.runs > 0).then(|| {
+                    runner::summary(
+                        &st.name,
+                        &st.sim,
+                        st.wall,
+                        st.steps_in_runs,
+                        st.vtk.entries.len(),
+                        &st.out_dir,
+                    )
+                })
             })
             .collect()
     }
 }
 
 fn snippet(source: &str, pos: Position) -> String {
-    match (pos.line(), source.lines().nth(pos.line().unwrap_or(1).saturating_sub(1))) {
+    match (
+        pos.line(),
+        source
+            .lines()
+            .nth(pos.line().unwrap_or(1).saturating_sub(1)),
+    ) {
         (Some(l), Some(text)) => {
             let col = pos.position().unwrap_or(1).max(1);
             format!("\n{l:>5} | {text}\n      | {}^", " ".repeat(col - 1))
@@ -185,7 +224,12 @@ fn loc(label: &str, pos: Position) -> String {
 
 fn format_parse_error(label: &str, source: &str, e: &ParseError) -> String {
     let pos = e.position();
-    format!("{}: error: {}{}", loc(label, pos), e.err_type(), snippet(source, pos))
+    format!(
+        "{}: error: {}{}",
+        loc(label, pos),
+        e.err_type(),
+        snippet(source, pos)
+    )
 }
 
 /// Unwrap nested function-call errors down to the innermost one, keeping the call chain.
@@ -196,7 +240,11 @@ fn format_eval_error(label: &str, source: &str, e: &EvalAltResult) -> String {
     loop {
         match cur {
             EvalAltResult::ErrorInFunctionCall(name, src, inner, pos) => {
-                let shown = if name.starts_with("anon$") { "closure".to_string() } else { format!("function '{name}'") };
+                let shown = if name.starts_with("anon$") {
+                    "closure".to_string()
+                } else {
+                    format!("function '{name}'")
+                };
                 chain.push(format!("  in {shown} called at {}", loc(&src_label, *pos)));
                 if !src.is_empty() {
                     src_label = src.clone();
@@ -204,7 +252,10 @@ fn format_eval_error(label: &str, source: &str, e: &EvalAltResult) -> String {
                 cur = inner;
             }
             EvalAltResult::ErrorInModule(path, inner, pos) => {
-                chain.push(format!("  in module '{path}' imported at {}", loc(&src_label, *pos)));
+                chain.push(format!(
+                    "  in module '{path}' imported at {}",
+                    loc(&src_label, *pos)
+                ));
                 cur = inner;
             }
             _ => break,
@@ -222,7 +273,11 @@ fn format_eval_error(label: &str, source: &str, e: &EvalAltResult) -> String {
             }
         }
     };
-    let snip = if src_label == label { snippet(source, pos) } else { String::new() };
+    let snip = if src_label == label {
+        snippet(source, pos)
+    } else {
+        String::new()
+    };
     let mut out = format!("{}: error: {msg}{snip}", loc(&src_label, pos));
     for c in chain.iter().rev() {
         out.push('\n');

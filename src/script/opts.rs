@@ -14,7 +14,9 @@ pub fn err<T>(msg: impl Into<String>) -> RhaiResult<T> {
 
 /// A float from an int or float value.
 pub fn to_float(d: &Dynamic) -> Option<Real> {
-    d.as_float().ok().or_else(|| d.as_int().ok().map(|i| i as Real))
+    d.as_float()
+        .ok()
+        .or_else(|| d.as_int().ok().map(|i| i as Real))
 }
 
 pub fn to_vec3(d: &Dynamic) -> Option<Vec3> {
@@ -22,11 +24,22 @@ pub fn to_vec3(d: &Dynamic) -> Option<Vec3> {
     if a.len() != 3 {
         return None;
     }
-    Some(Vec3::new(to_float(&a[0])?, to_float(&a[1])?, to_float(&a[2])?))
+    Some(Vec3::new(
+        to_float(&a[0])?,
+        to_float(&a[1])?,
+        to_float(&a[2])?,
+    ))
 }
 
 pub fn vec3_arg(d: &Array, what: &str) -> RhaiResult<Vec3> {
-    to_vec3(&Dynamic::from_array(d.clone())).map_or_else(|| err(format!("{what}: expected an array of 3 numbers [x, y, z], got {d:?}")), Ok)
+    to_vec3(&Dynamic::from_array(d.clone())).map_or_else(
+        || {
+            err(format!(
+                "{what}: expected an array of 3 numbers [x, y, z], got {d:?}"
+            ))
+        },
+        Ok,
+    )
 }
 
 pub fn vec3_to_array(v: Vec3) -> Array {
@@ -45,8 +58,13 @@ impl Opts {
         for k in map.keys() {
             if !keys.iter().any(|key| key.name == k.as_str()) {
                 let allowed: Vec<&str> = keys.iter().map(|k| k.name).collect();
-                let hint = suggest(k, &allowed).map(|s| format!(" (did you mean '{s}'?)")).unwrap_or_default();
-                return err(format!("{func}(): unknown key '{k}'{hint}; allowed keys: {}", allowed.join(", ")));
+                let hint = suggest(k, &allowed)
+                    .map(|s| format!(" (did you mean '{s}'?)"))
+                    .unwrap_or_default();
+                return err(format!(
+                    "{func}(): unknown key '{k}'{hint}; allowed keys: {}",
+                    allowed.join(", ")
+                ));
             }
         }
         Ok(Opts { func, map })
@@ -61,7 +79,11 @@ impl Opts {
     }
 
     fn type_err<T>(&self, k: &str, expected: &str, v: &Dynamic) -> RhaiResult<T> {
-        err(format!("{}(): key '{k}' must be {expected}, got {} ({v})", self.func, v.type_name()))
+        err(format!(
+            "{}(): key '{k}' must be {expected}, got {} ({v})",
+            self.func,
+            v.type_name()
+        ))
     }
 
     fn missing<T>(&self, k: &str) -> RhaiResult<T> {
@@ -89,7 +111,10 @@ impl Opts {
     pub fn int(&self, k: &str) -> RhaiResult<Option<i64>> {
         match self.map.get(k) {
             None => Ok(None),
-            Some(v) => v.as_int().map(Some).or_else(|_| self.type_err(k, "an integer", v)),
+            Some(v) => v
+                .as_int()
+                .map(Some)
+                .or_else(|_| self.type_err(k, "an integer", v)),
         }
     }
     pub fn positive_int(&self, k: &str) -> RhaiResult<Option<u64>> {
@@ -108,7 +133,10 @@ impl Opts {
     pub fn vec3(&self, k: &str) -> RhaiResult<Option<Vec3>> {
         match self.map.get(k) {
             None => Ok(None),
-            Some(v) => to_vec3(v).map(Some).map_or_else(|| self.type_err(k, "an array of 3 numbers [x, y, z]", v), Ok),
+            Some(v) => to_vec3(v).map(Some).map_or_else(
+                || self.type_err(k, "an array of 3 numbers [x, y, z]", v),
+                Ok,
+            ),
         }
     }
     pub fn req_vec3(&self, k: &str) -> RhaiResult<Vec3> {
@@ -117,20 +145,33 @@ impl Opts {
     pub fn fn_ptr(&self, k: &str) -> RhaiResult<Option<FnPtr>> {
         match self.map.get(k) {
             None => Ok(None),
-            Some(v) => v.clone().try_cast::<FnPtr>().map(Some).map_or_else(|| self.type_err(k, "a closure |s| …", v), Ok),
+            Some(v) => v
+                .clone()
+                .try_cast::<FnPtr>()
+                .map(Some)
+                .map_or_else(|| self.type_err(k, "a closure |s| …", v), Ok),
         }
     }
     pub fn typed<T: Clone + 'static>(&self, k: &str, what: &str) -> RhaiResult<Option<T>> {
         match self.map.get(k) {
             None => Ok(None),
-            Some(v) => v.clone().try_cast::<T>().map(Some).map_or_else(|| self.type_err(k, what, v), Ok),
+            Some(v) => v
+                .clone()
+                .try_cast::<T>()
+                .map(Some)
+                .map_or_else(|| self.type_err(k, what, v), Ok),
         }
     }
 }
 
 /// The allowed key closest to a misspelled one (edit distance ≤ 2).
 pub fn suggest<'a>(k: &str, allowed: &[&'a str]) -> Option<&'a str> {
-    allowed.iter().map(|a| (edit_distance(k, a), *a)).filter(|(d, _)| *d <= 2).min_by_key(|(d, _)| *d).map(|(_, a)| a)
+    allowed
+        .iter()
+        .map(|a| (edit_distance(k, a), *a))
+        .filter(|(d, _)| *d <= 2)
+        .min_by_key(|(d, _)| *d)
+        .map(|(_, a)| a)
 }
 
 fn edit_distance(a: &str, b: &str) -> usize {
@@ -139,7 +180,9 @@ fn edit_distance(a: &str, b: &str) -> usize {
     for i in 1..=a.len() {
         let mut cur = vec![i; b.len() + 1];
         for j in 1..=b.len() {
-            cur[j] = (prev[j] + 1).min(cur[j - 1] + 1).min(prev[j - 1] + usize::from(a[i - 1] != b[j - 1]));
+            cur[j] = (prev[j] + 1)
+                .min(cur[j - 1] + 1)
+                .min(prev[j - 1] + usize::from(a[i - 1] != b[j - 1]));
         }
         prev = cur;
     }

@@ -18,12 +18,19 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
     let stop_when = o.fn_ptr("stop_when")?;
     let check_every = o.positive_int("check_every")?.unwrap_or(1);
     if max_time.is_none() && duration.is_none() && steps.is_none() {
-        return super::opts::err("run(): give a limit: max_time, duration or steps (stop_when alone could run forever)");
+        return super::opts::err(
+            "run(): give a limit: max_time, duration or steps (stop_when alone could run forever)",
+        );
     }
     {
         let mut st = s.0.borrow_mut();
         st.sim.prepare().map_err(|e| format!("run(): {e}"))?;
-        let line = st.sim.dt_info.as_ref().map(|i| i.to_string()).unwrap_or_default();
+        let line = st
+            .sim
+            .dt_info
+            .as_ref()
+            .map(|i| i.to_string())
+            .unwrap_or_default();
         if st.printed_dt.as_deref() != Some(line.as_str()) {
             ctx.say(&format!("[{}] {line}", st.name));
             st.printed_dt = Some(line);
@@ -76,13 +83,25 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
                     match r.as_bool() {
                         Ok(true) => return Ok(()),
                         Ok(false) => {}
-                        Err(t) => return super::opts::err(format!("run(): stop_when must return true or false, got {t}")),
+                        Err(t) => {
+                            return super::opts::err(format!(
+                                "run(): stop_when must return true or false, got {t}"
+                            ))
+                        }
                     }
                 }
             }
             if progress.enabled {
-                let frac_t = if t_end.is_finite() { (time - t_start) / (t_end - t_start) } else { 0.0 };
-                let frac_s = if step_end < u64::MAX { (step - step_start) as f64 / (step_end - step_start) as f64 } else { 0.0 };
+                let frac_t = if t_end.is_finite() {
+                    (time - t_start) / (t_end - t_start)
+                } else {
+                    0.0
+                };
+                let frac_s = if step_end < u64::MAX {
+                    (step - step_start) as f64 / (step_end - step_start) as f64
+                } else {
+                    0.0
+                };
                 progress.update(frac_t.max(frac_s), step - step_start, time);
             }
         }
@@ -134,7 +153,13 @@ fn call_hooks(nc: &NativeCallContext, s: &SimHandle) -> RhaiResult<()> {
 fn record(nc: &NativeCallContext, s: &SimHandle, m: &MonitorHandle) -> RhaiResult<()> {
     let f = m.0.borrow().f.clone();
     let v: Dynamic = f.call_within_context(nc, (s.clone(),))?;
-    let value = super::opts::to_float(&v).ok_or_else(|| format!("monitor '{}': the closure must return a number, got {} ({v})", m.0.borrow().name, v.type_name()))?;
+    let value = super::opts::to_float(&v).ok_or_else(|| {
+        format!(
+            "monitor '{}': the closure must return a number, got {} ({v})",
+            m.0.borrow().name,
+            v.type_name()
+        )
+    })?;
     let (t, step) = {
         let st = s.0.borrow();
         (st.sim.time, st.sim.step)
@@ -150,7 +175,8 @@ fn record(nc: &NativeCallContext, s: &SimHandle, m: &MonitorHandle) -> RhaiResul
 pub fn write_monitor(m: &MonitorHandle) -> Result<(), String> {
     let d = m.0.borrow();
     let rows = (0..d.values.len()).map(|i| vec![d.steps[i] as f64, d.times[i], d.values[i]]);
-    write_csv(&d.path, &["step", "time", &d.name], rows).map_err(|e| format!("writing {}: {e}", d.path.display()))
+    write_csv(&d.path, &["step", "time", &d.name], rows)
+        .map_err(|e| format!("writing {}: {e}", d.path.display()))
 }
 
 fn write_run_output(s: &SimHandle) -> Result<(), String> {
@@ -195,16 +221,30 @@ fn write_run_output(s: &SimHandle) -> Result<(), String> {
 pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
     let mut st = s.0.borrow_mut();
     st.sim.prepare().map_err(|e| format!("write_vtk(): {e}"))?;
-    let bytes = encode_frame(&st.sim, st.stress_output).map_err(|e| format!("write_vtk(): {e}"))?;
+    let bytes = encode_frame(&st.sim, st.stress_output, st.vtk_encoding)
+        .map_err(|e| format!("write_vtk(): {e}"))?;
     let t = st.sim.time;
-    st.vtk.push(t, bytes).map_err(|e| format!("write_vtk(): {e}"))?;
+    st.vtk
+        .push(t, bytes)
+        .map_err(|e| format!("write_vtk(): {e}"))?;
     Ok(())
 }
 
 /// The per-stage timing table and the energy summary printed at the end of `fdem run`.
-pub fn summary(name: &str, sim: &Simulation, wall: f64, steps: u64, frames: usize, out_dir: &std::path::Path) -> String {
+pub fn summary(
+    name: &str,
+    sim: &Simulation,
+    wall: f64,
+    steps: u64,
+    frames: usize,
+    out_dir: &std::path::Path,
+) -> String {
     let mut s = String::new();
-    let rate = if wall > 0.0 { steps as f64 * sim.tets.len() as f64 / wall } else { 0.0 };
+    let rate = if wall > 0.0 {
+        steps as f64 * sim.tets.len() as f64 / wall
+    } else {
+        0.0
+    };
     s.push_str(&format!(
         "── {name}: {steps} steps to t = {:.6e} s (dt = {:.4e} s), {} tets, {} nodes; {:.2} s wall, {:.2} M tet-steps/s\n",
         sim.time,
@@ -220,9 +260,19 @@ pub fn summary(name: &str, sim: &Simulation, wall: f64, steps: u64, frames: usiz
         if stage.is_built() {
             let t = sim.timers.get(stage);
             let share = if total > 0.0 { 100.0 * t / total } else { 0.0 };
-            s.push_str(&format!("   {:<20} {:>9.3} {:>7.1} %\n", stage.name(), t, share));
+            s.push_str(&format!(
+                "   {:<20} {:>9.3} {:>7.1} %\n",
+                stage.name(),
+                t,
+                share
+            ));
         } else {
-            s.push_str(&format!("   {:<20} {:>9} {:>9}   (not built yet)\n", stage.name(), "-", "-"));
+            s.push_str(&format!(
+                "   {:<20} {:>9} {:>9}   (not built yet)\n",
+                stage.name(),
+                "-",
+                "-"
+            ));
         }
     }
     s.push_str(&format!("   {:<20} {:>9.3}\n", "total", total));
@@ -246,14 +296,20 @@ pub fn summary(name: &str, sim: &Simulation, wall: f64, steps: u64, frames: usiz
         e.mass_damping,
         e.viscous_damping
     ));
-    s.push_str(&format!("   {:<20} {:>14.6e}\n", "initial (kin+strain)", e.initial));
+    s.push_str(&format!(
+        "   {:<20} {:>14.6e}\n",
+        "initial (kin+strain)", e.initial
+    ));
     s.push_str(&format!(
         "   {:<20} {:>14.6e}   ({:.3} % of the largest term)\n",
         "balance error",
         e.balance_error(),
         100.0 * e.relative_balance_error()
     ));
-    s.push_str(&format!("   output: {} ({frames} VTK frames, energy.csv, monitors)\n", out_dir.display()));
+    s.push_str(&format!(
+        "   output: {} ({frames} VTK frames, energy.csv, monitors)\n",
+        out_dir.display()
+    ));
     s
 }
 
@@ -268,7 +324,12 @@ struct Progress {
 impl Progress {
     fn new(enabled: bool) -> Self {
         let now = Instant::now();
-        Progress { enabled, start: now, last: now, drawn: false }
+        Progress {
+            enabled,
+            start: now,
+            last: now,
+            drawn: false,
+        }
     }
 
     fn update(&mut self, frac: f64, steps: u64, t: f64) {
@@ -282,9 +343,17 @@ impl Progress {
         let width = 30;
         let filled = (frac * width as f64) as usize;
         let rate = steps as f64 / elapsed;
-        let eta = if frac > 0.0 { format!("ETA {}", fmt_secs(elapsed * (1.0 - frac) / frac)) } else { String::from("ETA ?") };
+        let eta = if frac > 0.0 {
+            format!("ETA {}", fmt_secs(elapsed * (1.0 - frac) / frac))
+        } else {
+            String::from("ETA ?")
+        };
         let bar = format!("{}{}", "█".repeat(filled), "░".repeat(width - filled));
-        eprint!("\r{bar} {:>5.1} %  step {steps}  t = {t:.4e} s  {:.0} steps/s  {eta}   ", 100.0 * frac, rate);
+        eprint!(
+            "\r{bar} {:>5.1} %  step {steps}  t = {t:.4e} s  {:.0} steps/s  {eta}   ",
+            100.0 * frac,
+            rate
+        );
         let _ = std::io::stderr().flush();
         self.drawn = true;
     }
@@ -303,6 +372,10 @@ fn fmt_secs(s: f64) -> String {
     } else if s < 3600.0 {
         format!("{}m{:02.0}s", (s / 60.0) as u64, s % 60.0)
     } else {
-        format!("{}h{:02}m", (s / 3600.0) as u64, ((s % 3600.0) / 60.0) as u64)
+        format!(
+            "{}h{:02}m",
+            (s / 3600.0) as u64,
+            ((s % 3600.0) / 60.0) as u64
+        )
     }
 }

@@ -21,6 +21,7 @@ pub struct SimState {
     pub name: String,
     pub out_dir: PathBuf,
     pub stress_output: StressMeasure,
+    pub vtk_encoding: crate::io::vtu::Encoding,
     pub hooks: Vec<Hook>,
     pub monitors: Vec<MonitorHandle>,
     pub vtk: VtkSeries,

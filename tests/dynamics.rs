@@ -1,0 +1,289 @@
+//! Stages 6–7 physics: wave speed, energy conservation, static deflection by dynamic
+//! relaxation, free fall, and bit-identical results for any thread count.
+
+mod common;
+
+use common::*;
+use fdem::loads::{NodalForces, PrescribedVelocity, TimeFunction};
+use fdem::material::{Formulation, Material};
+use fdem::math::{Real, Vec3};
+use fdem::pipeline::{Layout, Simulation};
+
+fn prescribe(sim: &mut Simulation, nodes: Vec<u32>, v: [Option<Real>; 3]) {
+    sim.loads.prescribed.push(PrescribedVelocity {
+        nodes,
+        components: v.map(|c| c.map(TimeFunction::Constant)),
+    });
+}
+
+fn mean_vx(sim: &Simulation, nodes: &[u32]) -> Real {
+    nodes
+        .iter()
+        .map(|&n| sim.nodes.v[n as usize].x)
+        .sum::<Real>()
+        / nodes.len() as Real
+}
+
+/// 1D wave in a slender bar (ν = 0, so the bar speed √(E/ρ) equals the dilatational speed and
+/// there is no lateral inertia). The x = 0 end is driven at v₀; at the free far end the
+/// velocity doubles to 2v₀ when the front arrives. The arrival time — the far end reaching v₀,
+/// half its final value — must be within 2 % of L/c (the front's dispersion in the lumped-mass
+/// central-difference scheme is symmetric about the true front to first order).
+#[test]
+fn wave_arrival_time_in_a_bar() {
+    let (l, e, rho, v0) = (1.0, 1e9, 1000.0, 0.01);
+    let c = (e / rho as Real).sqrt();
+    let mut sim = box_sim(
+        Vec3::zeros(),
+        Vec3::new(l, 0.04, 0.04),
+        [100, 2, 2],
+        material(Formulation::SmallStrain, rho, e, 0.0),
+        Layout::Continuous,
+    );
+    let near = plane_x(&sim, 0.0, -1.0);
+    let far = plane_x(&sim, l, 1.0);
+    prescribe(&mut sim, near, [Some(v0), None, None]);
+    sim.prepare().unwrap();
+    let mut arrival = None;
+    while sim.time < 2.0 * l / c {
+        sim.step().unwrap();
+        if mean_vx(&sim, &far) >= v0 {
+            arrival = Some(sim.time - 0.5 * sim.dt); // velocities live at half steps
+            break;
+        }
+    }
+    let t = arrival.expect("the wave never arrived");
+    let expected = l / c;
+    assert!(
+        (t - expected).abs() <= 0.02 * expected,
+        "arrival {t:e} s vs L/c = {expected:e} s"
+    );
+}
+
+/// Free vibration of a bar fixed at x = 0, started in its first axial mode
+/// v = v₀ sin(πx/2L) (period 4L/c). Without damping, kinetic + strain energy stays within
+/// 0.5 % of its initial value over 10 periods (central difference is symplectic: the energy
+/// oscillates by O(ω²dt²) and does not drift).
+#[test]
+fn free_vibration_conserves_energy() {
+    let (l, e, rho, v0) = (1.0, 1e8, 1000.0, 0.05);
+    let c = (e / rho as Real).sqrt();
+    let mut sim = box_sim(
+        Vec3::zeros(),
+        Vec3::new(l, 0.05, 0.05),
+        [40, 1, 1],
+        material(Formulation::Munjiza, rho, e, 0.0),
+        Layout::Continuous,
+    );
+    let fixed = plane_x(&sim, 0.0, -1.0);
+    prescribe(&mut sim, fixed, [Some(0.0), Some(0.0), Some(0.0)]);
+    for i in 0..sim.nodes.len() {
+        let x = sim.nodes.x0[i].x;
+        sim.nodes.v[i] = Vec3::new(v0 * (std::f64::consts::FRAC_PI_2 * x / l).sin(), 0.0, 0.0);
+    }
+    sim.settings.energy_every = 5;
+    let period = 4.0 * l / c;
+    while sim.time < 10.0 * period {
+        sim.step().unwrap();
+    }
+    let e0 = sim.energy.initial;
+    assert!(e0 > 0.0);
+    let mut worst: Real = 0.0;
+    for s in &sim.energy_history {
+        worst = worst.max(((s.energy.kinetic + s.energy.strain) - e0).abs() / e0);
+    }
+    assert!(worst < 0.005, "energy drift {worst:e} over 10 periods");
+    // Energy really sloshes between kinetic and strain (the test is not vacuous).
+    let min_k = sim
+        .energy_history
+        .iter()
+        .map(|s| s.energy.kinetic)
+        .fold(Real::INFINITY, Real::min);
+    assert!(min_k < 0.05 * e0);
+}
+
+/// Tip deflection of a cantilever (L = 1, depth h = 0.2, width 0.1, ν = 0) under a tip shear
+/// traction, brought to rest by critical mass-proportional damping of the first mode (dynamic
+/// relaxation). Reference: Timoshenko beam δ = PL³/3EI + PL/(κGA), κ = 5/6. Linear tets are
+/// stiff in bending, so the error must fall with refinement and be < 5 % on the finest mesh.
+#[test]
+fn cantilever_converges_to_beam_theory() {
+    let (l, b, h, e, rho, p): (Real, Real, Real, Real, Real, Real) =
+        (1.0, 0.1, 0.2, 1e7, 1000.0, 0.2);
+    let i_z = b * h * h * h / 12.0;
+    let g = e / 2.0;
+    let exact = p * l * l * l / (3.0 * e * i_z) + p * l / (5.0 / 6.0 * g * b * h);
+    let omega1 = 1.875_f64.powi(2) * (e * i_z / (rho * b * h * l.powi(4))).sqrt();
+    let mut errors = Vec::new();
+    for n in [3usize, 6, 12] {
+        let mut sim = box_sim(
+            Vec3::zeros(),
+            Vec3::new(l, b, h),
+            [5 * n, 2, n],
+            material(Formulation::Munjiza, rho, e, 0.0),
+            Layout::Continuous,
+        );
+        let clamp = plane_x(&sim, 0.0, -1.0);
+        prescribe(&mut sim, clamp, [Some(0.0); 3]);
+        // Tip traction −P/(b·h) along z on the x = L face, ramped over one analytical period.
+        let tip_faces: Vec<_> = sim.bodies[0]
+            .boundary
+            .iter()
+            .filter(|f| f.area_normal(&sim.nodes.x0).normalize().x > 0.999)
+            .copied()
+            .collect();
+        let mut per_node = std::collections::BTreeMap::<u32, Vec3>::new();
+        for f in &tip_faces {
+            let a = f.area_normal(&sim.nodes.x0).norm();
+            for &nd in &f.nodes {
+                *per_node.entry(nd).or_default() += Vec3::new(0.0, 0.0, -p / (b * h)) * a / 3.0;
+            }
+        }
+        let tip: Vec<u32> = per_node.keys().copied().collect();
+        let (nodes, force): (Vec<u32>, Vec<Vec3>) = per_node.into_iter().unzip();
+        let t1 = std::f64::consts::TAU / omega1;
+        sim.loads.forces.push(NodalForces::new(
+            nodes,
+            force,
+            TimeFunction::table(vec![(0.0, 0.0), (t1, 1.0)]).unwrap(),
+        ));
+        sim.settings.mass_damping = 2.0 * omega1;
+        sim.settings.safety = 0.9;
+        while sim.time < 4.0 * t1 {
+            sim.step().unwrap();
+        }
+        let defl = -tip
+            .iter()
+            .map(|&i| sim.nodes.x[i as usize].z - sim.nodes.x0[i as usize].z)
+            .sum::<Real>()
+            / tip.len() as Real;
+        // At rest: the applied load equals the support reaction (equilibrium check).
+        let reaction: Real = sim.nodes.reaction.iter().map(|r| r.z).sum();
+        assert!(
+            (reaction - p).abs() < 1e-3 * p,
+            "n = {n}: reaction {reaction} vs load {p}"
+        );
+        errors.push((exact - defl) / exact);
+        eprintln!(
+            "cantilever n = {n}: deflection {defl:.6e}, exact {exact:.6e}, error {:.2} %",
+            100.0 * (exact - defl) / exact
+        );
+    }
+    assert!(
+        errors.windows(2).all(|w| w[1].abs() < w[0].abs()),
+        "error must fall with refinement: {errors:?}"
+    );
+    assert!(
+        errors.last().unwrap().abs() < 0.05,
+        "finest mesh error {:?}",
+        errors.last()
+    );
+}
+
+/// Free fall under gravity with an initial velocity: central difference integrates constant
+/// acceleration exactly (with the half-step start v(dt/2) = v₀ + a·dt/2), so every node follows
+/// x₀ + v₀t + gt²/2 to rounding — 1e-9 relative to the distance travelled.
+#[test]
+fn free_fall_is_exact() {
+    let mut sim = box_sim(
+        Vec3::new(0.0, 0.0, 10.0),
+        Vec3::new(0.5, 0.3, 10.2),
+        [3, 2, 2],
+        material(Formulation::NeoHookean, 2500.0, 1e9, 0.25),
+        Layout::Jointed,
+    );
+    let (g, v0) = (Vec3::new(0.0, 0.0, -9.81), Vec3::new(1.0, -2.0, 3.0));
+    sim.loads.gravity = g;
+    for v in &mut sim.nodes.v {
+        *v = v0;
+    }
+    for _ in 0..2000 {
+        sim.step().unwrap();
+    }
+    let t = sim.time;
+    for i in 0..sim.nodes.len() {
+        let exact = sim.nodes.x0[i] + v0 * t + 0.5 * g * t * t;
+        let travelled = (exact - sim.nodes.x0[i]).norm();
+        assert!(
+            (sim.nodes.x[i] - exact).norm() <= 1e-9 * travelled,
+            "node {i}"
+        );
+    }
+    // Energy balance: kinetic energy gained = work of gravity.
+    assert!(sim.energy.relative_balance_error().abs() < 1e-6);
+}
+
+/// A model with everything this version has — both layouts, viscosity, mass damping, gravity,
+/// fixed nodes, a prescribed velocity table and nodal forces — run on 1 and 2 threads:
+/// positions, velocities and energies must be bit-identical.
+#[test]
+fn results_are_bit_identical_for_1_and_2_threads() {
+    fn model() -> Simulation {
+        let mut sim = Simulation::new();
+        let rock =
+            sim.add_material(Material::new(Formulation::Munjiza, 2500.0, 1e8, 0.25, 2e3).unwrap());
+        let soft = sim
+            .add_material(Material::new(Formulation::NeoHookean, 1000.0, 1e7, 0.45, 0.0).unwrap());
+        let m1 = fdem::mesh::box_mesh(Vec3::zeros(), Vec3::new(1.0, 0.5, 0.5), [20, 10, 10]);
+        let m2 = fdem::mesh::box_mesh(
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.5, 1.5),
+            [16, 8, 8],
+        );
+        sim.add_body("a", &m1, rock, Layout::Jointed).unwrap();
+        sim.add_body("b", &m2, soft, Layout::Continuous).unwrap();
+        sim.loads.gravity = Vec3::new(0.0, 0.0, -9.81);
+        sim.settings.mass_damping = 5.0;
+        sim.settings.energy_every = 7;
+        let base = plane_x(&sim, 0.0, -1.0);
+        prescribe(&mut sim, base.clone(), [Some(0.0), Some(0.0), None]);
+        let top = plane_x(&sim, 1.0, 1.0);
+        sim.loads.prescribed.push(PrescribedVelocity {
+            nodes: top.clone(),
+            components: [
+                Some(TimeFunction::table(vec![(0.0, 0.0), (1e-4, 0.5)]).unwrap()),
+                None,
+                None,
+            ],
+        });
+        sim.loads.forces.push(NodalForces::new(
+            base.clone(),
+            vec![Vec3::new(0.0, 1.0, 0.0); base.len()],
+            TimeFunction::Constant(1.0),
+        ));
+        let tau = std::f64::consts::TAU;
+        for i in 0..sim.nodes.len() {
+            let p = sim.nodes.x0[i];
+            sim.nodes.v[i] =
+                0.1 * Vec3::new((tau * p.y).sin(), (tau * p.z).sin(), (tau * p.x).sin());
+        }
+        sim
+    }
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut sim = model();
+            for _ in 0..300 {
+                sim.step().unwrap();
+            }
+            sim
+        })
+    };
+    let (a, b) = (run(1), run(2));
+    assert!(
+        a.tets.len() > 4 * fdem::elements::CHUNK,
+        "model must span several parallel chunks"
+    );
+    let bits = |v: &[Vec3]| {
+        v.iter()
+            .flat_map(|p| p.iter().map(|c| c.to_bits()).collect::<Vec<_>>())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(bits(&a.nodes.x), bits(&b.nodes.x));
+    assert_eq!(bits(&a.nodes.v), bits(&b.nodes.v));
+    assert_eq!(a.energy, b.energy);
+    assert_eq!(a.energy_history, b.energy_history);
+}
