@@ -38,7 +38,7 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
-    /// Parse a script and build and validate its model without running it.
+    /// Parse a script, build its model up to the first run() and validate it (nothing is stepped).
     Check {
         script: PathBuf,
         #[arg(long = "set", value_name = "NAME=VALUE")]

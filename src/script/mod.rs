@@ -24,7 +24,7 @@ pub struct RunOptions {
     pub out_dir: Option<PathBuf>,
     /// No timing/energy summary (script prints still appear).
     pub quiet: bool,
-    /// `fdem check`: build and validate the model, do not step it.
+    /// `fdem check`: build the model up to the first `run`, validate it, and stop there.
     pub check_only: bool,
     /// Show a progress bar on a terminal.
     pub progress: bool,
@@ -160,7 +160,10 @@ pub fn run_source(
     for s in ctx.sims.borrow().iter() {
         let _ = s.0.borrow_mut().vtk.flush();
     }
-    result.map_err(|e| ScriptError(format_eval_error(&label, source, &e)))?;
+    match result {
+        Err(e) if matches!(&*e, EvalAltResult::ErrorTerminated(t, _) if t.to_string() == runner::CHECK_DONE) => {}
+        r => r.map_err(|e| ScriptError(format_eval_error(&label, source, &e)))?,
+    }
     if !ctx.options.overrides.is_empty() && !ctx.params_called.get() {
         let keys: Vec<&str> = ctx
             .options

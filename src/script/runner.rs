@@ -10,6 +10,9 @@ use rhai::{Dynamic, FnPtr, NativeCallContext};
 use std::io::{IsTerminal, Write};
 use std::time::Instant;
 
+/// Token with which `fdem check` ends a script at its first `run`.
+pub const CHECK_DONE: &str = "fdem-check: model validated";
+
 /// Run the simulation until one of the limits in `o` is reached.
 pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) -> RhaiResult<()> {
     let max_time = o.float("max_time")?;
@@ -37,7 +40,8 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
         }
     }
     if ctx.options.check_only {
-        return Ok(());
+        // `fdem check` validates the model as built up to the first run, then stops the script.
+        return Err(rhai::EvalAltResult::ErrorTerminated(CHECK_DONE.into(), rhai::Position::NONE).into());
     }
     let (t_start, step_start, dt) = {
         let st = s.0.borrow();
