@@ -100,11 +100,8 @@ fn patch_test_through_the_time_loop() {
         sim.step().unwrap();
     }
     let u_scale = (f_applied - Mat3::identity()).norm();
-    for i in 0..sim.nodes.len() {
-        assert!(
-            (sim.nodes.x[i] - start[i]).norm() <= 1e-10 * u_scale,
-            "node {i} moved"
-        );
+    for (i, (x, x_start)) in sim.nodes.x.iter().zip(&start).enumerate() {
+        assert!((x - x_start).norm() <= 1e-10 * u_scale, "node {i} moved");
     }
 }
 

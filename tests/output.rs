@@ -32,8 +32,13 @@ sim.write_vtk();
 
 fn run(encoding: &str) -> (PathBuf, fdem::script::ScriptReport) {
     let dir = temp_dir(encoding);
-    let opts = RunOptions { out_dir: Some(dir.clone()), quiet: true, ..Default::default() };
-    let report = run_source(&dir.join("frames.rhai"), &model(encoding), opts).unwrap_or_else(|e| panic!("{e}"));
+    let opts = RunOptions {
+        out_dir: Some(dir.clone()),
+        quiet: true,
+        ..Default::default()
+    };
+    let report = run_source(&dir.join("frames.rhai"), &model(encoding), opts)
+        .unwrap_or_else(|e| panic!("{e}"));
     (dir, report)
 }
 
@@ -48,41 +53,106 @@ fn vtkio_reads_base64_frames_bit_for_bit() {
     let st = report.sims[0].0.borrow();
     let sim = &st.sim;
     let path = dir.join("frames_000001.vtu");
-    let vtk = vtkio::Vtk::import(&path).unwrap_or_else(|e| panic!("vtkio cannot read {}: {e}", path.display()));
-    let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else { panic!("not an unstructured grid") };
-    let piece = pieces.into_iter().next().unwrap().into_loaded_piece_data(Some(&path)).unwrap();
-    let IOBuffer::F64(points) = piece.points else { panic!("points are not f64") };
-    assert_eq!(bits(points), bits(sim.nodes.x.iter().flat_map(|p| [p.x, p.y, p.z])));
-    let VertexNumbers::XML { connectivity, offsets } = piece.cells.cell_verts else { panic!("cells") };
-    assert_eq!(connectivity, sim.tets.nodes.iter().flat_map(|t| t.map(u64::from)).collect::<Vec<_>>());
-    assert_eq!(offsets, (1..=sim.tets.len() as u64).map(|c| 4 * c).collect::<Vec<_>>());
-    assert!(piece.cells.types.iter().all(|&t| t as u8 == 10), "all cells are VTK_TETRA");
+    let vtk = vtkio::Vtk::import(&path)
+        .unwrap_or_else(|e| panic!("vtkio cannot read {}: {e}", path.display()));
+    let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
+        panic!("not an unstructured grid")
+    };
+    let piece = pieces
+        .into_iter()
+        .next()
+        .unwrap()
+        .into_loaded_piece_data(Some(&path))
+        .unwrap();
+    let IOBuffer::F64(points) = piece.points else {
+        panic!("points are not f64")
+    };
+    assert_eq!(
+        bits(points),
+        bits(sim.nodes.x.iter().flat_map(|p| [p.x, p.y, p.z]))
+    );
+    let VertexNumbers::XML {
+        connectivity,
+        offsets,
+    } = piece.cells.cell_verts
+    else {
+        panic!("cells")
+    };
+    assert_eq!(
+        connectivity,
+        sim.tets
+            .nodes
+            .iter()
+            .flat_map(|t| t.map(u64::from))
+            .collect::<Vec<_>>()
+    );
+    assert_eq!(
+        offsets,
+        (1..=sim.tets.len() as u64)
+            .map(|c| 4 * c)
+            .collect::<Vec<_>>()
+    );
+    assert!(
+        piece.cells.types.iter().all(|&t| t as u8 == 10),
+        "all cells are VTK_TETRA"
+    );
     let arrays = |attrs: Vec<Attribute>| -> Vec<(String, IOBuffer)> {
-        attrs.into_iter().map(|a| match a {
-            Attribute::DataArray(d) => (d.name, d.data),
-            Attribute::Field { name, .. } => panic!("unexpected field {name}"),
-        }).collect()
+        attrs
+            .into_iter()
+            .map(|a| match a {
+                Attribute::DataArray(d) => (d.name, d.data),
+                Attribute::Field { name, .. } => panic!("unexpected field {name}"),
+            })
+            .collect()
     };
     let point = arrays(piece.data.point);
     let cell = arrays(piece.data.cell);
     // vtkio silently drops arrays it cannot decode: check the names first.
     let names = |v: &[(String, IOBuffer)]| v.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
     assert_eq!(names(&point), ["displacement", "velocity"]);
-    assert_eq!(names(&cell), ["stress", "von_mises", "body", "material", "stress_pk1"]);
-    let IOBuffer::F64(disp) = &point[0].1 else { panic!() };
-    assert_eq!(bits(disp.iter().copied()), bits(sim.nodes.x.iter().zip(&sim.nodes.x0).flat_map(|(x, x0)| [x.x - x0.x, x.y - x0.y, x.z - x0.z])));
-    let IOBuffer::F64(vel) = &point[1].1 else { panic!() };
-    assert_eq!(bits(vel.iter().copied()), bits(sim.nodes.v.iter().flat_map(|v| [v.x, v.y, v.z])));
-    let IOBuffer::F64(stress) = &cell[0].1 else { panic!() };
+    assert_eq!(
+        names(&cell),
+        ["stress", "von_mises", "body", "material", "stress_pk1"]
+    );
+    let IOBuffer::F64(disp) = &point[0].1 else {
+        panic!()
+    };
+    assert_eq!(
+        bits(disp.iter().copied()),
+        bits(sim.nodes.x.iter().zip(&sim.nodes.x0).flat_map(|(x, x0)| [
+            x.x - x0.x,
+            x.y - x0.y,
+            x.z - x0.z
+        ]))
+    );
+    let IOBuffer::F64(vel) = &point[1].1 else {
+        panic!()
+    };
+    assert_eq!(
+        bits(vel.iter().copied()),
+        bits(sim.nodes.v.iter().flat_map(|v| [v.x, v.y, v.z]))
+    );
+    let IOBuffer::F64(stress) = &cell[0].1 else {
+        panic!()
+    };
     for e in 0..sim.tets.len() {
         let f = fdem::elements::deformation_gradient(&sim.tets, &sim.nodes.x, e);
         let s = sim.materials[0].stress(&f, fdem::material::StressMeasure::Cauchy);
         for (k, v) in stress[9 * e..9 * e + 9].iter().enumerate() {
-            assert_eq!(v.to_bits(), s[(k / 3, k % 3)].to_bits(), "stress of tet {e}");
+            assert_eq!(
+                v.to_bits(),
+                s[(k / 3, k % 3)].to_bits(),
+                "stress of tet {e}"
+            );
         }
     }
-    let IOBuffer::I32(body) = &cell[2].1 else { panic!("body ids are Int32") };
-    assert_eq!(body, &sim.tets.body.iter().map(|&b| b as i32).collect::<Vec<_>>());
+    let IOBuffer::I32(body) = &cell[2].1 else {
+        panic!("body ids are Int32")
+    };
+    assert_eq!(
+        body,
+        &sim.tets.body.iter().map(|&b| b as i32).collect::<Vec<_>>()
+    );
     // The model really moved and is stressed (the comparison is not between zeros).
     assert!(disp.iter().any(|d| d.abs() > 1e-6));
     assert!(stress.iter().any(|s| s.abs() > 1.0));
@@ -93,17 +163,31 @@ fn pvd_and_csv_files_are_complete() {
     let (dir, report) = run("raw");
     let st = report.sims[0].0.borrow();
     let pvd = std::fs::read_to_string(dir.join("frames.pvd")).unwrap();
-    assert!(pvd.contains("file=\"frames_000000.vtu\"") && pvd.contains("file=\"frames_000001.vtu\""), "{pvd}");
-    assert!(pvd.contains(&format!("timestep=\"{:?}\"", st.sim.time)), "{pvd}");
+    assert!(
+        pvd.contains("file=\"frames_000000.vtu\"") && pvd.contains("file=\"frames_000001.vtu\""),
+        "{pvd}"
+    );
+    assert!(
+        pvd.contains(&format!("timestep=\"{:?}\"", st.sim.time)),
+        "{pvd}"
+    );
     let energy = std::fs::read_to_string(dir.join("energy.csv")).unwrap();
     let mut lines = energy.lines();
     assert_eq!(lines.next().unwrap(), "step,time,kinetic,strain,gravity_work,force_work,reaction_work,mass_damping,viscous_damping,balance_error");
     assert_eq!(lines.count(), st.sim.energy_history.len());
     let kin = std::fs::read_to_string(dir.join("kinetic.csv")).unwrap();
     assert_eq!(kin.lines().next().unwrap(), "step,time,kinetic");
-    assert_eq!(kin.lines().count(), 1 + 1 + 40 / 5, "header, the value at the start, one every 5 steps");
+    assert_eq!(
+        kin.lines().count(),
+        1 + 1 + 40 / 5,
+        "header, the value at the start, one every 5 steps"
+    );
     // No temporary files are left behind.
-    assert!(std::fs::read_dir(&dir).unwrap().all(|e| !e.unwrap().file_name().to_string_lossy().ends_with(".tmp")));
+    assert!(std::fs::read_dir(&dir).unwrap().all(|e| !e
+        .unwrap()
+        .file_name()
+        .to_string_lossy()
+        .ends_with(".tmp")));
 }
 
 /// Python's meshio (installed by .ci/run) reads the default raw frames: point and cell
@@ -111,7 +195,9 @@ fn pvd_and_csv_files_are_complete() {
 #[test]
 fn meshio_reads_raw_frames_bit_for_bit() {
     let (dir, report) = run("raw");
-    let probe = std::process::Command::new("python3").args(["-c", "import meshio"]).output();
+    let probe = std::process::Command::new("python3")
+        .args(["-c", "import meshio"])
+        .output();
     if !probe.as_ref().is_ok_and(|o| o.status.success()) {
         if std::env::var_os("FDEM_SKIP_PYTHON_READERS").is_some() {
             eprintln!("meshio is not installed and FDEM_SKIP_PYTHON_READERS is set: skipped");
@@ -127,22 +213,50 @@ print(len(m.points), sum(len(c.data) for c in m.cells), ",".join(c.type for c in
 print(" ".join(float(v).hex() for v in m.point_data["displacement"].ravel()))
 print(" ".join(float(v).hex() for v in m.cell_data["von_mises"][0]))
 "#;
-    let out = std::process::Command::new("python3").args(["-c", script]).arg(&path).output().unwrap();
-    assert!(out.status.success(), "meshio failed: {}", String::from_utf8_lossy(&out.stderr));
+    let out = std::process::Command::new("python3")
+        .args(["-c", script])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "meshio failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let text = String::from_utf8(out.stdout).unwrap();
     let mut lines = text.lines();
     let st = report.sims[0].0.borrow();
     let sim = &st.sim;
-    assert_eq!(lines.next().unwrap(), format!("{} {} tetra", sim.nodes.len(), sim.tets.len()));
-    let parse = |l: &str| l.split(' ').map(|h| hexf(h)).collect::<Vec<f64>>();
+    assert_eq!(
+        lines.next().unwrap(),
+        format!("{} {} tetra", sim.nodes.len(), sim.tets.len())
+    );
+    let parse = |l: &str| l.split(' ').map(hexf).collect::<Vec<f64>>();
     let disp = parse(lines.next().unwrap());
-    assert_eq!(bits(disp), bits(sim.nodes.x.iter().zip(&sim.nodes.x0).flat_map(|(x, x0)| [x.x - x0.x, x.y - x0.y, x.z - x0.z])));
+    assert_eq!(
+        bits(disp),
+        bits(sim.nodes.x.iter().zip(&sim.nodes.x0).flat_map(|(x, x0)| [
+            x.x - x0.x,
+            x.y - x0.y,
+            x.z - x0.z
+        ]))
+    );
     let vm = parse(lines.next().unwrap());
     let expected: Vec<f64> = (0..sim.tets.len())
         .map(|e| {
             let f = fdem::elements::deformation_gradient(&sim.tets, &sim.nodes.x, e);
             let s = sim.materials[0].stress(&f, fdem::material::StressMeasure::Cauchy);
-            fdem::math::von_mises(&fdem::math::Mat3::from_row_slice(&[s[(0, 0)], s[(0, 1)], s[(0, 2)], s[(1, 0)], s[(1, 1)], s[(1, 2)], s[(2, 0)], s[(2, 1)], s[(2, 2)]]))
+            fdem::math::von_mises(&fdem::math::Mat3::from_row_slice(&[
+                s[(0, 0)],
+                s[(0, 1)],
+                s[(0, 2)],
+                s[(1, 0)],
+                s[(1, 1)],
+                s[(1, 2)],
+                s[(2, 0)],
+                s[(2, 1)],
+                s[(2, 2)],
+            ]))
         })
         .collect();
     assert_eq!(bits(vm), bits(expected));
@@ -162,5 +276,9 @@ fn hexf(s: &str) -> f64 {
         scale /= 16.0;
     }
     let v = m * 2f64.powi(exp.parse::<i32>().unwrap());
-    if neg { -v } else { v }
+    if neg {
+        -v
+    } else {
+        v
+    }
 }

@@ -21,27 +21,53 @@ fn run_text(name: &str, text: &str, extra: &[&str]) -> (bool, String, String) {
     let dir = temp_dir(name);
     let path = dir.join(format!("{name}.rhai"));
     std::fs::write(&path, text).unwrap();
-    let out = fdem().arg("run").arg(&path).arg("--quiet").arg("--out").arg(dir.join("out")).args(extra).output().unwrap();
-    (out.status.success(), String::from_utf8_lossy(&out.stdout).into_owned(), String::from_utf8_lossy(&out.stderr).into_owned())
+    let out = fdem()
+        .arg("run")
+        .arg(&path)
+        .arg("--quiet")
+        .arg("--out")
+        .arg(dir.join("out"))
+        .args(extra)
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
 }
 
 #[test]
 fn every_bundled_script_runs_in_quick_mode_and_passes_its_self_checks() {
-    let scripts: Vec<PathBuf> = std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "rhai"))
-        .collect();
+    let scripts: Vec<PathBuf> =
+        std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "rhai"))
+            .collect();
     assert!(scripts.len() >= 3);
     for s in scripts {
         let name = s.file_stem().unwrap().to_string_lossy().into_owned();
         let out_dir = temp_dir(&format!("script-{name}"));
-        let out = fdem().arg("run").arg(&s).args(["--set", "quick=true", "--quiet", "--out"]).arg(&out_dir).output().unwrap();
+        let out = fdem()
+            .arg("run")
+            .arg(&s)
+            .args(["--set", "quick=true", "--quiet", "--out"])
+            .arg(&out_dir)
+            .output()
+            .unwrap();
         let stdout = String::from_utf8_lossy(&out.stdout);
-        assert!(out.status.success(), "{name} failed:\n{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{name} failed:\n{stdout}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         assert!(stdout.contains("check ok:"), "{name} has no self-check");
         assert!(!stdout.contains("check failed"));
-        assert!(out_dir.join("energy.csv").exists(), "{name} wrote no energy.csv");
+        assert!(
+            out_dir.join("energy.csv").exists(),
+            "{name} wrote no energy.csv"
+        );
         // Every script says what it models, how to run it and its quick mode.
         let text = std::fs::read_to_string(&s).unwrap();
         for needle in ["//! ", "Run:", "Quick:", "--set quick=true", "Output:"] {
@@ -49,17 +75,28 @@ fn every_bundled_script_runs_in_quick_mode_and_passes_its_self_checks() {
         }
         // `fdem check` validates without running.
         let check = fdem().arg("check").arg(&s).output().unwrap();
-        assert!(check.status.success(), "fdem check {name}: {}", String::from_utf8_lossy(&check.stderr));
+        assert!(
+            check.status.success(),
+            "fdem check {name}: {}",
+            String::from_utf8_lossy(&check.stderr)
+        );
         assert!(String::from_utf8_lossy(&check.stdout).contains("ok: model"));
     }
 }
 
 #[test]
 fn syntax_error_names_file_line_and_column() {
-    let (ok, _, err) = run_text("syntax", "let p = params(#{ h: 0.1 });\nlet x = (1 + ;\n", &[]);
+    let (ok, _, err) = run_text(
+        "syntax",
+        "let p = params(#{ h: 0.1 });\nlet x = (1 + ;\n",
+        &[],
+    );
     assert!(!ok);
     assert!(err.contains("syntax.rhai:2:14: error:"), "{err}");
-    assert!(err.contains("let x = (1 + ;"), "the source line is shown: {err}");
+    assert!(
+        err.contains("let x = (1 + ;"),
+        "the source line is shown: {err}"
+    );
 }
 
 #[test]
@@ -67,9 +104,15 @@ fn unknown_key_is_named_with_the_allowed_keys() {
     let text = "let sim = simulation(#{});\nlet rock = material(\"elastic/munjiza\",\n    #{ densty: 2500.0, young: 1e9, poisson: 0.2 });\n";
     let (ok, _, err) = run_text("key", text, &[]);
     assert!(!ok);
-    assert!(err.contains("key.rhai:2:12: error: material(): unknown key 'densty'"), "{err}");
+    assert!(
+        err.contains("key.rhai:2:12: error: material(): unknown key 'densty'"),
+        "{err}"
+    );
     assert!(err.contains("did you mean 'density'?"), "{err}");
-    assert!(err.contains("allowed keys: density, young, poisson, viscosity"), "{err}");
+    assert!(
+        err.contains("allowed keys: density, young, poisson, viscosity"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -77,7 +120,10 @@ fn misspelled_variable_is_a_compile_error_with_its_place() {
     let text = "let size = 0.1;\nlet b = box(#{ min: [0.0, 0.0, 0.0], max: [1.0, 1.0, 1.0] }).mesh(#{ size: sise });\n";
     let (ok, _, err) = run_text("var", text, &[]);
     assert!(!ok);
-    assert!(err.contains("var.rhai:2:") && err.contains("Undefined variable: sise"), "{err}");
+    assert!(
+        err.contains("var.rhai:2:") && err.contains("Undefined variable: sise"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -90,16 +136,30 @@ sim.add_body("b", mesh, m);
 "#;
     let (ok, _, err) = run_text("inverted", text, &[]);
     assert!(!ok);
-    assert!(err.contains("inverted.rhai:5:5: error: add_body(): body 'b'"), "{err}");
-    assert!(err.contains("tet 2 is inverted") && err.contains("(0.250000, 0.250000, 0.250000)"), "{err}");
+    assert!(
+        err.contains("inverted.rhai:5:5: error: add_body(): body 'b'"),
+        "{err}"
+    );
+    assert!(
+        err.contains("tet 2 is inverted") && err.contains("(0.250000, 0.250000, 0.250000)"),
+        "{err}"
+    );
 }
 
 #[test]
 fn unknown_set_parameter_lists_the_parameters() {
-    let (ok, _, err) = run_text("set", "let p = params(#{ size: 0.1, quick: false });\n", &["--set", "sise=0.2"]);
+    let (ok, _, err) = run_text(
+        "set",
+        "let p = params(#{ size: 0.1, quick: false });\n",
+        &["--set", "sise=0.2"],
+    );
     assert!(!ok);
     assert!(err.contains("--set sise=0.2: the script has no parameter 'sise' (did you mean 'size'?); its parameters are: quick, size"), "{err}");
-    let (ok, _, err) = run_text("settype", "let p = params(#{ quick: false });\n", &["--set", "quick=yes"]);
+    let (ok, _, err) = run_text(
+        "settype",
+        "let p = params(#{ quick: false });\n",
+        &["--set", "quick=yes"],
+    );
     assert!(!ok && err.contains("'quick' is a bool"), "{err}");
 }
 
@@ -113,8 +173,16 @@ sim.run(#{ steps: 10 });
 "#;
     let (ok, _, err) = run_text("dt", text, &[]);
     assert!(!ok);
-    assert!(err.contains("dt.rhai:5:5: error: run(): dt = 1.0000e0 s is larger than the critical time step"), "{err}");
-    assert!(err.contains("set by tet") && err.contains("of body 'b' at ("), "{err}");
+    assert!(
+        err.contains(
+            "dt.rhai:5:5: error: run(): dt = 1.0000e0 s is larger than the critical time step"
+        ),
+        "{err}"
+    );
+    assert!(
+        err.contains("set by tet") && err.contains("of body 'b' at ("),
+        "{err}"
+    );
 }
 
 #[test]
@@ -127,23 +195,43 @@ advance(sim);
 "#;
     let (ok, _, err) = run_text("chain", text, &[]);
     assert!(!ok);
-    assert!(err.contains("chain.rhai:1:23: error: run(): unknown key 'stepz' (did you mean 'steps'?)"), "{err}");
-    assert!(err.contains("in function 'advance' called at") && err.contains("chain.rhai:5:1"), "{err}");
+    assert!(
+        err.contains("chain.rhai:1:23: error: run(): unknown key 'stepz' (did you mean 'steps'?)"),
+        "{err}"
+    );
+    assert!(
+        err.contains("in function 'advance' called at") && err.contains("chain.rhai:5:1"),
+        "{err}"
+    );
 }
 
 #[test]
 fn failed_self_check_fails_the_run() {
-    let (ok, _, err) = run_text("selfcheck", "expect_within(\"answer\", 41.0, 42.0, 43.0);\n", &[]);
+    let (ok, _, err) = run_text(
+        "selfcheck",
+        "expect_within(\"answer\", 41.0, 42.0, 43.0);\n",
+        &[],
+    );
     assert!(!ok);
-    assert!(err.contains("selfcheck.rhai:1:1: error: self-check failed: answer"), "{err}");
+    assert!(
+        err.contains("selfcheck.rhai:1:1: error: self-check failed: answer"),
+        "{err}"
+    );
 }
 
 #[test]
 fn doc_command_matches_the_script_reference_page() {
     let out = fdem().arg("doc").output().unwrap();
     assert!(out.status.success());
-    let page = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/script-reference.md")).unwrap();
-    assert_eq!(String::from_utf8_lossy(&out.stdout), page, "docs/script-reference.md is stale: regenerate with `fdem doc > docs/script-reference.md`");
+    let page = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/script-reference.md"),
+    )
+    .unwrap();
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        page,
+        "docs/script-reference.md is stale: regenerate with `fdem doc > docs/script-reference.md`"
+    );
 }
 
 /// Every documented function is registered: calling it with its documented name must not be
@@ -180,7 +268,12 @@ expect_within("steps", sim.step, 5, 5);
     // The run covered every option map of the API table.
     for f in fdem::script::api::API.iter().filter(|f| !f.keys.is_empty()) {
         for k in f.keys {
-            assert!(text.contains(&format!("{}:", k.name)), "key '{}' of {} is not exercised", k.name, f.name);
+            assert!(
+                text.contains(&format!("{}:", k.name)),
+                "key '{}' of {} is not exercised",
+                k.name,
+                f.name
+            );
         }
     }
 }
@@ -190,27 +283,42 @@ expect_within("steps", sim.step, 5, 5);
 fn blow_up_is_reported_with_step_and_place() {
     use fdem::material::{Formulation, Material};
     let mut sim = fdem::Simulation::new();
-    let m = sim.add_material(Material::new(Formulation::NeoHookean, 1000.0, 1e6, 0.3, 0.0).unwrap());
-    let mesh = fdem::mesh::box_mesh(fdem::math::Vec3::zeros(), fdem::math::Vec3::new(1.0, 1.0, 1.0), [2, 2, 2]);
-    sim.add_body("cube", &mesh, m, fdem::Layout::Continuous).unwrap();
+    let m =
+        sim.add_material(Material::new(Formulation::NeoHookean, 1000.0, 1e6, 0.3, 0.0).unwrap());
+    let mesh = fdem::mesh::box_mesh(
+        fdem::math::Vec3::zeros(),
+        fdem::math::Vec3::new(1.0, 1.0, 1.0),
+        [2, 2, 2],
+    );
+    sim.add_body("cube", &mesh, m, fdem::Layout::Continuous)
+        .unwrap();
     sim.nodes.v[0] = fdem::math::Vec3::new(1.0, 0.0, 0.0);
     sim.prepare().unwrap();
     sim.dt *= 20.0; // far beyond the critical step
     sim.settings.energy_every = 1;
-    let err = (0..10_000).find_map(|_| sim.step().err()).expect("the run must blow up");
+    let err = (0..10_000)
+        .find_map(|_| sim.step().err())
+        .expect("the run must blow up");
     let msg = err.to_string();
     assert!(msg.starts_with("unstable run:"), "{msg}");
-    assert!(msg.contains("body 'cube'") && msg.contains("at step"), "{msg}");
+    assert!(
+        msg.contains("body 'cube'") && msg.contains("at step"),
+        "{msg}"
+    );
 }
 
 /// The README's example script runs as printed.
 #[test]
 fn readme_example_runs() {
-    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
     let start = readme.find("```rhai\n").expect("README has a rhai example") + 8;
     let end = start + readme[start..].find("```").unwrap();
     let text = &readme[start..end];
-    assert!(text.lines().count() <= 16, "the README example should stay short");
+    assert!(
+        text.lines().count() <= 16,
+        "the README example should stay short"
+    );
     let (ok, out, err) = run_text("readme", text, &["--set", "quick=true"]);
     assert!(ok, "{out}\n{err}");
     assert!(out.contains("tip deflection"));

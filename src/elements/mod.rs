@@ -79,7 +79,8 @@ pub fn internal_force_tet4(
     };
     if want_energy {
         r.strain_energy = vol0 * mat.energy_density(&f);
-        r.inverted = !(f.determinant() > 0.0);
+        // NaN counts as inverted.
+        r.inverted = f.determinant().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater);
     }
     r
 }
@@ -209,8 +210,8 @@ pub fn add_internal_forces(
                         for (i, f4) in fs.chunks_exact_mut(4).enumerate() {
                             let r =
                                 tet_result(tets, materials, x, v, e0 + c * CHUNK + i, want_energy);
-                            for k in 0..4 {
-                                f4[k] += r.forces[k];
+                            for (f, rf) in f4.iter_mut().zip(r.forces) {
+                                *f += rf;
                             }
                             accumulate(&mut s, &r);
                         }

@@ -19,8 +19,8 @@ type M6x12 = SMatrix<Real, 6, 12>;
 /// Strain–displacement matrix (Voigt: xx, yy, zz, yz, zx, xy with engineering shear).
 fn strain_displacement(dm_inv: &Mat3) -> M6x12 {
     let mut grads = [nalgebra::Vector3::zeros(); 4];
-    for a in 1..4 {
-        grads[a] = dm_inv.row(a - 1).transpose();
+    for (a, g) in grads.iter_mut().enumerate().skip(1) {
+        *g = dm_inv.row(a - 1).transpose();
     }
     grads[0] = -(grads[1] + grads[2] + grads[3]);
     let mut g = M6x12::zeros();

@@ -464,7 +464,7 @@ impl Simulation {
         self.prepare()?;
         let sample = self.step == 0
             || self.sample_next
-            || self.step % self.settings.energy_every.max(1) == 0;
+            || self.step.is_multiple_of(self.settings.energy_every.max(1));
         self.sample_next = false;
         let dt = self.dt;
 
@@ -551,7 +551,10 @@ impl Simulation {
             );
         }
         if let Some(e) = (0..self.tets.len()).find(|&e| {
-            !(elements::deformation_gradient(&self.tets, &self.nodes.x, e).determinant() > 0.0)
+            elements::deformation_gradient(&self.tets, &self.nodes.x, e)
+                .determinant()
+                .partial_cmp(&0.0)
+                != Some(std::cmp::Ordering::Greater)
         }) {
             let b = &self.bodies[self.tets.body[e] as usize].name;
             let c = self.tets.nodes[e]

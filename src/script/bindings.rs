@@ -724,10 +724,8 @@ fn register_loads(engine: &mut Engine) {
             components,
         });
         for &i in n.0.iter() {
-            for k in 0..3 {
-                if comps[k] {
-                    st.sim.nodes.v[i as usize][k] = 0.0;
-                }
+            for (k, _) in comps.iter().enumerate().filter(|(_, &c)| c) {
+                st.sim.nodes.v[i as usize][k] = 0.0;
             }
         }
         st.sim.invalidate();

@@ -161,7 +161,8 @@ pub fn run_source(
         let _ = s.0.borrow_mut().vtk.flush();
     }
     match result {
-        Err(e) if matches!(&*e, EvalAltResult::ErrorTerminated(t, _) if t.to_string() == runner::CHECK_DONE) => {}
+        Err(e) if matches!(&*e, EvalAltResult::ErrorTerminated(t, _) if t.to_string() == runner::CHECK_DONE) =>
+            {}
         r => r.map_err(|e| ScriptError(format_eval_error(&label, source, &e)))?,
     }
     if !ctx.options.overrides.is_empty() && !ctx.params_called.get() {

@@ -41,7 +41,9 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
     }
     if ctx.options.check_only {
         // `fdem check` validates the model as built up to the first run, then stops the script.
-        return Err(rhai::EvalAltResult::ErrorTerminated(CHECK_DONE.into(), rhai::Position::NONE).into());
+        return Err(
+            rhai::EvalAltResult::ErrorTerminated(CHECK_DONE.into(), rhai::Position::NONE).into(),
+        );
     }
     let (t_start, step_start, dt) = {
         let st = s.0.borrow();
