@@ -18,7 +18,7 @@
 //! layout) write forces straight into their nodes; bodies that share nodes write each tet's 4
 //! forces into a slot buffer that is then gathered per node in a fixed order (no atomics).
 
-use crate::material::Material;
+use crate::material::{munjiza_cauchy, Formulation, Material};
 use crate::math::{Mat3, Real, Vec3};
 use crate::pipeline::state::{Body, Layout, Nodes, Tets};
 use rayon::prelude::*;
@@ -58,16 +58,22 @@ pub fn internal_force_tet4(
 ) -> TetResult {
     let ds = Mat3::from_columns(&[xs[1] - xs[0], xs[2] - xs[0], xs[3] - xs[0]]);
     let f = ds * dm_inv;
-    let mut p = mat.pk1(&f);
     let mut viscous_power = 0.0;
+    let mut h = if mat.formulation == Formulation::Munjiza {
+        // Cauchy-stress law: V₀·P·D_m⁻ᵀ = V₀·J·σ·D_s⁻ᵀ = σ·cof(D_s)/6, since
+        // cof(D_s) = det(D_s)·D_s⁻ᵀ and det(D_s) = 6·V₀·J. No inverse, no division.
+        let sigma = munjiza_cauchy(&f, f.determinant(), mat.mu, mat.bulk());
+        -(sigma * cofactor(&ds)) / 6.0
+    } else {
+        -vol0 * mat.pk1(&f) * dm_inv.transpose()
+    };
     if mat.viscosity > 0.0 {
         let dv = Mat3::from_columns(&[vs[1] - vs[0], vs[2] - vs[0], vs[3] - vs[0]]);
         let f_dot = dv * dm_inv;
         let pv = mat.pk1_viscous(&f, &f_dot);
         viscous_power = vol0 * pv.dot(&f_dot);
-        p += pv;
+        h -= vol0 * pv * dm_inv.transpose();
     }
-    let h = -vol0 * p * dm_inv.transpose();
     let f1 = h.column(0).into_owned();
     let f2 = h.column(1).into_owned();
     let f3 = h.column(2).into_owned();
@@ -83,6 +89,13 @@ pub fn internal_force_tet4(
         r.inverted = f.determinant().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater);
     }
     r
+}
+
+/// Cofactor matrix cof(A) = det(A)·A⁻ᵀ (defined for singular A too).
+#[inline(always)]
+pub fn cofactor(a: &Mat3) -> Mat3 {
+    let (c0, c1, c2) = (a.column(0), a.column(1), a.column(2));
+    Mat3::from_columns(&[c1.cross(&c2), c2.cross(&c0), c0.cross(&c1)])
 }
 
 /// Run the kernel on tet `e`, reading its nodes' x and v.

@@ -197,7 +197,7 @@ impl Material {
             }
             Formulation::Munjiza => {
                 let j = f.determinant();
-                let j23 = j.abs().powf(2.0 / 3.0);
+                let j23 = j.abs().cbrt().powi(2);
                 let ed = 0.5 * (f * f.transpose() / j23 - id);
                 let es = 0.5 * (j23 - 1.0);
                 mu * ed.norm_squared() + 4.5 * self.bulk() * es * es
@@ -245,9 +245,10 @@ impl Material {
 
 /// Munjiza (2004) eq. 4.220 without the viscous term: σ = (2μ Ẽ_d + 3K Ẽ_s)/J^{2/3}.
 #[inline(always)]
-fn munjiza_cauchy(f: &Mat3, j: Real, mu: Real, bulk: Real) -> Mat3 {
+pub fn munjiza_cauchy(f: &Mat3, j: Real, mu: Real, bulk: Real) -> Mat3 {
     let id = Mat3::identity();
-    let j23 = j.abs().powf(2.0 / 3.0);
+    let j13 = j.abs().cbrt();
+    let j23 = j13 * j13;
     let ed = 0.5 * (f * f.transpose() / j23 - id);
     let es = 0.5 * (j23 - 1.0);
     (ed * (2.0 * mu) + id * (3.0 * bulk * es)) / j23
