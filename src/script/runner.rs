@@ -307,10 +307,10 @@ pub fn summary(
         "initial (kin+strain)", e.initial
     ));
     s.push_str(&format!(
-        "   {:<20} {:>14.6e}   ({:.3} % of the largest term)\n",
+        "   {:<20} {:>14.6e}   ({:.2e} of the largest term)\n",
         "balance error",
         e.balance_error(),
-        100.0 * e.relative_balance_error()
+        e.relative_balance_error()
     ));
     s.push_str(&format!(
         "   output: {} ({frames} VTK frames, energy.csv, monitors)\n",
