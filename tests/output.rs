@@ -30,8 +30,8 @@ sim.write_vtk();
     )
 }
 
-fn run(encoding: &str) -> (PathBuf, fdem::script::ScriptReport) {
-    let dir = temp_dir(encoding);
+fn run(encoding: &str, test: &str) -> (PathBuf, fdem::script::ScriptReport) {
+    let dir = temp_dir(&format!("{test}-{encoding}"));
     let opts = RunOptions {
         out_dir: Some(dir.clone()),
         quiet: true,
@@ -49,7 +49,7 @@ fn bits(v: impl IntoIterator<Item = f64>) -> Vec<u64> {
 #[test]
 fn vtkio_reads_base64_frames_bit_for_bit() {
     use vtkio::model::{Attribute, DataSet, IOBuffer, VertexNumbers};
-    let (dir, report) = run("base64");
+    let (dir, report) = run("base64", "vtkio");
     let st = report.sims[0].0.borrow();
     let sim = &st.sim;
     let path = dir.join("frames_000001.vtu");
@@ -160,7 +160,7 @@ fn vtkio_reads_base64_frames_bit_for_bit() {
 
 #[test]
 fn pvd_and_csv_files_are_complete() {
-    let (dir, report) = run("raw");
+    let (dir, report) = run("raw", "pvd");
     let st = report.sims[0].0.borrow();
     let pvd = std::fs::read_to_string(dir.join("frames.pvd")).unwrap();
     assert!(
@@ -194,7 +194,7 @@ fn pvd_and_csv_files_are_complete() {
 /// counts, cell type, and displacement values bit for bit (printed by Python as hex).
 #[test]
 fn meshio_reads_raw_frames_bit_for_bit() {
-    let (dir, report) = run("raw");
+    let (dir, report) = run("raw", "meshio");
     let probe = std::process::Command::new("python3")
         .args(["-c", "import meshio"])
         .output();

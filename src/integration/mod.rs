@@ -27,16 +27,25 @@ use rayon::prelude::*;
 pub const CHUNK: usize = 2048;
 
 /// Sums over nodes produced by one integration step.
+///
+/// Work terms are split into the two trapezoid halves around t: `before` is the share of the
+/// interval [t − dt, t] (½·F(t)·(x(t) − x(t−dt))) and `after` the share of [t, t + dt]
+/// (½·F(t)·(x(t+dt) − x(t))). With the kinetic energy measured as ½m·v(t−dt/2)·v(t+dt/2),
+/// the energy the central difference conserves exactly for linear systems, the account at t
+/// is then exact up to the integrator's own O(dt²) error.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct IntegrationSums {
-    /// ½Σm|v(t)|², v(t) interpolated between the half steps [J] (when sampled).
+    /// Σ ½m·v(t−dt/2)·v(t+dt/2) [J] (when sampled). On the first step v(−dt/2) is the
+    /// virtual 2v(0) − v(dt/2).
     pub kinetic: Real,
     /// Σ m g·(x(t) − X): work done by gravity since the start [J] (when sampled).
     pub gravity_work: Real,
-    /// Work of the reactions during this step [J].
-    pub reaction_work: Real,
-    /// Energy removed by mass-proportional damping during this step [J].
-    pub damping_dissipation: Real,
+    /// Work of the reactions: share of [t − dt, t] and of [t, t + dt] [J].
+    pub reaction_work_before: Real,
+    pub reaction_work_after: Real,
+    /// Energy removed by mass-proportional damping, shares as above [J].
+    pub damping_before: Real,
+    pub damping_after: Real,
     /// Nodes with a non-finite position or velocity.
     pub non_finite: usize,
 }
@@ -60,8 +69,8 @@ pub fn central_difference(
     let dt_bar = 0.5 * (p.dt_prev + p.dt);
     let c = 0.5 * p.mass_damping * dt_bar;
     let (c_old, c_inv) = (1.0 - c, 1.0 / (1.0 + c));
-    // v(t) = v_old + w·(v_new − v_old): the velocity at the integer time level.
-    let w = 0.5 * p.dt_prev / dt_bar;
+    let first = p.dt_prev == 0.0;
+    let (half_before, half_after) = (0.5 * p.dt_prev, 0.5 * p.dt);
     let Nodes {
         x0,
         x,
@@ -98,23 +107,25 @@ pub fn central_difference(
                                 mass * ((v_new[k] - v_old[k]) / dt_bar - p.gravity[k]) - fs[i][k];
                         }
                     }
-                    let v_t = v_old + (v_new - v_old) * w;
-                    s.reaction_work += r.dot(&v_t) * dt_bar;
+                    s.reaction_work_before += r.dot(&v_old) * half_before;
+                    s.reaction_work_after += r.dot(&v_new) * half_after;
                     rs[i] = r;
                 }
-                if p.mass_damping > 0.0 || p.sample {
-                    let v_t = v_old + (v_new - v_old) * w;
-                    let free = Vec3::new(
-                        if mask & 1 == 0 { 1.0 } else { 0.0 },
-                        if mask & 2 == 0 { 1.0 } else { 0.0 },
-                        if mask & 4 == 0 { 1.0 } else { 0.0 },
-                    );
-                    s.damping_dissipation +=
-                        p.mass_damping * mass * v_t.component_mul(&free).norm_squared() * dt_bar;
-                    if p.sample {
-                        s.kinetic += 0.5 * mass * v_t.norm_squared();
-                        s.gravity_work += mass * p.gravity.dot(&(xs[i] - x0[n]));
+                if p.mass_damping > 0.0 {
+                    // The damping force −α·m·(v_old + v_new)/2, on free components only.
+                    let mut fd = (v_old + v_new) * (0.5 * p.mass_damping * mass);
+                    for k in 0..3 {
+                        if mask & (1 << k) != 0 {
+                            fd[k] = 0.0;
+                        }
                     }
+                    s.damping_before += fd.dot(&v_old) * half_before;
+                    s.damping_after += fd.dot(&v_new) * half_after;
+                }
+                if p.sample {
+                    let v_minus = if first { v_old * 2.0 - v_new } else { v_old };
+                    s.kinetic += 0.5 * mass * v_minus.dot(&v_new);
+                    s.gravity_work += mass * p.gravity.dot(&(xs[i] - x0[n]));
                 }
                 xs[i] += v_new * p.dt;
                 vs[i] = v_new;
@@ -133,8 +144,10 @@ pub fn central_difference(
         .fold(IntegrationSums::default(), |mut a, s| {
             a.kinetic += s.kinetic;
             a.gravity_work += s.gravity_work;
-            a.reaction_work += s.reaction_work;
-            a.damping_dissipation += s.damping_dissipation;
+            a.reaction_work_before += s.reaction_work_before;
+            a.reaction_work_after += s.reaction_work_after;
+            a.damping_before += s.damping_before;
+            a.damping_after += s.damping_after;
             a.non_finite += s.non_finite;
             a
         })

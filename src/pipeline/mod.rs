@@ -219,7 +219,10 @@ pub struct Simulation {
     dt_prev: Real,
     pub dt_info: Option<TimeStepInfo>,
     pub timers: StageTimers,
+    /// The energy account at the last sample (all terms at the same time level).
     pub energy: Energy,
+    /// Running sums of the path-dependent terms (work of constraints, dissipation).
+    accumulated: Energy,
     pub energy_history: Vec<EnergySample>,
     /// Sample energies on the next step regardless of `energy_every`.
     pub sample_next: bool,
@@ -504,18 +507,28 @@ impl Simulation {
         );
         self.timers.seconds[Stage::Integration as usize] += t.elapsed().as_secs_f64();
 
-        let dt_bar = 0.5 * (self.dt_prev + dt);
-        self.energy.viscous_damping += el.viscous_power * dt_bar;
-        self.energy.mass_damping += is.damping_dissipation;
-        self.energy.reaction_work += is.reaction_work;
-        self.energy.force_work = self.loads.force_work;
+        // The account at t_n: path-dependent terms summed up to t_n with the trapezoidal rule
+        // (this step's "before" share is the last piece); kinetic energy in the form the
+        // central difference conserves; gravity work a state function of x_n; force work a
+        // trapezoid in displacement up to x_n. The viscous power is evaluated once per step
+        // (with v(t − dt/2)) and split evenly between the two halves.
+        let viscous = el.viscous_power * 0.5 * (self.dt_prev + dt);
         if sample {
-            self.energy.kinetic = is.kinetic;
-            self.energy.strain = el.strain_energy;
-            self.energy.gravity_work = is.gravity_work;
-            if self.step == 0 {
-                self.energy.initial = is.kinetic + el.strain_energy;
-            }
+            let a = &self.accumulated;
+            self.energy = Energy {
+                kinetic: is.kinetic,
+                strain: el.strain_energy,
+                gravity_work: is.gravity_work,
+                force_work: self.loads.force_work,
+                reaction_work: a.reaction_work + is.reaction_work_before,
+                mass_damping: a.mass_damping + is.damping_before,
+                viscous_damping: a.viscous_damping + 0.5 * viscous,
+                initial: if self.step == 0 {
+                    is.kinetic + el.strain_energy
+                } else {
+                    self.energy.initial
+                },
+            };
             self.energy_history.push(EnergySample {
                 step: self.step,
                 time: self.time,
@@ -527,6 +540,9 @@ impl Simulation {
                 ));
             }
         }
+        self.accumulated.viscous_damping += viscous;
+        self.accumulated.mass_damping += is.damping_before + is.damping_after;
+        self.accumulated.reaction_work += is.reaction_work_before + is.reaction_work_after;
         self.dt_prev = dt;
         self.time += dt;
         self.step += 1;
