@@ -112,7 +112,14 @@ fn vtkio_reads_base64_frames_bit_for_bit() {
     assert_eq!(names(&point), ["displacement", "velocity"]);
     assert_eq!(
         names(&cell),
-        ["stress", "von_mises", "body", "material", "stress_pk1"]
+        [
+            "stress",
+            "von_mises",
+            "principal_stress",
+            "body",
+            "material",
+            "stress_pk1"
+        ]
     );
     let IOBuffer::F64(disp) = &point[0].1 else {
         panic!()
@@ -146,7 +153,7 @@ fn vtkio_reads_base64_frames_bit_for_bit() {
             );
         }
     }
-    let IOBuffer::I32(body) = &cell[2].1 else {
+    let IOBuffer::I32(body) = &cell[3].1 else {
         panic!("body ids are Int32")
     };
     assert_eq!(

@@ -302,7 +302,7 @@ fn blow_up_is_reported_with_step_and_place() {
     let msg = err.to_string();
     assert!(msg.starts_with("unstable run:"), "{msg}");
     assert!(
-        msg.contains("body 'cube'") && msg.contains("at step"),
+        msg.contains("body 'cube'") && msg.contains("in step"),
         "{msg}"
     );
 }
@@ -322,4 +322,27 @@ fn readme_example_runs() {
     let (ok, out, err) = run_text("readme", text, &["--set", "quick=true"]);
     assert!(ok, "{out}\n{err}");
     assert!(out.contains("tip deflection"));
+}
+
+/// Regression: a block crushed far beyond what the mesh can take, for fewer steps than
+/// `energy_every`, used to end "successfully" with NaN positions. The run must fail and say
+/// what broke and where.
+#[test]
+fn blow_up_between_energy_samples_fails_the_run() {
+    let text = r#"let sim = simulation(#{ energy_every: 1000 });
+let rubber = material("elastic/neo_hookean", #{ density: 1100.0, young: 1.0e6, poisson: 0.45 });
+let b = sim.add_body("block", box(#{ min: [0.0, 0.0, 0.0], max: [0.1, 0.1, 0.1] }).mesh(#{ size: 0.025 }), rubber);
+sim.fix(b.nodes(half_space(#{ point: [0.0, 0.0, 0.0], normal: [0.0, 0.0, -1.0] })));
+sim.prescribe_velocity(b.nodes(half_space(#{ point: [0.0, 0.0, 0.1], normal: [0.0, 0.0, 1.0] })), #{ z: -200.0 });
+sim.run(#{ steps: 38 });
+print("finished");
+"#;
+    let (ok, out, err) = run_text("crush", text, &[]);
+    assert!(!ok, "the run must fail: {out}");
+    assert!(!out.contains("finished"));
+    assert!(
+        err.contains("crush.rhai:6:5: error: run(): unstable run:"),
+        "{err}"
+    );
+    assert!(err.contains("body 'block'"), "{err}");
 }

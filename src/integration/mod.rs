@@ -36,7 +36,7 @@ pub const CHUNK: usize = 2048;
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct IntegrationSums {
     /// Σ ½m·v(t−dt/2)·v(t+dt/2) [J] (when sampled). On the first step v(−dt/2) is the
-    /// virtual 2v(0) − v(dt/2).
+    /// virtual 2v(0) − v(dt/2) for free components and v(0) for constrained ones.
     pub kinetic: Real,
     /// Σ m g·(x(t) − X): work done by gravity since the start [J] (when sampled).
     pub gravity_work: Real,
@@ -46,7 +46,7 @@ pub struct IntegrationSums {
     /// Energy removed by mass-proportional damping, shares as above [J].
     pub damping_before: Real,
     pub damping_after: Real,
-    /// Nodes with a non-finite position or velocity.
+    /// Nodes with a non-finite position or velocity (checked every step).
     pub non_finite: usize,
 }
 
@@ -108,7 +108,10 @@ pub fn central_difference(
                         }
                     }
                     s.reaction_work_before += r.dot(&v_old) * half_before;
-                    s.reaction_work_after += r.dot(&v_new) * half_after;
+                    // A constraint may start with a velocity jump: its impulse works at the
+                    // mean of the velocities before and after the jump.
+                    let v_after = if first { (v_old + v_new) * 0.5 } else { v_new };
+                    s.reaction_work_after += r.dot(&v_after) * half_after;
                     rs[i] = r;
                 }
                 if p.mass_damping > 0.0 {
@@ -123,16 +126,23 @@ pub fn central_difference(
                     s.damping_after += fd.dot(&v_new) * half_after;
                 }
                 if p.sample {
-                    let v_minus = if first { v_old * 2.0 - v_new } else { v_old };
+                    // First step: the virtual v(−dt/2) = 2v(0) − v(dt/2) for free components; a
+                    // constrained component may start with a velocity jump, so it keeps v(0).
+                    let mut v_minus = v_old;
+                    if first {
+                        for k in 0..3 {
+                            if mask & (1 << k) == 0 {
+                                v_minus[k] = 2.0 * v_old[k] - v_new[k];
+                            }
+                        }
+                    }
                     s.kinetic += 0.5 * mass * v_minus.dot(&v_new);
                     s.gravity_work += mass * p.gravity.dot(&(xs[i] - x0[n]));
                 }
                 xs[i] += v_new * p.dt;
                 vs[i] = v_new;
                 fs[i] = Vec3::zeros();
-                if p.sample
-                    && !(xs[i].iter().all(|c| c.is_finite()) && v_new.iter().all(|c| c.is_finite()))
-                {
+                if !(xs[i].iter().all(|c| c.is_finite()) && v_new.iter().all(|c| c.is_finite())) {
                     s.non_finite += 1;
                 }
             }

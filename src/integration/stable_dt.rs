@@ -4,10 +4,10 @@
 //! with M_e = (ρV/4)·I₁₂ and K_e = V·GᵀCG (G the 6×12 strain–displacement matrix, C the
 //! 6×6 Voigt elasticity matrix), the nonzero eigenvalues of M_e⁻¹K_e are those of the
 //! symmetric 6×6 matrix (4/ρ)·Lᵀ(GGᵀ)L with C = LLᵀ. By the element eigenvalue inequality
-//! (Irons & Treharne 1971; Hughes 1987 §9.3) the global ω_max never exceeds the largest
+//! (Irons & Treharne 1971; Hughes 1987, ch. 9) the global ω_max never exceeds the largest
 //! element ω, so dt_crit = min_e 2/ω_e is safe for both body layouts. With viscous damping
 //! η the critical step of the damped top mode is dt = (2/ω)(√(1+ξ²) − ξ) (Belytschko et al.
-//! 2000, eq. 6.2.15), ξ its damping ratio from the element's damping matrix.
+//! 2000, §6.2), ξ its damping ratio from the element's damping matrix.
 
 use crate::material::Material;
 use crate::math::{Mat3, Real};

@@ -9,7 +9,7 @@ use rayon::prelude::*;
 
 /// Encode the current state as `.vtu` bytes: points at the current positions; point data
 /// `displacement` [m] and `velocity` [m/s] (half-step); cell data `stress` (Cauchy, 9
-/// components, Pa), `von_mises` [Pa], `body`, `material`, and `stress_pk1`/`stress_pk2` when
+/// components, Pa), `von_mises` [Pa], `principal_stress` (σ1 ≥ σ2 ≥ σ3, Pa), `body`, `material`, and `stress_pk1`/`stress_pk2` when
 /// `extra` asks for it.
 pub fn encode_frame(
     sim: &Simulation,
@@ -45,6 +45,17 @@ pub fn encode_frame(
             .collect()
     };
     let cauchy = stress_of(StressMeasure::Cauchy);
+    // Principal stresses σ1 ≥ σ2 ≥ σ3 (eigenvalues of the symmetric Cauchy stress).
+    let principal: Vec<[f64; 3]> = cauchy
+        .par_iter()
+        .map(|s| {
+            let mut e: [f64; 3] = crate::math::Mat3::from_row_slice(s)
+                .symmetric_eigenvalues()
+                .into();
+            e.sort_by(|a, b| b.total_cmp(a));
+            e
+        })
+        .collect();
     let vm: Vec<f64> = cauchy
         .iter()
         .map(|s| von_mises(&crate::math::Mat3::from_row_slice(s)))
@@ -61,6 +72,10 @@ pub fn encode_frame(
         Field {
             name: "von_mises",
             data: DataArray::ScalarF64(&vm),
+        },
+        Field {
+            name: "principal_stress",
+            data: DataArray::VectorF64(&principal),
         },
         Field {
             name: "body",

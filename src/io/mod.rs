@@ -20,7 +20,7 @@ pub fn write_csv(
     let mut s = header.join(",");
     s.push('\n');
     for row in rows {
-        let cells: Vec<String> = row.iter().map(|v| format!("{v:e}")).collect();
+        let cells: Vec<String> = row.iter().map(|&v| format_number(v)).collect();
         s.push_str(&cells.join(","));
         s.push('\n');
     }
@@ -28,6 +28,16 @@ pub fn write_csv(
         std::fs::create_dir_all(dir)?;
     }
     write_atomic(path, s.as_bytes())
+}
+
+/// A CSV number: integers (step counts, exact zeros) as integers, everything else in
+/// shortest round-trip exponent form (`1.25e-3`).
+pub fn format_number(v: f64) -> String {
+    if v == v.trunc() && v.abs() < 1e15 {
+        format!("{}", v as i64)
+    } else {
+        format!("{v:e}")
+    }
 }
 
 enum Job {

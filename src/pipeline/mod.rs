@@ -534,11 +534,16 @@ impl Simulation {
                 time: self.time,
                 energy: self.energy,
             });
-            if is.non_finite > 0 || el.inverted > 0 || !self.energy.kinetic.is_finite() {
+            if el.inverted > 0 || !self.energy.kinetic.is_finite() {
                 return Err(SimError::Unstable(
                     self.describe_instability(el.inverted, is.non_finite),
                 ));
             }
+        }
+        if is.non_finite > 0 {
+            return Err(SimError::Unstable(
+                self.describe_instability(el.inverted, is.non_finite),
+            ));
         }
         self.accumulated.viscous_damping += viscous;
         self.accumulated.mass_damping += is.damping_before + is.damping_after;
@@ -551,7 +556,7 @@ impl Simulation {
 
     fn describe_instability(&self, inverted: usize, non_finite: usize) -> String {
         let at = format!(
-            "at step {} (t = {:.6e} s, dt = {:.4e} s)",
+            "in step {} (from t = {:.6e} s, dt = {:.4e} s)",
             self.step, self.time, self.dt
         );
         let hint = "reduce the time step safety factor or the loading rate, or check the material parameters";
@@ -585,6 +590,24 @@ impl Simulation {
             );
         }
         format!("non-finite energy {at}; {hint}")
+    }
+
+    /// Check the current configuration for inverted elements (stage 1 checks only on energy
+    /// samples); called at the end of every run so that no run ends silently broken.
+    pub fn check_configuration(&self) -> Result<(), SimError> {
+        let inverted = (0..self.tets.len())
+            .into_par_iter()
+            .filter(|&e| {
+                elements::deformation_gradient(&self.tets, &self.nodes.x, e)
+                    .determinant()
+                    .partial_cmp(&0.0)
+                    != Some(std::cmp::Ordering::Greater)
+            })
+            .count();
+        if inverted > 0 {
+            return Err(SimError::Unstable(self.describe_instability(inverted, 0)));
+        }
+        Ok(())
     }
 
     /// Kinetic energy ½Σm|v|² from the current half-step velocities [J].

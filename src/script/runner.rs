@@ -28,6 +28,19 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
     {
         let mut st = s.0.borrow_mut();
         st.sim.prepare().map_err(|e| format!("run(): {e}"))?;
+        if st.runs == 0 {
+            for b in st
+                .sim
+                .bodies
+                .iter()
+                .filter(|b| b.layout == crate::pipeline::Layout::Jointed)
+            {
+                ctx.say(&format!(
+                    "[{}] warning: body '{}' is jointed but this version has no joint elements: its tetrahedra are not connected and will move independently",
+                    st.name, b.name
+                ));
+            }
+        }
         let line = st
             .sim
             .dt_info
@@ -72,9 +85,21 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
                 (st.sim.time, st.sim.step)
             };
             if step >= step_end || time >= t_end - 1e-9 * dt {
-                return Ok(());
+                return s
+                    .0
+                    .borrow()
+                    .sim
+                    .check_configuration()
+                    .map_err(|e| sim_error(&e));
             }
-            s.0.borrow_mut().sim.step().map_err(|e| sim_error(&e))?;
+            {
+                let mut st = s.0.borrow_mut();
+                // The last step of a run with a known end is an energy sample.
+                if step + 1 >= step_end || time + dt >= t_end - 1e-9 * dt {
+                    st.sim.sample_next = true;
+                }
+                st.sim.step().map_err(|e| sim_error(&e))?;
+            }
             call_hooks(nc, s)?;
             let step = step + 1;
             for m in &monitors {
@@ -87,7 +112,14 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
                 if (step - step_start) % check_every == 0 {
                     let r: Dynamic = f.call_within_context(nc, (s.clone(),))?;
                     match r.as_bool() {
-                        Ok(true) => return Ok(()),
+                        Ok(true) => {
+                            return s
+                                .0
+                                .borrow()
+                                .sim
+                                .check_configuration()
+                                .map_err(|e| sim_error(&e))
+                        }
                         Ok(false) => {}
                         Err(t) => {
                             return super::opts::err(format!(
