@@ -253,17 +253,7 @@ print(" ".join(float(v).hex() for v in m.cell_data["von_mises"][0]))
         .map(|e| {
             let f = fdem::elements::deformation_gradient(&sim.tets, &sim.nodes.x, e);
             let s = sim.materials[0].stress(&f, fdem::material::StressMeasure::Cauchy);
-            fdem::math::von_mises(&fdem::math::Mat3::from_row_slice(&[
-                s[(0, 0)],
-                s[(0, 1)],
-                s[(0, 2)],
-                s[(1, 0)],
-                s[(1, 1)],
-                s[(1, 2)],
-                s[(2, 0)],
-                s[(2, 1)],
-                s[(2, 2)],
-            ]))
+            fdem::math::von_mises(&s)
         })
         .collect();
     assert_eq!(bits(vm), bits(expected));
