@@ -535,15 +535,11 @@ impl Simulation {
                 energy: self.energy,
             });
             if el.inverted > 0 || !self.energy.kinetic.is_finite() {
-                return Err(SimError::Unstable(
-                    self.describe_instability(el.inverted, is.non_finite),
-                ));
+                return Err(SimError::Unstable(self.describe_instability(el.inverted)));
             }
         }
         if is.non_finite > 0 {
-            return Err(SimError::Unstable(
-                self.describe_instability(el.inverted, is.non_finite),
-            ));
+            return Err(SimError::Unstable(self.describe_instability(el.inverted)));
         }
         self.accumulated.viscous_damping += viscous;
         self.accumulated.mass_damping += is.damping_before + is.damping_after;
@@ -554,20 +550,18 @@ impl Simulation {
         Ok(())
     }
 
-    fn describe_instability(&self, inverted: usize, non_finite: usize) -> String {
+    fn describe_instability(&self, inverted: usize) -> String {
         let at = format!(
             "in step {} (from t = {:.6e} s, dt = {:.4e} s)",
             self.step, self.time, self.dt
         );
         let hint = "reduce the time step safety factor or the loading rate, or check the material parameters";
-        if let Some(n) = (0..self.nodes.len()).find(|&n| {
-            !(self.nodes.x[n].iter().all(|c| c.is_finite())
-                && self.nodes.v[n].iter().all(|c| c.is_finite()))
-        }) {
+        if let Some(n) = (0..self.nodes.len()).find(|&n| !self.node_is_finite(n)) {
             let b = &self.bodies[self.nodes.body[n] as usize].name;
             let p = self.nodes.x0[n];
             return format!(
-                "{non_finite} node(s) have non-finite position or velocity {at}; first: node {n} of body '{b}' (reference position ({:.4}, {:.4}, {:.4})); {hint}",
+                "{} node(s) have non-finite position or velocity {at}; first: node {n} of body '{b}' (reference position ({:.4}, {:.4}, {:.4})); {hint}",
+                (0..self.nodes.len()).filter(|&i| !self.node_is_finite(i)).count(),
                 p.x, p.y, p.z
             );
         }
@@ -592,6 +586,13 @@ impl Simulation {
         format!("non-finite energy {at}; {hint}")
     }
 
+    fn node_is_finite(&self, n: usize) -> bool {
+        self.nodes.x[n]
+            .iter()
+            .chain(self.nodes.v[n].iter())
+            .all(|c| c.is_finite())
+    }
+
     /// Check the current configuration for inverted elements (stage 1 checks only on energy
     /// samples); called at the end of every run so that no run ends silently broken.
     pub fn check_configuration(&self) -> Result<(), SimError> {
@@ -605,7 +606,7 @@ impl Simulation {
             })
             .count();
         if inverted > 0 {
-            return Err(SimError::Unstable(self.describe_instability(inverted, 0)));
+            return Err(SimError::Unstable(self.describe_instability(inverted)));
         }
         Ok(())
     }
