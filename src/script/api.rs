@@ -56,7 +56,7 @@ pub const SECTIONS: &[(&str, &str)] = &[
 pub const SIMULATION_KEYS: &[Key] = &[
     key("name", "string", "", "script file stem", "Name used in output file names."),
     key("out_dir", "string", "", "\"out/<name>\"", "Output directory (created when first written). `fdem run --out DIR` overrides it."),
-    key("energy_every", "int", "steps", "50", "Sample the energy account every this many steps (written to energy.csv)."),
+    key("energy_every", "int", "steps", "50", "Sample the energy account every this many steps, and on the last step of every run (written to energy.csv). Inverted elements are detected on samples and at the end of every run; non-finite values every step."),
     key("stress_output", "string", "", "\"cauchy\"", "Extra stress field written to VTK besides the Cauchy stress: \"cauchy\", \"pk1\" or \"pk2\"."),
     key("vtk_encoding", "string", "", "\"raw\"", "Appended data of `.vtu` files: \"raw\" (fast; ParaView, VTK, meshio) or \"base64\" (for readers without raw support, e.g. vtkio)."),
 ];
