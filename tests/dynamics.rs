@@ -132,21 +132,16 @@ fn cantilever_converges_to_beam_theory() {
             .filter(|f| f.area_normal(&sim.nodes.x0).normalize().x > 0.999)
             .copied()
             .collect();
-        let mut per_node = std::collections::BTreeMap::<u32, Vec3>::new();
-        for f in &tip_faces {
-            let a = f.area_normal(&sim.nodes.x0).norm();
-            for &nd in &f.nodes {
-                *per_node.entry(nd).or_default() += Vec3::new(0.0, 0.0, -p / (b * h)) * a / 3.0;
-            }
-        }
-        let tip: Vec<u32> = per_node.keys().copied().collect();
-        let (nodes, force): (Vec<u32>, Vec<Vec3>) = per_node.into_iter().unzip();
         let t1 = std::f64::consts::TAU / omega1;
-        sim.loads.forces.push(NodalForces::new(
-            nodes,
-            force,
-            TimeFunction::table(vec![(0.0, 0.0), (t1, 1.0)]).unwrap(),
-        ));
+        let ramp = TimeFunction::table(vec![(0.0, 0.0), (t1, 1.0)]).unwrap();
+        let load = NodalForces::traction(
+            &tip_faces,
+            &sim.nodes.x0,
+            Vec3::new(0.0, 0.0, -p / (b * h)),
+            ramp,
+        );
+        let tip = load.nodes.clone();
+        sim.loads.forces.push(load);
         sim.settings.mass_damping = 2.0 * omega1;
         sim.settings.safety = 0.9;
         while sim.time < 4.0 * t1 {

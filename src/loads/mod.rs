@@ -37,6 +37,25 @@ impl NodalForces {
             started: false,
         }
     }
+    /// A surface traction `t` [Pa] on the reference area of `faces` (a dead load), lumped as
+    /// area/3 to each face node; nodes appear once, in id order.
+    pub fn traction(
+        faces: &[crate::mesh::BoundaryFace],
+        x0: &[Vec3],
+        t: Vec3,
+        scale: TimeFunction,
+    ) -> Self {
+        let mut per_node: std::collections::BTreeMap<u32, Vec3> = Default::default();
+        for f in faces {
+            let area = f.area_normal(x0).norm();
+            for &n in &f.nodes {
+                *per_node.entry(n).or_default() += t * (area / 3.0);
+            }
+        }
+        let (nodes, force) = per_node.into_iter().unzip();
+        Self::new(nodes, force, scale)
+    }
+
     /// Total force at time t [N].
     pub fn total(&self, t: Real) -> Vec3 {
         self.force.iter().sum::<Vec3>() * self.scale.eval(t)

@@ -565,12 +565,7 @@ impl Simulation {
                 p.x, p.y, p.z
             );
         }
-        if let Some(e) = (0..self.tets.len()).find(|&e| {
-            elements::deformation_gradient(&self.tets, &self.nodes.x, e)
-                .determinant()
-                .partial_cmp(&0.0)
-                != Some(std::cmp::Ordering::Greater)
-        }) {
+        if let Some(e) = (0..self.tets.len()).find(|&e| self.tet_is_inverted(e)) {
             let b = &self.bodies[self.tets.body[e] as usize].name;
             let c = self.tets.nodes[e]
                 .iter()
@@ -586,6 +581,12 @@ impl Simulation {
         format!("non-finite energy {at}; {hint}")
     }
 
+    /// det F ≤ 0 (or NaN) at the current positions.
+    fn tet_is_inverted(&self, e: usize) -> bool {
+        let j = elements::deformation_gradient(&self.tets, &self.nodes.x, e).determinant();
+        j.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+    }
+
     fn node_is_finite(&self, n: usize) -> bool {
         self.nodes.x[n]
             .iter()
@@ -598,12 +599,7 @@ impl Simulation {
     pub fn check_configuration(&self) -> Result<(), SimError> {
         let inverted = (0..self.tets.len())
             .into_par_iter()
-            .filter(|&e| {
-                elements::deformation_gradient(&self.tets, &self.nodes.x, e)
-                    .determinant()
-                    .partial_cmp(&0.0)
-                    != Some(std::cmp::Ordering::Greater)
-            })
+            .filter(|&e| self.tet_is_inverted(e))
             .count();
         if inverted > 0 {
             return Err(SimError::Unstable(self.describe_instability(inverted)));

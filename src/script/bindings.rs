@@ -801,18 +801,8 @@ fn register_loads(engine: &mut Engine) {
     ) -> RhaiResult<()> {
         let t = vec3_arg(&t, "traction()")?;
         let mut st = s.0.borrow_mut();
-        let mut per_node: std::collections::BTreeMap<u32, Vec3> = Default::default();
-        for f in faces.faces.iter() {
-            let a = f.area_normal(&st.sim.nodes.x0).norm();
-            for &n in &f.nodes {
-                *per_node.entry(n).or_default() += t * (a / 3.0);
-            }
-        }
-        let (nodes, force): (Vec<u32>, Vec<Vec3>) = per_node.into_iter().unzip();
-        st.sim
-            .loads
-            .forces
-            .push(NodalForces::new(nodes, force, scale));
+        let forces = NodalForces::traction(&faces.faces, &st.sim.nodes.x0, t, scale);
+        st.sim.loads.forces.push(forces);
         Ok(())
     }
     engine.register_fn("traction", |s: &mut SimHandle, f: FaceSet, t: Array| {
