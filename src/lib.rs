@@ -20,6 +20,7 @@ pub mod cli;
 pub mod elements;
 pub mod integration;
 pub mod io;
+pub mod joints;
 pub mod loads;
 pub mod material;
 pub mod math;
