@@ -18,6 +18,7 @@
 
 pub mod cli;
 pub mod elements;
+pub mod fracture;
 pub mod integration;
 pub mod io;
 pub mod joints;

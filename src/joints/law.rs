@@ -139,6 +139,8 @@ pub struct PointTraction {
     pub shear: Real,
     /// Recoverable energy per unit area at this state [J/m²] (for the energy account).
     pub energy: Real,
+    /// Energy per unit area dissipated by this evaluation (damage growth, friction) [J/m²].
+    pub dissipated: Real,
 }
 
 impl Cohesive {
@@ -176,11 +178,18 @@ impl Cohesive {
         let fs = self.shear_strength(compression);
         let (dnp, dsp) = (self.peak_opening(h), self.peak_slip(h, fs));
         let (dnt, dst) = self.softening_lengths(fs);
+        // Undamaged stored-energy shapes at the current opening and slip: damage growth from
+        // D to D' at fixed kinematics dissipates (z(D) − z(D'))·(their sum).
+        let shape = self.tensile_strength * dnp * prepeak_integral(k.opening.max(0.0) / dnp)
+            + fs * dsp * prepeak_integral(k.slip / dsp);
+        let z_before = self.softening.z(s.damage);
+        let mut dissipated = 0.0;
         if s.damage < 1.0 {
             // Damage from the elliptical interaction of the excess opening and slip.
             let xn = (k.opening - dnp).max(0.0) / dnt;
             let xs = (k.slip - dsp).max(0.0) / dst;
             s.damage = s.damage.max((xn * xn + xs * xs).sqrt().min(1.0));
+            dissipated = (z_before - self.softening.z(s.damage)) * shape;
         }
         s.max_opening = s.max_opening.max(k.opening);
         s.max_slip = s.max_slip.max(k.slip);
@@ -201,13 +210,17 @@ impl Cohesive {
             let limit = self.residual_friction * (-compression);
             let elastic = pt * (k.slip - s.anchor);
             if elastic.abs() > limit {
-                s.anchor = k.slip - limit.copysign(elastic) / pt;
+                let anchor = k.slip - limit.copysign(elastic) / pt;
+                dissipated += limit * (anchor - s.anchor).abs();
+                s.anchor = anchor;
             }
             t.shear = (pt * (k.slip - s.anchor)).max(0.0);
+            energy += 0.5 * pt * (k.slip - s.anchor).powi(2);
         } else {
             s.anchor = k.slip;
         }
         t.energy = energy;
+        t.dissipated = dissipated;
         t
     }
 }

@@ -1,6 +1,375 @@
-//! Stage 2 — joints: cohesive elements between the faces of neighbouring tetrahedra.
+//! Stage 2 — joints: cohesive elements between the faces of neighbouring tetrahedra
+//! (Munjiza 2004, ch. 7). Reads positions; adds joint forces to `f`; updates each joint's
+//! damage history.
 //!
-//! (Work in progress for issue #3: the constitutive laws are here; insertion and the stage
-//! kernel follow.)
+//! A joint holds two coincident triangular faces — face A of one tetrahedron, with its
+//! outward vertex order, and face B of the neighbour, vertex i of B coinciding with vertex i
+//! of A in the reference configuration. Kinematics are taken at the three node pairs
+//! (vertex integration, tributary area A/3 each) in the current configuration: the
+//! mid-surface of the two faces gives the unit normal n (pointing from A to B) and area A;
+//! at pair i, Δ = x_Bi − x_Ai, opening δn = Δ·n, slip vector Δ − δn·n, slip δs its length.
+//! Tractions from the law act on B as −σ·n − τ·ŝ and on A as the opposite, times A/3: the
+//! joint forces are equal and opposite and follow large rotations.
+//!
+//! Guarantees: deterministic for any thread count (per-joint forces go to a slot buffer,
+//! gathered per node in a fixed order).
 
 pub mod law;
+
+use crate::math::{Real, Vec3};
+use crate::mesh::TET_FACES;
+use crate::pipeline::state::{Body, Layout, Nodes};
+use law::{Cohesive, PointKinematics, PointState, PointTraction};
+use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// Joints per parallel work item.
+pub const CHUNK: usize = 1024;
+
+/// A joint constitutive law (registry name ↔ type).
+#[derive(Clone, Debug, PartialEq)]
+pub enum JointLaw {
+    /// `"cohesive/munjiza"` and `"cohesive/linear"`: softening, breaking cohesion.
+    Cohesive(Cohesive),
+    /// `"tied"`: linear penalty springs that never break.
+    Tied {
+        normal_penalty: Real,
+        tangential_penalty: Real,
+    },
+}
+
+impl JointLaw {
+    pub fn name(&self) -> &'static str {
+        match self {
+            JointLaw::Cohesive(c) => match c.softening {
+                law::Softening::Munjiza => "cohesive/munjiza",
+                law::Softening::Linear => "cohesive/linear",
+            },
+            JointLaw::Tied { .. } => "tied",
+        }
+    }
+
+    /// (p_n, p_t) [Pa].
+    pub fn penalties(&self) -> (Real, Real) {
+        match self {
+            JointLaw::Cohesive(c) => (c.normal_penalty, c.tangential_penalty),
+            JointLaw::Tied {
+                normal_penalty,
+                tangential_penalty,
+            } => (*normal_penalty, *tangential_penalty),
+        }
+    }
+
+    #[inline]
+    pub fn evaluate(&self, k: &PointKinematics, s: &mut PointState) -> PointTraction {
+        match self {
+            JointLaw::Cohesive(c) => c.evaluate(k, s),
+            JointLaw::Tied {
+                normal_penalty,
+                tangential_penalty,
+            } => {
+                let (kn, kt) = (normal_penalty / k.size, tangential_penalty / k.size);
+                PointTraction {
+                    normal: kn * k.opening,
+                    shear: kt * k.slip,
+                    energy: 0.5 * (kn * k.opening * k.opening + kt * k.slip * k.slip),
+                    dissipated: 0.0,
+                }
+            }
+        }
+    }
+}
+
+/// All joints of a simulation (structure of arrays).
+#[derive(Clone, Debug, Default)]
+pub struct Joints {
+    /// Face A and face B node ids, paired by index.
+    pub faces: Vec<[[u32; 3]; 2]>,
+    /// The tetrahedra that own faces A and B.
+    pub tets: Vec<[u32; 2]>,
+    pub law: Vec<u32>,
+    /// Characteristic size h [m]: mean edge length of the face.
+    pub size: Vec<Real>,
+    /// Reference area [m²].
+    pub area0: Vec<Real>,
+    pub state: Vec<[PointState; 3]>,
+    /// Set by stage 3 when every point is fully damaged.
+    pub broken: Vec<bool>,
+    pub laws: Vec<JointLaw>,
+    gather: Gather,
+    partials: Vec<JointSums>,
+}
+
+/// Per-step sums over joints.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct JointSums {
+    /// Recoverable joint energy [J] (when requested).
+    pub energy: Real,
+    /// Energy dissipated by damage and friction in this step [J].
+    pub dissipated: Real,
+    /// Joints with every point at D = 1 that are not yet marked broken.
+    pub newly_failed: usize,
+}
+
+#[derive(Clone, Debug, Default)]
+struct Gather {
+    slots: Vec<[Vec3; 6]>,
+    /// For node n: slots `slot_ids[offsets[k]..offsets[k+1]]` where k = position of n in `nodes`.
+    nodes: Vec<u32>,
+    offsets: Vec<u32>,
+    slot_ids: Vec<u32>,
+}
+
+impl Joints {
+    pub fn len(&self) -> usize {
+        self.faces.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.faces.is_empty()
+    }
+
+    pub fn add_law(&mut self, law: JointLaw) -> u32 {
+        self.laws.push(law);
+        (self.laws.len() - 1) as u32
+    }
+
+    /// Insert a joint on every internal face of a jointed body whose centroid passes `keep`.
+    /// Returns how many were inserted. Faces that already carry a joint are skipped.
+    pub fn insert_in_body(
+        &mut self,
+        body: &Body,
+        tet_nodes: &[[u32; 4]],
+        x0: &[Vec3],
+        law: u32,
+        keep: impl Fn(&Vec3) -> bool,
+    ) -> Result<usize, String> {
+        if body.layout != Layout::Jointed {
+            return Err(format!(
+                "body '{}' is continuous: its tetrahedra share nodes and cannot be separated; add it with #{{ layout: \"jointed\" }} to insert joints",
+                body.name
+            ));
+        }
+        let existing: std::collections::HashSet<[u32; 2]> = self
+            .tets
+            .iter()
+            .map(|t| [t[0].min(t[1]), t[0].max(t[1])])
+            .collect();
+        let mesh = &body.mesh;
+        // Internal faces of the shared-node topology: sorted mesh node ids → (tet, local face).
+        let mut seen: HashMap<[u32; 3], (usize, usize)> =
+            HashMap::with_capacity(2 * mesh.tets.len());
+        let mut inserted = 0;
+        for (e, t) in mesh.tets.iter().enumerate() {
+            for (l, f) in TET_FACES.iter().enumerate() {
+                let mut key = [t[f[0]], t[f[1]], t[f[2]]];
+                key.sort_unstable();
+                let Some((e1, l1)) = seen.remove(&key) else {
+                    seen.insert(key, (e, l));
+                    continue;
+                };
+                let (ta, tb) = ((body.tets.start + e1) as u32, (body.tets.start + e) as u32);
+                if existing.contains(&[ta.min(tb), ta.max(tb)]) {
+                    continue;
+                }
+                let mesh_a = TET_FACES[l1].map(|c| mesh.tets[e1][c]);
+                let face_a = TET_FACES[l1].map(|c| tet_nodes[ta as usize][c]);
+                // Vertex i of B is the corner of tet e that is mesh node mesh_a[i].
+                let face_b = mesh_a.map(|m| {
+                    let c = mesh.tets[e]
+                        .iter()
+                        .position(|&q| q == m)
+                        .expect("shared face");
+                    tet_nodes[tb as usize][c]
+                });
+                let p = face_a.map(|n| x0[n as usize]);
+                let centroid = (p[0] + p[1] + p[2]) / 3.0;
+                if !keep(&centroid) {
+                    continue;
+                }
+                let area = 0.5 * (p[1] - p[0]).cross(&(p[2] - p[0])).norm();
+                let size =
+                    ((p[1] - p[0]).norm() + (p[2] - p[1]).norm() + (p[0] - p[2]).norm()) / 3.0;
+                self.faces.push([face_a, face_b]);
+                self.tets.push([ta, tb]);
+                self.law.push(law);
+                self.size.push(size);
+                self.area0.push(area);
+                self.state.push([PointState::default(); 3]);
+                self.broken.push(false);
+                inserted += 1;
+            }
+        }
+        Ok(inserted)
+    }
+
+    /// Build the node→slot gather map (after insertion, before stepping).
+    pub fn prepare(&mut self, n_nodes: usize) {
+        let mut count = vec![0u32; n_nodes];
+        for f in &self.faces {
+            for side in f {
+                for &n in side {
+                    count[n as usize] += 1;
+                }
+            }
+        }
+        let nodes: Vec<u32> = (0..n_nodes as u32)
+            .filter(|&n| count[n as usize] > 0)
+            .collect();
+        let mut offsets = Vec::with_capacity(nodes.len() + 1);
+        offsets.push(0u32);
+        let mut index = vec![u32::MAX; n_nodes];
+        for (k, &n) in nodes.iter().enumerate() {
+            index[n as usize] = k as u32;
+            offsets.push(offsets[k] + count[n as usize]);
+        }
+        let mut fill: Vec<u32> = offsets[..nodes.len()].to_vec();
+        let mut slot_ids = vec![0u32; *offsets.last().unwrap() as usize];
+        for (j, f) in self.faces.iter().enumerate() {
+            for (side, ids) in f.iter().enumerate() {
+                for (i, &n) in ids.iter().enumerate() {
+                    let k = index[n as usize] as usize;
+                    slot_ids[fill[k] as usize] = (6 * j + 3 * side + i) as u32;
+                    fill[k] += 1;
+                }
+            }
+        }
+        self.gather = Gather {
+            slots: vec![[Vec3::zeros(); 6]; self.faces.len()],
+            nodes,
+            offsets,
+            slot_ids,
+        };
+        self.partials = Vec::with_capacity(self.faces.len().div_ceil(CHUNK));
+    }
+
+    /// Stiffness of the joint springs at each node, Σ max(p_n, p_t)/h·A/3 [N/m] (for the
+    /// critical time step).
+    pub fn nodal_stiffness(&self, n_nodes: usize) -> Vec<Real> {
+        let mut k = vec![0.0; n_nodes];
+        for j in 0..self.len() {
+            let (pn, pt) = self.laws[self.law[j] as usize].penalties();
+            let kj = pn.max(pt) / self.size[j] * self.area0[j] / 3.0;
+            for side in &self.faces[j] {
+                for &n in side {
+                    k[n as usize] += kj;
+                }
+            }
+        }
+        k
+    }
+}
+
+/// Kinematics of joint `j`: unit normal, mid-surface area, and per pair (opening, slip, slip direction).
+#[inline(always)]
+pub fn joint_kinematics(
+    faces: &[[u32; 3]; 2],
+    x: &[Vec3],
+) -> (Vec3, Real, [(Real, Real, Vec3); 3]) {
+    let a = faces[0].map(|n| x[n as usize]);
+    let b = faces[1].map(|n| x[n as usize]);
+    let m = [
+        (a[0] + b[0]) * 0.5,
+        (a[1] + b[1]) * 0.5,
+        (a[2] + b[2]) * 0.5,
+    ];
+    let nv = (m[1] - m[0]).cross(&(m[2] - m[0]));
+    let len = nv.norm();
+    let n = if len > 0.0 { nv / len } else { Vec3::zeros() };
+    let pts = std::array::from_fn(|i| {
+        let d = b[i] - a[i];
+        let dn = d.dot(&n);
+        let st = d - n * dn;
+        let ds = st.norm();
+        let dir = if ds > 0.0 { st / ds } else { Vec3::zeros() };
+        (dn, ds, dir)
+    });
+    (n, 0.5 * len, pts)
+}
+
+/// Stage 2: add the joint forces of every intact or broken joint to `nodes.f`.
+pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: bool) -> JointSums {
+    if joints.is_empty() {
+        return JointSums::default();
+    }
+    let Joints {
+        faces,
+        law,
+        size,
+        state,
+        laws,
+        gather,
+        partials,
+        ..
+    } = joints;
+    let x = &nodes.x;
+    gather
+        .slots
+        .par_chunks_mut(CHUNK)
+        .zip(state.par_chunks_mut(CHUNK))
+        .enumerate()
+        .map(|(c, (slots, states))| {
+            let mut s = JointSums::default();
+            for (i, (slot, st)) in slots.iter_mut().zip(states.iter_mut()).enumerate() {
+                let j = c * CHUNK + i;
+                let (n, area, pts) = joint_kinematics(&faces[j], x);
+                let law = &laws[law[j] as usize];
+                let was_failed = st.iter().all(|p| p.damage >= 1.0);
+                for (p, (dn, ds, dir)) in pts.iter().enumerate() {
+                    let k = PointKinematics {
+                        opening: *dn,
+                        slip: *ds,
+                        size: size[j],
+                    };
+                    let t = law.evaluate(&k, &mut st[p]);
+                    let on_b = -(n * t.normal + dir * t.shear) * (area / 3.0);
+                    slot[p] = -on_b;
+                    slot[3 + p] = on_b;
+                    s.dissipated += t.dissipated * area / 3.0;
+                    if want_energy {
+                        s.energy += t.energy * area / 3.0;
+                    }
+                }
+                if !was_failed && st.iter().all(|p| p.damage >= 1.0) {
+                    s.newly_failed += 1;
+                }
+            }
+            s
+        })
+        .collect_into_vec(partials);
+    let (offsets, slot_ids, slots) = (&gather.offsets, &gather.slot_ids, &gather.slots);
+    let f = &mut nodes.f;
+    // Gather: each node with joints sums its slots in a fixed order. Nodes are disjoint, so
+    // the writes go through a raw pointer split by node list position.
+    let fp = SyncPtr(f.as_mut_ptr());
+    gather
+        .nodes
+        .par_iter()
+        .enumerate()
+        .with_min_len(4096)
+        .for_each(|(k, &n)| {
+            let mut sum = Vec3::zeros();
+            for &sid in &slot_ids[offsets[k] as usize..offsets[k + 1] as usize] {
+                sum += slots[sid as usize / 6][sid as usize % 6];
+            }
+            // SAFETY: `gather.nodes` holds distinct node ids (built from a count per node), so
+            // no two iterations write the same element, and `f` outlives the loop.
+            unsafe { *fp.get().add(n as usize) += sum };
+        });
+    partials.iter().fold(JointSums::default(), |mut a, s| {
+        a.energy += s.energy;
+        a.dissipated += s.dissipated;
+        a.newly_failed += s.newly_failed;
+        a
+    })
+}
+
+#[derive(Clone, Copy)]
+struct SyncPtr(*mut Vec3);
+unsafe impl Send for SyncPtr {}
+unsafe impl Sync for SyncPtr {}
+impl SyncPtr {
+    #[inline(always)]
+    fn get(self) -> *mut Vec3 {
+        self.0
+    }
+}

@@ -47,11 +47,15 @@ impl Stage {
             Stage::Integration => "integration",
         }
     }
-    /// Whether the stage exists in this build (joints, fracture and contact come later).
+    /// Whether the stage exists in this build (contact comes with issue #5).
     pub fn is_built(self) -> bool {
         matches!(
             self,
-            Stage::Elements | Stage::ExternalLoads | Stage::Integration
+            Stage::Elements
+                | Stage::Joints
+                | Stage::Fracture
+                | Stage::ExternalLoads
+                | Stage::Integration
         )
     }
 }
@@ -86,6 +90,10 @@ pub struct Energy {
     pub mass_damping: Real,
     /// Dissipated by viscous (η·D) element damping.
     pub viscous_damping: Real,
+    /// Recoverable energy of the joints.
+    pub joint: Real,
+    /// Dissipated by joint damage and friction on broken joints (fracture).
+    pub fracture: Real,
     /// Kinetic + strain energy at the first step.
     pub initial: Real,
 }
@@ -95,17 +103,19 @@ impl Energy {
         self.gravity_work + self.force_work + self.reaction_work
     }
     pub fn dissipated(&self) -> Real {
-        self.mass_damping + self.viscous_damping
+        self.mass_damping + self.viscous_damping + self.fracture
     }
-    /// (kinetic + strain + dissipated) − (initial + external work) [J].
+    /// (kinetic + strain + joint + dissipated) − (initial + external work) [J].
     pub fn balance_error(&self) -> Real {
-        self.kinetic + self.strain + self.dissipated() - (self.initial + self.external_work())
+        self.kinetic + self.strain + self.joint + self.dissipated()
+            - (self.initial + self.external_work())
     }
     /// Balance error relative to the largest energy in the account.
     pub fn relative_balance_error(&self) -> Real {
         let scale = [
             self.kinetic,
             self.strain,
+            self.joint,
             self.initial,
             self.gravity_work.abs(),
             self.force_work.abs(),
@@ -142,6 +152,9 @@ pub struct TimeStepInfo {
     pub centroid: Vec3,
     /// True when the user fixed dt.
     pub fixed: bool,
+    /// With joints: the node whose joint springs are stiffest and the critical step of the
+    /// tetrahedra alone.
+    pub joints: Option<(usize, Real)>,
 }
 
 impl std::fmt::Display for TimeStepInfo {
@@ -156,7 +169,14 @@ impl std::fmt::Display for TimeStepInfo {
             f,
             "dt = {:.4e} s ({how}); critical {:.4e} s set by tet {} of body '{}' at ({:.4}, {:.4}, {:.4})",
             self.dt, self.critical, self.tet, self.body, c.x, c.y, c.z
-        )
+        )?;
+        if let Some((node, alone)) = self.joints {
+            write!(
+                f,
+                "; joint penalties lower it from {alone:.4e} s (stiffest at node {node})"
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -212,6 +232,10 @@ pub struct Simulation {
     pub bodies: Vec<Body>,
     pub materials: Vec<Material>,
     pub loads: Loads,
+    /// Joint elements (stage 2) and their laws.
+    pub joints: crate::joints::Joints,
+    /// Joints broken so far (stage 3), in the order they broke.
+    pub break_events: Vec<crate::fracture::BreakEvent>,
     pub settings: Settings,
     pub time: Real,
     pub step: u64,
@@ -330,6 +354,7 @@ impl Simulation {
             tets: tet_start..self.tets.len(),
             nodes: node_start..self.nodes.len(),
             boundary,
+            mesh: mesh.clone(),
         });
         Ok(id)
     }
@@ -404,6 +429,7 @@ impl Simulation {
         self.integration_partials =
             Vec::with_capacity(self.nodes.len().div_ceil(integration::CHUNK));
         self.loads.apply_constraint_masks(&mut self.nodes);
+        self.joints.prepare(self.nodes.len());
         let info = self.stable_time_step()?;
         self.dt = info.dt;
         self.dt_info = Some(info);
@@ -413,7 +439,7 @@ impl Simulation {
 
     /// Critical time step over all tets and the dt to use.
     pub fn stable_time_step(&self) -> Result<TimeStepInfo, SimError> {
-        let (critical, tet) = (0..self.tets.len())
+        let (critical_tets, tet) = (0..self.tets.len())
             .into_par_iter()
             .map(|e| {
                 (
@@ -434,6 +460,22 @@ impl Simulation {
                     }
                 },
             );
+        // Joint springs add stiffness at their nodes: by Weyl's inequality and a Gershgorin
+        // bound on the joint part, ω² ≤ ω_tets² + max_n 2·Σk_joint/m_n.
+        let mut critical = critical_tets;
+        let mut joints_note = None;
+        if !self.joints.is_empty() {
+            let k = self.joints.nodal_stiffness(self.nodes.len());
+            let (w2, node) = k
+                .iter()
+                .zip(&self.nodes.m)
+                .enumerate()
+                .map(|(n, (k, m))| (2.0 * k / m, n))
+                .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a });
+            let w_tets = 2.0 / critical_tets;
+            critical = 2.0 / (w_tets * w_tets + w2).sqrt();
+            joints_note = Some((node, critical_tets));
+        }
         let body = &self.bodies[self.tets.body[tet] as usize];
         let centroid = self.tets.nodes[tet]
             .iter()
@@ -448,6 +490,7 @@ impl Simulation {
             body: body.name.clone(),
             centroid,
             fixed: false,
+            joints: joints_note,
         };
         if let Some(dt) = self.settings.dt {
             if dt > critical {
@@ -483,8 +526,25 @@ impl Simulation {
         );
         self.timers.seconds[Stage::Elements as usize] += t.elapsed().as_secs_f64();
 
-        // 2. joints, 3. fracture, 4. contact detection, 5. contact interaction:
-        //    not built yet — no joint or contact elements exist in this version.
+        // 2. joints
+        let t = Instant::now();
+        let js = crate::joints::add_joint_forces(&mut self.joints, &mut self.nodes, sample);
+        self.timers.seconds[Stage::Joints as usize] += t.elapsed().as_secs_f64();
+
+        // 3. fracture
+        let t = Instant::now();
+        if js.newly_failed > 0 {
+            crate::fracture::break_joints(
+                &mut self.joints,
+                &self.nodes.x,
+                &self.tets.body,
+                self.time,
+                &mut self.break_events,
+            );
+        }
+        self.timers.seconds[Stage::Fracture as usize] += t.elapsed().as_secs_f64();
+
+        // 4. contact detection, 5. contact interaction: not built yet (issue #5).
 
         // 6. external loads
         let t = Instant::now();
@@ -523,6 +583,8 @@ impl Simulation {
                 reaction_work: a.reaction_work + is.reaction_work_before,
                 mass_damping: a.mass_damping + is.damping_before,
                 viscous_damping: a.viscous_damping + 0.5 * viscous,
+                joint: js.energy,
+                fracture: a.fracture + js.dissipated,
                 initial: if self.step == 0 {
                     is.kinetic + el.strain_energy
                 } else {
@@ -542,6 +604,7 @@ impl Simulation {
             return Err(SimError::Unstable(self.describe_instability(el.inverted)));
         }
         self.accumulated.viscous_damping += viscous;
+        self.accumulated.fracture += js.dissipated;
         self.accumulated.mass_damping += is.damping_before + is.damping_after;
         self.accumulated.reaction_work += is.reaction_work_before + is.reaction_work_after;
         self.dt_prev = dt;

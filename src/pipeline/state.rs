@@ -100,6 +100,9 @@ pub struct Body {
     pub nodes: Range<usize>,
     /// Outer boundary faces, with simulation node ids and outward orientation.
     pub boundary: Vec<BoundaryFace>,
+    /// The body's mesh with shared nodes, in the current reference placement (tet i of the mesh
+    /// is simulation tet `tets.start + i`).
+    pub mesh: crate::mesh::Mesh,
 }
 
 /// Handle to a material in a simulation.

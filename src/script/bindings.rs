@@ -357,7 +357,6 @@ fn register_simulation(engine: &mut Engine, ctx: Rc<ScriptContext>) {
             hooks: Vec::new(),
             monitors: Vec::new(),
             material_ids: HashMap::new(),
-            body_meshes: Vec::new(),
             runs: 0,
             printed_dt: None,
             wall: 0.0,
@@ -488,7 +487,6 @@ fn register_bodies(engine: &mut Engine) {
             .sim
             .add_body(name, &mesh.0, mid, layout)
             .map_err(|e| format!("add_body(): {e}"))?;
-        st.body_meshes.push((*mesh.0).clone());
         drop(st);
         Ok(BodyHandle { sim: s.clone(), id })
     }
@@ -518,7 +516,7 @@ fn register_bodies(engine: &mut Engine) {
                     .map(|(k, _)| *k)
                     .unwrap_or(0);
                 (
-                    st.body_meshes[b.id].clone(),
+                    st.sim.bodies[b.id].mesh.clone(),
                     MaterialValue { uid, material: m },
                     body.layout,
                 )
@@ -630,7 +628,7 @@ fn move_body(b: &mut BodyHandle, f: impl Fn(Vec3) -> Vec3) -> RhaiResult<()> {
         st.sim.nodes.x0[n] = p;
         st.sim.nodes.x[n] = p;
     }
-    for p in &mut st.body_meshes[b.id].nodes {
+    for p in &mut st.sim.bodies[b.id].mesh.nodes {
         *p = f(*p);
     }
     // dm_inv changes under rotation: rebuild the tets' reference data.

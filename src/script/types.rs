@@ -27,8 +27,6 @@ pub struct SimState {
     pub vtk: VtkSeries,
     /// Material uid (from `material(..)`) → material id in this simulation.
     pub material_ids: HashMap<u64, u32>,
-    /// Source meshes of bodies (for `body.copy`), in body order.
-    pub body_meshes: Vec<Mesh>,
     /// Number of completed `run` calls.
     pub runs: usize,
     /// Last printed time-step line (printed again only when it changes).

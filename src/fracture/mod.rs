@@ -1,0 +1,130 @@
+//! Stage 3 — fracture: joints whose every integration point is fully damaged (D = 1) break.
+//! A broken joint keeps its compression penalty and friction (so the two faces do not
+//! interpenetrate before contact takes over); its faces become free surfaces. Each break is
+//! recorded as an event (time, centroid, mode, body).
+//!
+//! Fragments are the connected components of tetrahedra over intact joints and shared nodes.
+
+use crate::joints::{joint_kinematics, Joints};
+use crate::math::{Real, Vec3};
+
+/// How a joint broke, from the direction of its excess opening and slip at failure.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BreakMode {
+    /// Opening dominated (slip share below tan 15°).
+    I,
+    /// Slip dominated (opening share below tan 15°).
+    II,
+    Mixed,
+}
+
+impl BreakMode {
+    pub fn name(self) -> &'static str {
+        match self {
+            BreakMode::I => "I",
+            BreakMode::II => "II",
+            BreakMode::Mixed => "mixed",
+        }
+    }
+}
+
+/// A joint that broke.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BreakEvent {
+    pub joint: usize,
+    pub time: Real,
+    pub centroid: Vec3,
+    pub mode: BreakMode,
+    /// Body of the tetrahedron on side A.
+    pub body: u32,
+}
+
+/// Stage 3: mark joints whose points all reached D = 1 as broken and record the events.
+pub fn break_joints(
+    joints: &mut Joints,
+    x: &[Vec3],
+    tet_body: &[u32],
+    time: Real,
+    events: &mut Vec<BreakEvent>,
+) -> usize {
+    let mut count = 0;
+    for j in 0..joints.len() {
+        if joints.broken[j] || !joints.state[j].iter().all(|p| p.damage >= 1.0) {
+            continue;
+        }
+        joints.broken[j] = true;
+        count += 1;
+        let (_, _, pts) = joint_kinematics(&joints.faces[j], x);
+        let (open, slip) = pts
+            .iter()
+            .fold((0.0, 0.0), |a, p| (a.0 + p.0.max(0.0), a.1 + p.1));
+        let angle = slip.atan2(open).to_degrees();
+        let mode = if angle < 15.0 {
+            BreakMode::I
+        } else if angle > 75.0 {
+            BreakMode::II
+        } else {
+            BreakMode::Mixed
+        };
+        let c = joints.faces[j][0]
+            .iter()
+            .chain(&joints.faces[j][1])
+            .map(|&n| x[n as usize])
+            .sum::<Vec3>()
+            / 6.0;
+        events.push(BreakEvent {
+            joint: j,
+            time,
+            centroid: c,
+            mode,
+            body: tet_body[joints.tets[j][0] as usize],
+        });
+    }
+    count
+}
+
+/// Connected components of tetrahedra over shared nodes and intact joints: a fragment id per
+/// tet, numbered 0.. in order of first tet.
+pub fn fragments(tet_nodes: &[[u32; 4]], joints: &Joints, n_nodes: usize) -> Vec<u32> {
+    let mut parent: Vec<u32> = (0..tet_nodes.len() as u32).collect();
+    fn find(p: &mut [u32], mut i: u32) -> u32 {
+        while p[i as usize] != i {
+            p[i as usize] = p[p[i as usize] as usize];
+            i = p[i as usize];
+        }
+        i
+    }
+    let union = |p: &mut Vec<u32>, a: u32, b: u32| {
+        let (ra, rb) = (find(p, a), find(p, b));
+        if ra != rb {
+            p[ra.max(rb) as usize] = ra.min(rb);
+        }
+    };
+    let mut owner = vec![u32::MAX; n_nodes];
+    for (e, t) in tet_nodes.iter().enumerate() {
+        for &n in t {
+            if owner[n as usize] == u32::MAX {
+                owner[n as usize] = e as u32;
+            } else {
+                union(&mut parent, owner[n as usize], e as u32);
+            }
+        }
+    }
+    for j in 0..joints.len() {
+        if !joints.broken[j] {
+            union(&mut parent, joints.tets[j][0], joints.tets[j][1]);
+        }
+    }
+    let mut id = vec![u32::MAX; tet_nodes.len()];
+    let mut next = 0;
+    (0..tet_nodes.len() as u32)
+        .map(|e| {
+            let r = find(&mut parent, e) as usize;
+            if id[r] == u32::MAX {
+                id[r] = next;
+                next += 1;
+            }
+            id[r]
+        })
+        .collect()
+}
