@@ -378,7 +378,7 @@ fn jointed_bar(p_over_e: Real) -> BarResult {
             e_eff = (f / (a * a)) / (u / l); // secant stiffness at a quarter of the strength
         }
         peak = peak.max(f);
-        if !sim.break_events.is_empty() && sim.step % 200 == 0 {
+        if !sim.break_events.is_empty() && sim.step.is_multiple_of(200) {
             fragments = fdem::fracture::fragments(&sim.tets.nodes, &sim.joints, sim.nodes.len())
                 .into_iter()
                 .max()
