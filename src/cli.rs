@@ -48,7 +48,7 @@ enum Command {
     Doc,
     /// Run a standard benchmark and print its timings.
     Bench {
-        /// Benchmark case: elastic.
+        /// Benchmark case: elastic, joints (a fully jointed box: joints on every internal face).
         #[arg(long, default_value = "elastic")]
         case: String,
         /// Approximate number of tetrahedra.
@@ -215,8 +215,8 @@ pub fn bench(
     law: &str,
     layout: &str,
 ) -> Result<serde_json::Value, String> {
-    if case != "elastic" {
-        return Err(format!("bench: unknown case '{case}'; available: elastic (joints, contact and fragmentation cases come with those stages)"));
+    if case != "elastic" && case != "joints" {
+        return Err(format!("bench: unknown case '{case}'; available: elastic, joints (contact and fragmentation cases come with those stages)"));
     }
     let formulation =
         Formulation::from_name(law).ok_or_else(|| format!("bench: unknown law '{law}'"))?;
@@ -231,7 +231,33 @@ pub fn bench(
     };
     let (sim, setup) = {
         let t = Instant::now();
-        let sim = bench_model(tets, formulation, layout);
+        let mut sim = bench_model(tets, formulation, layout);
+        if case == "joints" {
+            if layout != Layout::Jointed {
+                return Err("bench: the joints case needs --layout jointed".into());
+            }
+            let law = sim.joints.add_law(crate::joints::JointLaw::Cohesive(
+                crate::joints::law::Cohesive {
+                    softening: crate::joints::law::Softening::Munjiza,
+                    calibration: crate::joints::law::Calibration::Exact,
+                    tensile_strength: 5e6,
+                    cohesion: 10e6,
+                    tan_friction: 0.6,
+                    g_i: 50.0,
+                    g_ii: 200.0,
+                    normal_penalty: 3e11,
+                    tangential_penalty: 3e11,
+                    residual_friction: 0.6,
+                },
+            ));
+            let (body, tet_nodes, x0) = (
+                sim.bodies[0].clone(),
+                sim.tets.nodes.clone(),
+                sim.nodes.x0.clone(),
+            );
+            sim.joints
+                .insert_in_body(&body, &tet_nodes, &x0, law, |_| true)?;
+        }
         (sim, t.elapsed().as_secs_f64())
     };
     let mut sim = sim;
@@ -255,6 +281,10 @@ pub fn bench(
         "layout": layout.name(),
         "tets": n,
         "nodes": sim.nodes.len(),
+        "joints": sim.joints.len(),
+        "damaged_joints": sim.joints.state.iter().filter(|s| s.iter().any(|p| p.damage > 0.0)).count(),
+        "broken_joints": sim.break_events.len(),
+        "joint_steps_per_s": if sim.joints.is_empty() { 0.0 } else { sim.joints.len() as f64 * steps as f64 / sim.timers.get(Stage::Joints).max(1e-12) },
         "steps": steps,
         "threads": rayon::current_num_threads(),
         "seconds": seconds,

@@ -226,6 +226,29 @@ fn results_are_bit_identical_for_1_and_2_threads() {
             [16, 8, 8],
         );
         sim.add_body("a", &m1, rock, Layout::Jointed).unwrap();
+        // Joints on every internal face of the jointed body, weak enough that some break.
+        let law = sim.joints.add_law(fdem::joints::JointLaw::Cohesive(
+            fdem::joints::law::Cohesive {
+                softening: fdem::joints::law::Softening::Munjiza,
+                calibration: fdem::joints::law::Calibration::Exact,
+                tensile_strength: 2e4,
+                cohesion: 4e4,
+                tan_friction: 0.6,
+                g_i: 0.5,
+                g_ii: 2.0,
+                normal_penalty: 1e9,
+                tangential_penalty: 1e9,
+                residual_friction: 0.6,
+            },
+        ));
+        let (body, tets, x0) = (
+            sim.bodies[0].clone(),
+            sim.tets.nodes.clone(),
+            sim.nodes.x0.clone(),
+        );
+        sim.joints
+            .insert_in_body(&body, &tets, &x0, law, |_| true)
+            .unwrap();
         sim.add_body("b", &m2, soft, Layout::Continuous).unwrap();
         sim.loads.gravity = Vec3::new(0.0, 0.0, -9.81);
         sim.settings.mass_damping = 5.0;
@@ -281,6 +304,15 @@ fn results_are_bit_identical_for_1_and_2_threads() {
     assert_eq!(bits(&a.nodes.v), bits(&b.nodes.v));
     assert_eq!(a.energy, b.energy);
     assert_eq!(a.energy_history, b.energy_history);
+    assert_eq!(a.break_events, b.break_events);
+    assert!(
+        a.joints.len() > 4 * fdem::joints::CHUNK,
+        "joints span several blocks"
+    );
+    assert!(
+        a.joints.state.iter().any(|s| s[0].damage > 0.0),
+        "joints are exercised beyond their peak"
+    );
 }
 
 /// The energy account with every source and sink at once: gravity, a time-varying nodal

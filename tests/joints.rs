@@ -32,7 +32,7 @@ fn law(cal: Calibration) -> Cohesive {
         calibration: cal,
         tensile_strength: 1e6,
         cohesion: 2e6,
-        friction_angle: 30f64.to_radians(),
+        tan_friction: 30f64.to_radians().tan(),
         g_i: 100.0,
         g_ii: 400.0,
         normal_penalty: 1e13,
@@ -205,7 +205,7 @@ fn mode_two_peak_follows_mohr_coulomb() {
         // Close by `closing`·δnp over 200 steps, then slide at a rate resolving the peak.
         let dc = closing * coh.peak_opening(r.size);
         let sigma_n = -coh.normal_penalty / r.size * dc;
-        let fs = coh.cohesion - sigma_n * coh.friction_angle.tan();
+        let fs = coh.cohesion - sigma_n * coh.tan_friction;
         let dsp = coh.peak_slip(r.size, fs);
         let (_, dst) = coh.softening_lengths(fs);
         let t_close = 200.0 * dt;

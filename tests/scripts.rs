@@ -245,7 +245,10 @@ let m = material("elastic/neo_hookean", #{ density: 1000.0, young: 1e6, poisson:
 let mesh = box(#{ min: [0.0, 0.0, 0.0], max: [1.0, 0.5, 0.5] }).mesh(#{ divisions: [2, 1, 1] });
 mesh.rotate(#{ axis: [0.0, 0.0, 1.0], degrees: 0.0, center: [0.0, 0.0, 0.0] });
 let b = sim.add_body("b", mesh, m, #{ layout: "continuous" });
-let j = sim.add_body("j", box(#{ min: [0.0, 0.0, 5.0], max: [0.5, 0.5, 5.5] }).mesh(#{ size: 0.5 }), m, #{ layout: "jointed" });
+let j = sim.add_body("j", box(#{ min: [0.0, 0.0, 5.0], max: [1.0, 0.5, 5.5] }).mesh(#{ size: 0.5 }), m, #{ layout: "jointed" });
+let glue = joint_law("cohesive/munjiza", #{ tensile_strength: 1e5, cohesion: 2e5, friction_angle: 30.0, g_i: 10.0, g_ii: 40.0,
+    normal_penalty: 1e7, tangential_penalty: 1e7, residual_friction: 0.5, calibration: "y_compatible" });
+expect_within("joints", sim.insert_joints(#{ within: [j], law: glue, region: box(#{ min: [-1.0, -1.0, 4.0], max: [9.0, 9.0, 6.0] }) }), 1, 100);
 let t = sim.add_body("t", tet_mesh(#{ nodes: [[0.0, 0.0, 9.0], [1.0, 0.0, 9.0], [0.0, 1.0, 9.0], [0.0, 0.0, 10.0]], tets: [[0, 1, 2, 3]] }), m);
 let c = b.copy("c");
 c.translate([0.0, 0.0, 2.0]);

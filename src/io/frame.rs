@@ -63,6 +63,23 @@ pub fn encode_frame(
     let body: Vec<i32> = sim.tets.body.iter().map(|&b| b as i32).collect();
     let material: Vec<i32> = sim.tets.material.iter().map(|&m| m as i32).collect();
     let extra_stress = (extra != StressMeasure::Cauchy).then(|| stress_of(extra));
+    // With joints: the largest damage over each tet's joints, and the fragment id.
+    let (damage, fragment): (Vec<f64>, Vec<i32>) = if sim.joints.is_empty() {
+        (Vec::new(), Vec::new())
+    } else {
+        let mut d = vec![0.0f64; sim.tets.len()];
+        for (j, tets) in sim.joints.tets.iter().enumerate() {
+            let dj = sim.joints.state[j]
+                .iter()
+                .map(|p| p.damage)
+                .fold(0.0, f64::max);
+            for &t in tets {
+                d[t as usize] = d[t as usize].max(dj);
+            }
+        }
+        let frag = crate::fracture::fragments(&sim.tets.nodes, &sim.joints, sim.nodes.len());
+        (d, frag.into_iter().map(|f| f as i32).collect())
+    };
     let extra_name = format!("stress_{}", extra.name());
     let mut cell_data = vec![
         Field {
@@ -86,6 +103,16 @@ pub fn encode_frame(
             data: DataArray::ScalarI32(&material),
         },
     ];
+    if !damage.is_empty() {
+        cell_data.push(Field {
+            name: "damage",
+            data: DataArray::ScalarF64(&damage),
+        });
+        cell_data.push(Field {
+            name: "fragment",
+            data: DataArray::ScalarI32(&fragment),
+        });
+    }
     if let Some(s) = &extra_stress {
         cell_data.push(Field {
             name: &extra_name,

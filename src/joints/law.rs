@@ -94,8 +94,8 @@ pub struct Cohesive {
     pub tensile_strength: Real,
     /// c [Pa]
     pub cohesion: Real,
-    /// φ [rad]
-    pub friction_angle: Real,
+    /// tan φ of the Mohr–Coulomb shear strength [-]
+    pub tan_friction: Real,
     /// G_I [J/m²]
     pub g_i: Real,
     /// G_II [J/m²]
@@ -137,10 +137,22 @@ pub struct PointTraction {
     pub normal: Real,
     /// τ ≥ 0 [Pa], opposing the slip.
     pub shear: Real,
-    /// Recoverable energy per unit area at this state [J/m²] (for the energy account).
+    /// Recoverable energy per unit area at this state [J/m²] (only when requested).
     pub energy: Real,
     /// Energy per unit area dissipated by this evaluation (damage growth, friction) [J/m²].
     pub dissipated: Real,
+}
+
+/// Reciprocals of a cohesive law's constants, computed once per law so that the per-point
+/// evaluation has no division in the common (undamaged, pre-peak) case.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CohesiveConsts {
+    /// 0.5/f_t, 0.5/c [1/Pa]
+    half_inv_ft: Real,
+    half_inv_c: Real,
+    /// 1/δnt = f_t/(K·G_I) [1/m] and 1/(K·G_II) [m²/J]: δst = K·G_II/f_s.
+    inv_dnt: Real,
+    inv_k_gii: Real,
 }
 
 impl Cohesive {
@@ -151,12 +163,16 @@ impl Cohesive {
     pub fn peak_slip(&self, h: Real, shear_strength: Real) -> Real {
         2.0 * h * shear_strength / self.tangential_penalty
     }
-    /// Softening lengths (beyond the peak) in modes I and II.
-    pub fn softening_lengths(&self, shear_strength: Real) -> (Real, Real) {
-        let k = match self.calibration {
+    /// K in δt = K·G/f: 1/∫z (exact) or 3 (Y-compatible).
+    fn softening_factor(&self) -> Real {
+        match self.calibration {
             Calibration::Exact => 1.0 / self.softening.integral(),
             Calibration::YCompatible => 3.0,
-        };
+        }
+    }
+    /// Softening lengths (beyond the peak) in modes I and II.
+    pub fn softening_lengths(&self, shear_strength: Real) -> (Real, Real) {
+        let k = self.softening_factor();
         (
             k * self.g_i / self.tensile_strength,
             k * self.g_ii / shear_strength.max(1e-300),
@@ -166,62 +182,118 @@ impl Cohesive {
     /// Mohr–Coulomb shear strength f_s = c + max(0, −σ_c)·tan φ from the compressive normal
     /// stress σ_c (negative in compression).
     pub fn shear_strength(&self, compression: Real) -> Real {
-        self.cohesion + (-compression).max(0.0) * self.friction_angle.tan()
+        self.cohesion + (-compression).max(0.0) * self.tan_friction
+    }
+
+    pub fn consts(&self) -> CohesiveConsts {
+        let k = self.softening_factor();
+        CohesiveConsts {
+            half_inv_ft: 0.5 / self.tensile_strength,
+            half_inv_c: 0.5 / self.cohesion,
+            inv_dnt: self.tensile_strength / (k * self.g_i),
+            inv_k_gii: 1.0 / (k * self.g_ii),
+        }
     }
 
     /// Evaluate the law and update the history (damage never decreases).
     pub fn evaluate(&self, k: &PointKinematics, s: &mut PointState) -> PointTraction {
-        let h = k.size;
-        let (pn, pt) = (self.normal_penalty / h, self.tangential_penalty / h);
+        self.evaluate_with(&self.consts(), k, 1.0 / k.size, s, true)
+    }
+
+    /// [`Self::evaluate`] with precomputed constants and 1/h; the stored energy is computed
+    /// only when `want_energy`.
+    #[inline]
+    pub fn evaluate_with(
+        &self,
+        c: &CohesiveConsts,
+        k: &PointKinematics,
+        inv_h: Real,
+        s: &mut PointState,
+        want_energy: bool,
+    ) -> PointTraction {
+        let (kn, kt) = (self.normal_penalty * inv_h, self.tangential_penalty * inv_h);
         // Compression: a penalty that never softens.
-        let compression = if k.opening < 0.0 { pn * k.opening } else { 0.0 };
-        let fs = self.shear_strength(compression);
-        let (dnp, dsp) = (self.peak_opening(h), self.peak_slip(h, fs));
-        let (dnt, dst) = self.softening_lengths(fs);
-        // Undamaged stored-energy shapes at the current opening and slip: damage growth from
-        // D to D' at fixed kinematics dissipates (z(D) − z(D'))·(their sum).
-        let shape = self.tensile_strength * dnp * prepeak_integral(k.opening.max(0.0) / dnp)
-            + fs * dsp * prepeak_integral(k.slip / dsp);
-        let z_before = self.softening.z(s.damage);
-        let mut dissipated = 0.0;
-        if s.damage < 1.0 {
-            // Damage from the elliptical interaction of the excess opening and slip.
-            let xn = (k.opening - dnp).max(0.0) / dnt;
-            let xs = (k.slip - dsp).max(0.0) / dst;
-            s.damage = s.damage.max((xn * xn + xs * xs).sqrt().min(1.0));
-            dissipated = (z_before - self.softening.z(s.damage)) * shape;
-        }
-        s.max_opening = s.max_opening.max(k.opening);
-        s.max_slip = s.max_slip.max(k.slip);
-        let z = self.softening.z(s.damage);
-        let mut t = PointTraction::default();
-        let mut energy = 0.5 * compression * k.opening.min(0.0);
-        if k.opening > 0.0 {
-            t.normal = z * self.tensile_strength * prepeak(k.opening / dnp);
-            energy += z * self.tensile_strength * dnp * prepeak_integral(k.opening / dnp);
+        let compression = if k.opening < 0.0 { kn * k.opening } else { 0.0 };
+        let (fs, half_inv_fs) = if compression < 0.0 {
+            let fs = self.shear_strength(compression);
+            (fs, 0.5 / fs)
         } else {
-            t.normal = compression;
+            (self.cohesion, c.half_inv_c)
+        };
+        // Opening and slip relative to their peaks: x = δ/δp, δp = 2f/(p/h).
+        let xn = k.opening.max(0.0) * kn * c.half_inv_ft;
+        let xs = k.slip * kt * half_inv_fs;
+        // Peak opening and slip δp = 2f/(p/h) (needed off the undamaged pre-peak path only).
+        let peaks = || (2.0 * self.tensile_strength / kn, 2.0 * fs / kt);
+        let mut dissipated = 0.0;
+        if s.damage < 1.0 && (xn > 1.0 || xs > 1.0) {
+            let (dnp, dsp) = peaks();
+            // Damage from the elliptical interaction of the excess opening and slip.
+            let en = (k.opening - dnp).max(0.0) * c.inv_dnt;
+            let es = (k.slip - dsp).max(0.0) * fs * c.inv_k_gii;
+            let d = (en * en + es * es).sqrt().min(1.0);
+            if d > s.damage {
+                // Growth from D to D' at fixed kinematics dissipates (z(D) − z(D'))·ψ₀, ψ₀ the
+                // undamaged stored energy at the current opening and slip.
+                let psi0 = self.tensile_strength * dnp * prepeak_integral(xn)
+                    + fs * dsp * prepeak_integral(xs);
+                dissipated = (self.z_of(s.damage) - self.softening.z(d)) * psi0;
+                s.damage = d;
+            }
+        }
+        if k.opening > s.max_opening {
+            s.max_opening = k.opening;
+        }
+        if k.slip > s.max_slip {
+            s.max_slip = k.slip;
+        }
+        let z = self.z_of(s.damage);
+        let mut t = PointTraction {
+            normal: if k.opening > 0.0 {
+                z * self.tensile_strength * prepeak(xn)
+            } else {
+                compression
+            },
+            ..Default::default()
+        };
+        if want_energy {
+            let (dnp, dsp) = peaks();
+            t.energy = 0.5 * compression * k.opening.min(0.0)
+                + z * self.tensile_strength * dnp * prepeak_integral(xn);
+            if s.damage < 1.0 {
+                t.energy += z * fs * dsp * prepeak_integral(xs);
+            }
         }
         if s.damage < 1.0 {
-            t.shear = z * fs * prepeak(k.slip / dsp);
-            energy += z * fs * dsp * prepeak_integral(k.slip / dsp);
+            t.shear = z * fs * prepeak(xs);
         } else if k.opening <= 0.0 {
             // Broken and closed: Coulomb friction with an elastic tangential spring.
             let limit = self.residual_friction * (-compression);
-            let elastic = pt * (k.slip - s.anchor);
+            let elastic = kt * (k.slip - s.anchor);
             if elastic.abs() > limit {
-                let anchor = k.slip - limit.copysign(elastic) / pt;
+                let anchor = k.slip - limit.copysign(elastic) / kt;
                 dissipated += limit * (anchor - s.anchor).abs();
                 s.anchor = anchor;
             }
-            t.shear = (pt * (k.slip - s.anchor)).max(0.0);
-            energy += 0.5 * pt * (k.slip - s.anchor).powi(2);
+            t.shear = (kt * (k.slip - s.anchor)).max(0.0);
+            if want_energy {
+                t.energy += 0.5 * kt * (k.slip - s.anchor).powi(2);
+            }
         } else {
             s.anchor = k.slip;
         }
-        t.energy = energy;
         t.dissipated = dissipated;
         t
+    }
+
+    /// z(D) with the undamaged case exact and free.
+    #[inline(always)]
+    fn z_of(&self, d: Real) -> Real {
+        if d > 0.0 {
+            self.softening.z(d)
+        } else {
+            1.0
+        }
     }
 }
 
@@ -256,7 +328,7 @@ mod tests {
             calibration: Calibration::Exact,
             tensile_strength: 5e6,
             cohesion: 10e6,
-            friction_angle: 30f64.to_radians(),
+            tan_friction: 30f64.to_radians().tan(),
             g_i: 50.0,
             g_ii: 200.0,
             normal_penalty: 3e11,

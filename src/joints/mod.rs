@@ -19,7 +19,7 @@ pub mod law;
 use crate::math::{Real, Vec3};
 use crate::mesh::TET_FACES;
 use crate::pipeline::state::{Body, Layout, Nodes};
-use law::{Cohesive, PointKinematics, PointState, PointTraction};
+use law::{Cohesive, CohesiveConsts, PointKinematics, PointState, PointTraction};
 use rayon::prelude::*;
 use std::collections::HashMap;
 
@@ -60,15 +60,23 @@ impl JointLaw {
         }
     }
 
+    /// Evaluate at one point (`consts` from [`Cohesive::consts`] for cohesive laws).
     #[inline]
-    pub fn evaluate(&self, k: &PointKinematics, s: &mut PointState) -> PointTraction {
+    pub fn evaluate(
+        &self,
+        consts: &CohesiveConsts,
+        k: &PointKinematics,
+        inv_h: Real,
+        s: &mut PointState,
+        want_energy: bool,
+    ) -> PointTraction {
         match self {
-            JointLaw::Cohesive(c) => c.evaluate(k, s),
+            JointLaw::Cohesive(c) => c.evaluate_with(consts, k, inv_h, s, want_energy),
             JointLaw::Tied {
                 normal_penalty,
                 tangential_penalty,
             } => {
-                let (kn, kt) = (normal_penalty / k.size, tangential_penalty / k.size);
+                let (kn, kt) = (normal_penalty * inv_h, tangential_penalty * inv_h);
                 PointTraction {
                     normal: kn * k.opening,
                     shear: kt * k.slip,
@@ -76,6 +84,13 @@ impl JointLaw {
                     dissipated: 0.0,
                 }
             }
+        }
+    }
+
+    fn consts(&self) -> CohesiveConsts {
+        match self {
+            JointLaw::Cohesive(c) => c.consts(),
+            JointLaw::Tied { .. } => CohesiveConsts::default(),
         }
     }
 }
@@ -96,7 +111,11 @@ pub struct Joints {
     /// Set by stage 3 when every point is fully damaged.
     pub broken: Vec<bool>,
     pub laws: Vec<JointLaw>,
-    gather: Gather,
+    consts: Vec<CohesiveConsts>,
+    /// Blocks of joints by colour: blocks of one colour share no node.
+    color_blocks: Vec<Vec<std::ops::Range<usize>>>,
+    /// Number of joints coloured and ordered (insertion after that re-colours).
+    colored: usize,
     partials: Vec<JointSums>,
 }
 
@@ -109,15 +128,6 @@ pub struct JointSums {
     pub dissipated: Real,
     /// Joints with every point at D = 1 that are not yet marked broken.
     pub newly_failed: usize,
-}
-
-#[derive(Clone, Debug, Default)]
-struct Gather {
-    slots: Vec<[Vec3; 6]>,
-    /// For node n: slots `slot_ids[offsets[k]..offsets[k+1]]` where k = position of n in `nodes`.
-    nodes: Vec<u32>,
-    offsets: Vec<u32>,
-    slot_ids: Vec<u32>,
 }
 
 impl Joints {
@@ -202,44 +212,36 @@ impl Joints {
         Ok(inserted)
     }
 
-    /// Build the node→slot gather map (after insertion, before stepping).
+    /// Group the joints into blocks of `CHUNK` consecutive joints (insertion order is
+    /// spatially coherent) and colour the blocks so that no two blocks of a colour share a
+    /// node. Stage 2 runs the colours one after another, the blocks of a colour in parallel,
+    /// each block's joints in order on one thread: every node receives its contributions in
+    /// a fixed order, and each block touches a compact part of the node arrays.
     pub fn prepare(&mut self, n_nodes: usize) {
-        let mut count = vec![0u32; n_nodes];
-        for f in &self.faces {
-            for side in f {
-                for &n in side {
-                    count[n as usize] += 1;
-                }
+        self.consts = self.laws.iter().map(JointLaw::consts).collect();
+        if self.colored == self.faces.len() {
+            return;
+        }
+        let n_blocks = self.faces.len().div_ceil(CHUNK);
+        let mut used = vec![0u64; n_nodes];
+        let mut blocks: Vec<Vec<std::ops::Range<usize>>> = Vec::new();
+        for b in 0..n_blocks {
+            let range = b * CHUNK..((b + 1) * CHUNK).min(self.faces.len());
+            let nodes = || self.faces[range.clone()].iter().flatten().flatten();
+            let taken = nodes().fold(0u64, |m, &n| m | used[n as usize]);
+            let c = (!taken).trailing_zeros() as usize;
+            assert!(c < 64, "joint block {b}: more than 64 colours needed");
+            for &n in nodes() {
+                used[n as usize] |= 1 << c;
             }
-        }
-        let nodes: Vec<u32> = (0..n_nodes as u32)
-            .filter(|&n| count[n as usize] > 0)
-            .collect();
-        let mut offsets = Vec::with_capacity(nodes.len() + 1);
-        offsets.push(0u32);
-        let mut index = vec![u32::MAX; n_nodes];
-        for (k, &n) in nodes.iter().enumerate() {
-            index[n as usize] = k as u32;
-            offsets.push(offsets[k] + count[n as usize]);
-        }
-        let mut fill: Vec<u32> = offsets[..nodes.len()].to_vec();
-        let mut slot_ids = vec![0u32; *offsets.last().unwrap() as usize];
-        for (j, f) in self.faces.iter().enumerate() {
-            for (side, ids) in f.iter().enumerate() {
-                for (i, &n) in ids.iter().enumerate() {
-                    let k = index[n as usize] as usize;
-                    slot_ids[fill[k] as usize] = (6 * j + 3 * side + i) as u32;
-                    fill[k] += 1;
-                }
+            if blocks.len() <= c {
+                blocks.resize(c + 1, Vec::new());
             }
+            blocks[c].push(range);
         }
-        self.gather = Gather {
-            slots: vec![[Vec3::zeros(); 6]; self.faces.len()],
-            nodes,
-            offsets,
-            slot_ids,
-        };
-        self.partials = Vec::with_capacity(self.faces.len().div_ceil(CHUNK));
+        self.color_blocks = blocks;
+        self.partials = Vec::with_capacity(n_blocks);
+        self.colored = self.faces.len();
     }
 
     /// Stiffness of the joint springs at each node, Σ max(p_n, p_t)/h·A/3 [N/m] (for the
@@ -287,6 +289,9 @@ pub fn joint_kinematics(
 }
 
 /// Stage 2: add the joint forces of every intact or broken joint to `nodes.f`.
+///
+/// Colour by colour (see [`Joints::prepare`]), blocks of joints add their nodal forces
+/// straight into `f`; the result does not depend on the number of threads.
 pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: bool) -> JointSums {
     if joints.is_empty() {
         return JointSums::default();
@@ -297,70 +302,72 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
         size,
         state,
         laws,
-        gather,
+        consts,
+        color_blocks,
         partials,
         ..
     } = joints;
     let x = &nodes.x;
-    gather
-        .slots
-        .par_chunks_mut(CHUNK)
-        .zip(state.par_chunks_mut(CHUNK))
-        .enumerate()
-        .map(|(c, (slots, states))| {
-            let mut s = JointSums::default();
-            for (i, (slot, st)) in slots.iter_mut().zip(states.iter_mut()).enumerate() {
-                let j = c * CHUNK + i;
-                let (n, area, pts) = joint_kinematics(&faces[j], x);
-                let law = &laws[law[j] as usize];
-                let was_failed = st.iter().all(|p| p.damage >= 1.0);
-                for (p, (dn, ds, dir)) in pts.iter().enumerate() {
-                    let k = PointKinematics {
-                        opening: *dn,
-                        slip: *ds,
-                        size: size[j],
-                    };
-                    let t = law.evaluate(&k, &mut st[p]);
-                    let on_b = -(n * t.normal + dir * t.shear) * (area / 3.0);
-                    slot[p] = -on_b;
-                    slot[3 + p] = on_b;
-                    s.dissipated += t.dissipated * area / 3.0;
-                    if want_energy {
-                        s.energy += t.energy * area / 3.0;
+    let fp = SyncPtr(nodes.f.as_mut_ptr());
+    let sp = StatePtr(state.as_mut_ptr());
+    let mut total = JointSums::default();
+    for blocks in color_blocks.iter() {
+        blocks
+            .par_iter()
+            .map(|range| {
+                let mut s = JointSums::default();
+                for j in range.clone() {
+                    // SAFETY: blocks are disjoint ranges of joints, so each state is
+                    // borrowed by one iteration only.
+                    let st = unsafe { &mut *sp.get().add(j) };
+                    let (n, area, pts) = joint_kinematics(&faces[j], x);
+                    let (lw, cs) = (&laws[law[j] as usize], &consts[law[j] as usize]);
+                    let inv_h = 1.0 / size[j];
+                    let was_failed = st.iter().all(|p| p.damage >= 1.0);
+                    for (p, (dn, ds, dir)) in pts.iter().enumerate() {
+                        let k = PointKinematics {
+                            opening: *dn,
+                            slip: *ds,
+                            size: size[j],
+                        };
+                        let t = lw.evaluate(cs, &k, inv_h, &mut st[p], want_energy);
+                        let on_b = -(n * t.normal + dir * t.shear) * (area / 3.0);
+                        // SAFETY: blocks of one colour share no node, and a block runs on
+                        // one thread, so no two concurrent writes alias; `f` outlives this.
+                        unsafe {
+                            *fp.get().add(faces[j][0][p] as usize) -= on_b;
+                            *fp.get().add(faces[j][1][p] as usize) += on_b;
+                        }
+                        s.dissipated += t.dissipated * area / 3.0;
+                        if want_energy {
+                            s.energy += t.energy * area / 3.0;
+                        }
+                    }
+                    if !was_failed && st.iter().all(|p| p.damage >= 1.0) {
+                        s.newly_failed += 1;
                     }
                 }
-                if !was_failed && st.iter().all(|p| p.damage >= 1.0) {
-                    s.newly_failed += 1;
-                }
-            }
-            s
-        })
-        .collect_into_vec(partials);
-    let (offsets, slot_ids, slots) = (&gather.offsets, &gather.slot_ids, &gather.slots);
-    let f = &mut nodes.f;
-    // Gather: each node with joints sums its slots in a fixed order. Nodes are disjoint, so
-    // the writes go through a raw pointer split by node list position.
-    let fp = SyncPtr(f.as_mut_ptr());
-    gather
-        .nodes
-        .par_iter()
-        .enumerate()
-        .with_min_len(4096)
-        .for_each(|(k, &n)| {
-            let mut sum = Vec3::zeros();
-            for &sid in &slot_ids[offsets[k] as usize..offsets[k + 1] as usize] {
-                sum += slots[sid as usize / 6][sid as usize % 6];
-            }
-            // SAFETY: `gather.nodes` holds distinct node ids (built from a count per node), so
-            // no two iterations write the same element, and `f` outlives the loop.
-            unsafe { *fp.get().add(n as usize) += sum };
-        });
-    partials.iter().fold(JointSums::default(), |mut a, s| {
-        a.energy += s.energy;
-        a.dissipated += s.dissipated;
-        a.newly_failed += s.newly_failed;
-        a
-    })
+                s
+            })
+            .collect_into_vec(partials);
+        for p in partials.iter() {
+            total.energy += p.energy;
+            total.dissipated += p.dissipated;
+            total.newly_failed += p.newly_failed;
+        }
+    }
+    total
+}
+
+#[derive(Clone, Copy)]
+struct StatePtr(*mut [PointState; 3]);
+unsafe impl Send for StatePtr {}
+unsafe impl Sync for StatePtr {}
+impl StatePtr {
+    #[inline(always)]
+    fn get(self) -> *mut [PointState; 3] {
+        self.0
+    }
 }
 
 #[derive(Clone, Copy)]

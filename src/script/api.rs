@@ -48,6 +48,7 @@ pub const SECTIONS: &[(&str, &str)] = &[
     ("Materials", "Elastic laws of the tetrahedra (stage 1). Equations in docs/theory/elements.md."),
     ("Geometry and meshes", "Shapes (also used as selection regions), meshing, transformations."),
     ("Bodies and selections", "Bodies are meshes placed in the simulation; selections are node, face and element sets."),
+    ("Joints and fracture", "Stages 2–3: cohesive joints between the tetrahedra of jointed bodies; joints break, bodies fragment. Equations in docs/theory/joints.md."),
     ("Loads and constraints", "Stage 6: gravity, forces, tractions, fixed and prescribed-velocity nodes, initial velocity."),
     ("Hooks, monitors and output", "Periodic callbacks, monitored quantities (CSV), ParaView frames."),
     ("Queries", "Read the state from a script or a callback (`s` is the simulation)."),
@@ -230,6 +231,34 @@ pub const RUN_KEYS: &[Key] = &[
     key("stop_when", "closure", "", "-", "Stop as soon as `|s| …` returns true (checked after each `check_every` steps). Needs one of the limits above too."),
     key("check_every", "int", "steps", "1", "How often `stop_when` is evaluated."),
 ];
+pub const JOINT_LAW_KEYS: &[Key] = &[
+    key("tensile_strength", "float", "Pa", "required (cohesive)", "f_t: peak normal traction."),
+    key("cohesion", "float", "Pa", "required (cohesive)", "c: shear strength at zero normal stress; Mohr–Coulomb f_s = c − σn·tan φ under compression."),
+    key("friction_angle", "float", "°", "30", "φ of the Mohr–Coulomb shear strength."),
+    key("g_i", "float", "J/m²", "required (cohesive)", "Mode I fracture energy."),
+    key("g_ii", "float", "J/m²", "required (cohesive)", "Mode II fracture energy."),
+    key("normal_penalty", "float", "Pa", "10 × young of the body", "p_n: initial normal stiffness p_n/h per unit area (h = mean edge of the face); opening at peak δp = 2h·f_t/p_n. Joints add compliance: 1/E_eff ≈ 1/E + 2.8/p_n on structured box meshes."),
+    key("tangential_penalty", "float", "Pa", "normal_penalty", "p_t: initial shear stiffness p_t/h."),
+    key("residual_friction", "float", "-", "tan(friction_angle)", "Coulomb friction μ of broken joints in compression."),
+    key("calibration", "string", "", "\"exact\"", "\"exact\": softening length δt = G/(f·∫z), the joint dissipates G; \"y_compatible\": δt = 3G/f as in the Y codes (dissipates 1.159·G with Munjiza's curve)."),
+];
+pub const INSERT_JOINTS_KEYS: &[Key] = &[
+    key(
+        "within",
+        "body or array of bodies",
+        "",
+        "required",
+        "Jointed bodies whose internal faces get joints.",
+    ),
+    key("law", "JointLaw", "", "required", "From `joint_law(..)`."),
+    key(
+        "region",
+        "shape",
+        "",
+        "everywhere",
+        "Only faces whose centroid lies in this region.",
+    ),
+];
 pub const VELOCITY_KEYS: &[Key] = &[
     key(
         "x",
@@ -282,6 +311,15 @@ pub const API: &[FnDoc] = &[
     FnDoc { section: "Bodies and selections", name: "body.elements", signature: "body.elements([shape]) -> Elements", summary: "The body's tetrahedra, or those whose centroid is inside a region.", keys: &[] },
     FnDoc { section: "Bodies and selections", name: "body.boundary", signature: "body.boundary([#{ … }]) -> Faces", summary: "Outer boundary faces of the body, optionally filtered. `faces.nodes()` gives their nodes, `faces.area` their area [m²].", keys: BOUNDARY_KEYS },
     FnDoc { section: "Bodies and selections", name: "set + set", signature: "nodes + nodes -> Nodes", summary: "Union of node sets (also for elements). All sets have `len()`.", keys: &[] },
+    // ── Joints and fracture
+    FnDoc { section: "Joints and fracture", name: "joint_law", signature: "joint_law(law, #{ … }) -> JointLaw",
+        summary: "A joint law. `law`: \"cohesive/munjiza\" (Munjiza's softening z(D), a = 0.63, b = 1.8, c = 6), \"cohesive/linear\" (linear softening), \"tied\" (linear penalty springs that never break; only the penalty keys).", keys: JOINT_LAW_KEYS },
+    FnDoc { section: "Joints and fracture", name: "sim.insert_joints", signature: "sim.insert_joints(#{ … }) -> int",
+        summary: "Insert a joint on every internal face of jointed bodies (optionally inside a region); returns how many. Faces that already have a joint are skipped.", keys: INSERT_JOINTS_KEYS },
+    FnDoc { section: "Joints and fracture", name: "sim.on_joint_broken", signature: "sim.on_joint_broken(|s, joint| …)",
+        summary: "Called after each step for every joint that broke (all its points reached D = 1): `joint` is #{ id, time, centroid, mode (\"I\", \"II\", \"mixed\"), body }. Every run also writes `cracks.csv`.", keys: &[] },
+    FnDoc { section: "Joints and fracture", name: "s.fragments", signature: "s.fragments() -> #{ count, volumes, masses }",
+        summary: "Fragments: connected components of tetrahedra over intact joints and shared nodes, with their volumes [m³] and masses [kg]. Also `s.broken_joints()` and `s.n_joints`.", keys: &[] },
     // ── Loads
     FnDoc { section: "Loads and constraints", name: "sim.gravity", signature: "sim.gravity([gx, gy, gz])", summary: "Gravitational acceleration [m/s²] on every node.", keys: &[] },
     FnDoc { section: "Loads and constraints", name: "sim.fix", signature: "sim.fix(nodes [, \"xyz\"])", summary: "Fix all (or the listed) displacement components of the nodes.", keys: &[] },
@@ -298,7 +336,7 @@ pub const API: &[FnDoc] = &[
     FnDoc { section: "Hooks, monitors and output", name: "sim.monitor", signature: "sim.monitor(name, #{ … }, |s| value) -> Monitor",
         summary: "Record a number during runs; written to `<out_dir>/<name>.csv` after every run. Monitor methods: `last()`, `peak()` (largest value), `min()`, `max()`, `len()`, `values()`, `times()`, `write_csv()`.", keys: MONITOR_KEYS },
     FnDoc { section: "Hooks, monitors and output", name: "sim.write_vtk", signature: "sim.write_vtk()",
-        summary: "Write a ParaView frame `<name>_NNNNNN.vtu` and update `<name>.pvd`: displacement, velocity (points); Cauchy stress, von Mises, principal stresses, body, material (cells).", keys: &[] },
+        summary: "Write a ParaView frame `<name>_NNNNNN.vtu` and update `<name>.pvd`: displacement, velocity (points); Cauchy stress, von Mises, principal stresses, body, material, and with joints `damage` (largest joint damage on the tet's faces) and `fragment` (cells).", keys: &[] },
     // ── Queries
     FnDoc { section: "Queries", name: "s.time", signature: "s.time, s.step, s.dt, s.n_nodes, s.n_tets", summary: "Simulated time [s], steps done, time step [s], sizes.", keys: &[] },
     FnDoc { section: "Queries", name: "s.kinetic_energy", signature: "s.kinetic_energy(), s.strain_energy()", summary: "Current kinetic and strain energy [J].", keys: &[] },

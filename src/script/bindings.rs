@@ -29,6 +29,7 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
     register_loads(engine);
     register_queries(engine);
     register_hooks(engine, ctx);
+    super::bindings_joints::register(engine);
 }
 
 fn register_types(engine: &mut Engine) {
@@ -361,6 +362,8 @@ fn register_simulation(engine: &mut Engine, ctx: Rc<ScriptContext>) {
             printed_dt: None,
             wall: 0.0,
             steps_in_runs: 0,
+            on_joint_broken: None,
+            events_dispatched: 0,
         })));
         c.sims.borrow_mut().push(handle.clone());
         Ok(handle)

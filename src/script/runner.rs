@@ -29,16 +29,22 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
         let mut st = s.0.borrow_mut();
         st.sim.prepare().map_err(|e| format!("run(): {e}"))?;
         if st.runs == 0 {
-            for b in st
-                .sim
-                .bodies
+            let sim = &st.sim;
+            let with_joints: std::collections::HashSet<u32> = sim
+                .joints
+                .tets
                 .iter()
-                .filter(|b| b.layout == crate::pipeline::Layout::Jointed)
-            {
-                ctx.say(&format!(
-                    "[{}] warning: body '{}' is jointed but this version has no joint elements: its tetrahedra are not connected and will move independently",
-                    st.name, b.name
-                ));
+                .map(|t| sim.tets.body[t[0] as usize])
+                .collect();
+            for (id, b) in sim.bodies.iter().enumerate() {
+                if b.layout == crate::pipeline::Layout::Jointed
+                    && !with_joints.contains(&(id as u32))
+                {
+                    ctx.say(&format!(
+                        "[{}] warning: body '{}' is jointed but has no joints: its tetrahedra are not connected and will move independently (sim.insert_joints(..) adds them)",
+                        st.name, b.name
+                    ));
+                }
             }
         }
         let line = st
@@ -101,6 +107,7 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
                 st.sim.step().map_err(|e| sim_error(&e))?;
             }
             call_hooks(nc, s)?;
+            dispatch_break_events(nc, s)?;
             let step = step + 1;
             for m in &monitors {
                 let every = m.0.borrow().every;
@@ -188,6 +195,25 @@ fn call_hooks(nc: &NativeCallContext, s: &SimHandle) -> RhaiResult<()> {
     Ok(())
 }
 
+fn dispatch_break_events(nc: &NativeCallContext, s: &SimHandle) -> RhaiResult<()> {
+    loop {
+        let (f, event) = {
+            let mut st = s.0.borrow_mut();
+            let Some(f) = st.on_joint_broken.clone() else {
+                return Ok(());
+            };
+            let k = st.events_dispatched;
+            let Some(e) = st.sim.break_events.get(k) else {
+                return Ok(());
+            };
+            let m = super::bindings_joints::event_map(&st.sim, e);
+            st.events_dispatched += 1;
+            (f, m)
+        };
+        let _: Dynamic = f.call_within_context(nc, (s.clone(), event))?;
+    }
+}
+
 fn record(nc: &NativeCallContext, s: &SimHandle, m: &MonitorHandle) -> RhaiResult<()> {
     let f = m.0.borrow().f.clone();
     let v: Dynamic = f.call_within_context(nc, (s.clone(),))?;
@@ -252,6 +278,33 @@ fn write_run_output(s: &SimHandle) -> Result<(), String> {
         "balance_error",
     ];
     write_csv(&path, &header, rows).map_err(|e| format!("writing {}: {e}", path.display()))?;
+    if !st.sim.joints.is_empty() {
+        let path = st.out_dir.join("cracks.csv");
+        let sim = &st.sim;
+        // mode: 1 = I, 2 = II, 3 = mixed; body: body id.
+        let rows = sim.break_events.iter().map(|e| {
+            let mode = match e.mode {
+                crate::fracture::BreakMode::I => 1.0,
+                crate::fracture::BreakMode::II => 2.0,
+                crate::fracture::BreakMode::Mixed => 3.0,
+            };
+            vec![
+                e.joint as f64,
+                e.time,
+                e.centroid.x,
+                e.centroid.y,
+                e.centroid.z,
+                mode,
+                e.body as f64,
+            ]
+        });
+        write_csv(
+            &path,
+            &["joint", "time", "x", "y", "z", "mode", "body"],
+            rows,
+        )
+        .map_err(|e| format!("writing {}: {e}", path.display()))?;
+    }
     st.vtk.flush()
 }
 
@@ -328,12 +381,22 @@ pub fn summary(
         e.reaction_work
     ));
     s.push_str(&format!(
-        "   {:<20} {:>14.6e}   (mass damping {:.4e}, viscous {:.4e})\n",
+        "   {:<20} {:>14.6e}   (mass damping {:.4e}, viscous {:.4e}, fracture {:.4e})\n",
         "dissipated",
         e.dissipated(),
         e.mass_damping,
-        e.viscous_damping
+        e.viscous_damping,
+        e.fracture
     ));
+    if !sim.joints.is_empty() {
+        s.push_str(&format!(
+            "   {:<20} {:>14.6e}   ({} of {} joints broken)\n",
+            "joints (elastic)",
+            e.joint,
+            sim.break_events.len(),
+            sim.joints.len()
+        ));
+    }
     s.push_str(&format!(
         "   {:<20} {:>14.6e}\n",
         "initial (kin+strain)", e.initial

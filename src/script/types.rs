@@ -34,6 +34,21 @@ pub struct SimState {
     /// Wall time spent inside runs [s].
     pub wall: f64,
     pub steps_in_runs: u64,
+    /// `sim.on_joint_broken(|s, joint| …)`.
+    pub on_joint_broken: Option<FnPtr>,
+    /// Break events already handed to the callback.
+    pub events_dispatched: usize,
+}
+
+/// A joint law from `joint_law(..)`; penalties default to 10 × the Young's modulus of the
+/// body the joints are inserted in.
+#[derive(Clone, Debug)]
+pub struct JointLawValue {
+    pub name: String,
+    /// None for "tied".
+    pub cohesive: Option<crate::joints::law::Cohesive>,
+    /// (p_n, p_t) [Pa] when given.
+    pub penalties: (Option<f64>, Option<f64>),
 }
 
 /// A periodic callback.

@@ -1,0 +1,155 @@
+//! Script bindings of stages 2–3: joint laws, joint insertion, break events, fragments.
+
+use super::api::keys_of;
+use super::opts::{err, vec3_to_array, Opts, RhaiResult};
+use super::types::{BodyHandle, JointLawValue, SimHandle};
+use crate::joints::law::{Calibration, Cohesive, Softening};
+use crate::joints::JointLaw;
+use crate::math::Real;
+use rhai::{Array, Dynamic, Engine, FnPtr, Map};
+
+pub fn register(engine: &mut Engine) {
+    engine.register_type_with_name::<JointLawValue>("JointLaw");
+    engine.register_fn("to_string", |l: &mut JointLawValue| {
+        format!("JointLaw({})", l.name)
+    });
+    engine.register_fn("joint_law", |kind: &str, m: Map| -> RhaiResult<JointLawValue> {
+        let o = Opts::new("joint_law", m, keys_of("joint_law"))?;
+        let positive = |k: &str| -> RhaiResult<Real> {
+            o.positive(k)?.map_or_else(|| err(format!("joint_law(\"{kind}\"): missing required key '{k}'")), Ok)
+        };
+        let penalties = (o.positive("normal_penalty")?, o.positive("tangential_penalty")?);
+        let (softening, name) = match kind {
+            "cohesive/munjiza" => (Softening::Munjiza, "cohesive/munjiza"),
+            "cohesive/linear" => (Softening::Linear, "cohesive/linear"),
+            "tied" => {
+                for k in ["tensile_strength", "cohesion", "friction_angle", "g_i", "g_ii", "residual_friction", "calibration"] {
+                    if o.has(k) {
+                        return err(format!("joint_law(\"tied\"): key '{k}' belongs to the cohesive laws; \"tied\" takes normal_penalty and tangential_penalty"));
+                    }
+                }
+                return Ok(JointLawValue { name: "tied".into(), cohesive: None, penalties });
+            }
+            _ => return err(format!("joint_law(): unknown law \"{kind}\"; available: cohesive/munjiza, cohesive/linear, tied")),
+        };
+        let calibration = match o.string("calibration")?.as_deref() {
+            None | Some("exact") => Calibration::Exact,
+            Some("y_compatible") => Calibration::YCompatible,
+            Some(x) => return err(format!("joint_law(): calibration \"{x}\" is not \"exact\" or \"y_compatible\"")),
+        };
+        let friction_angle = o.float("friction_angle")?.unwrap_or(30.0);
+        if !(0.0..90.0).contains(&friction_angle) {
+            return err(format!("joint_law(): friction_angle must lie in [0, 90) degrees, got {friction_angle}"));
+        }
+        let cohesive = Cohesive {
+            softening,
+            calibration,
+            tensile_strength: positive("tensile_strength")?,
+            cohesion: positive("cohesion")?,
+            tan_friction: friction_angle.to_radians().tan(),
+            g_i: positive("g_i")?,
+            g_ii: positive("g_ii")?,
+            normal_penalty: 0.0,
+            tangential_penalty: 0.0,
+            residual_friction: o.float("residual_friction")?.unwrap_or(friction_angle.to_radians().tan()),
+        };
+        Ok(JointLawValue { name: name.into(), cohesive: Some(cohesive), penalties })
+    });
+
+    engine.register_fn("insert_joints", |s: &mut SimHandle, m: Map| -> RhaiResult<i64> {
+        let o = Opts::new("insert_joints", m, keys_of("sim.insert_joints"))?;
+        let law = o.typed::<JointLawValue>("law", "a joint_law(..)")?.map_or_else(|| err("insert_joints(): missing required key 'law'"), Ok)?;
+        let bodies: Vec<BodyHandle> = match o.get("within") {
+            None => return err("insert_joints(): missing required key 'within' (a body or an array of bodies)"),
+            Some(d) => {
+                if let Some(b) = d.clone().try_cast::<BodyHandle>() {
+                    vec![b]
+                } else if let Some(a) = d.clone().try_cast::<Array>() {
+                    a.into_iter()
+                        .map(|x| x.try_cast::<BodyHandle>().ok_or_else(|| "insert_joints(): 'within' must hold bodies".to_string()))
+                        .collect::<Result<_, _>>()?
+                } else {
+                    return err(format!("insert_joints(): 'within' must be a body or an array of bodies, got {}", d.type_name()));
+                }
+            }
+        };
+        let region = o.typed::<super::types::Shape>("region", "a shape")?;
+        let mut st = s.0.borrow_mut();
+        if st.sim.step > 0 {
+            return err("insert_joints(): joints must be inserted before the first step");
+        }
+        let tol = st.sim.length_tolerance();
+        let mut total = 0;
+        for b in bodies {
+            let body = st.sim.bodies[b.id].clone();
+            let young = st.sim.materials[body.material as usize].young;
+            let (pn, pt) = (law.penalties.0.unwrap_or(10.0 * young), law.penalties.1);
+            let pt = pt.unwrap_or(pn);
+            let resolved = match &law.cohesive {
+                Some(c) => JointLaw::Cohesive(Cohesive { normal_penalty: pn, tangential_penalty: pt, ..c.clone() }),
+                None => JointLaw::Tied { normal_penalty: pn, tangential_penalty: pt },
+            };
+            let id = st.sim.joints.add_law(resolved);
+            let (tets, x0) = (st.sim.tets.nodes.clone(), st.sim.nodes.x0.clone());
+            let n = st
+                .sim
+                .joints
+                .insert_in_body(&body, &tets, &x0, id, |c| region.as_ref().is_none_or(|r| r.0.contains(c, tol)))
+                .map_err(|e| format!("insert_joints(): {e}"))?;
+            total += n;
+        }
+        st.sim.invalidate();
+        Ok(total as i64)
+    });
+
+    engine.register_fn("on_joint_broken", |s: &mut SimHandle, f: FnPtr| {
+        s.0.borrow_mut().on_joint_broken = Some(f);
+    });
+    engine.register_get("n_joints", |s: &mut SimHandle| {
+        s.0.borrow().sim.joints.len() as i64
+    });
+    engine.register_fn("broken_joints", |s: &mut SimHandle| {
+        s.0.borrow().sim.break_events.len() as i64
+    });
+    engine.register_fn("fragments", |s: &mut SimHandle| -> RhaiResult<Map> {
+        let mut st = s.0.borrow_mut();
+        st.sim.prepare().map_err(|e| e.to_string())?;
+        let sim = &st.sim;
+        let id = crate::fracture::fragments(&sim.tets.nodes, &sim.joints, sim.nodes.len());
+        let count = id.iter().max().map_or(0, |m| m + 1) as usize;
+        let (mut vol, mut mass) = (vec![0.0; count], vec![0.0; count]);
+        for (e, &f) in id.iter().enumerate() {
+            vol[f as usize] += sim.tets.vol0[e];
+            mass[f as usize] +=
+                sim.tets.vol0[e] * sim.materials[sim.tets.material[e] as usize].density;
+        }
+        let mut m = Map::new();
+        m.insert("count".into(), (count as i64).into());
+        m.insert(
+            "volumes".into(),
+            Dynamic::from_array(vol.into_iter().map(Dynamic::from).collect()),
+        );
+        m.insert(
+            "masses".into(),
+            Dynamic::from_array(mass.into_iter().map(Dynamic::from).collect()),
+        );
+        Ok(m)
+    });
+}
+
+/// The map a script's `on_joint_broken` callback receives.
+pub fn event_map(sim: &crate::pipeline::Simulation, e: &crate::fracture::BreakEvent) -> Map {
+    let mut m = Map::new();
+    m.insert("id".into(), (e.joint as i64).into());
+    m.insert("time".into(), e.time.into());
+    m.insert(
+        "centroid".into(),
+        Dynamic::from_array(vec3_to_array(e.centroid)),
+    );
+    m.insert("mode".into(), e.mode.name().into());
+    m.insert(
+        "body".into(),
+        sim.bodies[e.body as usize].name.clone().into(),
+    );
+    m
+}
