@@ -8,7 +8,7 @@
 use crate::joints::{joint_kinematics, Joints};
 use crate::math::{Real, Vec3};
 
-/// How a joint broke, from the direction of its excess opening and slip at failure.
+/// How a joint broke, from the direction of its total opening and slip at failure.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BreakMode {
     /// Opening dominated (slip share below tan 15°).

@@ -11,8 +11,10 @@
 //! Tractions from the law act on B as −σ·n − τ·ŝ and on A as the opposite, times A/3: the
 //! joint forces are equal and opposite and follow large rotations.
 //!
-//! Guarantees: deterministic for any thread count (per-joint forces go to a slot buffer,
-//! gathered per node in a fixed order).
+//! Guarantees: deterministic for any thread count. Joints are grouped in blocks of
+//! consecutive joints, blocks are coloured so that blocks of a colour share no node, and
+//! colours run one after another (blocks of a colour in parallel, each block in order on one
+//! thread): every node receives its forces in a fixed order, with no atomics and no gather.
 
 pub mod law;
 
@@ -25,6 +27,9 @@ use std::collections::HashMap;
 
 /// Joints per parallel work item.
 pub const CHUNK: usize = 1024;
+
+/// Index of the block bucket that runs on one thread (blocks no parallel colour could take).
+const SEQUENTIAL: usize = 63;
 
 /// A joint constitutive law (registry name ↔ type).
 #[derive(Clone, Debug, PartialEq)]
@@ -80,6 +85,7 @@ impl JointLaw {
                 PointTraction {
                     normal: kn * k.opening,
                     shear: kt * k.slip,
+                    friction: Vec3::zeros(),
                     energy: 0.5 * (kn * k.opening * k.opening + kt * k.slip * k.slip),
                     dissipated: 0.0,
                 }
@@ -229,10 +235,13 @@ impl Joints {
             let range = b * CHUNK..((b + 1) * CHUNK).min(self.faces.len());
             let nodes = || self.faces[range.clone()].iter().flatten().flatten();
             let taken = nodes().fold(0u64, |m, &n| m | used[n as usize]);
-            let c = (!taken).trailing_zeros() as usize;
-            assert!(c < 64, "joint block {b}: more than 64 colours needed");
-            for &n in nodes() {
-                used[n as usize] |= 1 << c;
+            // Colours 0..63 run in parallel; a block that finds none free goes to the last
+            // bucket, which runs on one thread after all the others (still deterministic).
+            let c = ((!taken).trailing_zeros() as usize).min(SEQUENTIAL);
+            if c < SEQUENTIAL {
+                for &n in nodes() {
+                    used[n as usize] |= 1 << c;
+                }
             }
             if blocks.len() <= c {
                 blocks.resize(c + 1, Vec::new());
@@ -311,45 +320,50 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
     let fp = SyncPtr(nodes.f.as_mut_ptr());
     let sp = StatePtr(state.as_mut_ptr());
     let mut total = JointSums::default();
-    for blocks in color_blocks.iter() {
-        blocks
-            .par_iter()
-            .map(|range| {
-                let mut s = JointSums::default();
-                for j in range.clone() {
-                    // SAFETY: blocks are disjoint ranges of joints, so each state is
-                    // borrowed by one iteration only.
-                    let st = unsafe { &mut *sp.get().add(j) };
-                    let (n, area, pts) = joint_kinematics(&faces[j], x);
-                    let (lw, cs) = (&laws[law[j] as usize], &consts[law[j] as usize]);
-                    let inv_h = 1.0 / size[j];
-                    let was_failed = st.iter().all(|p| p.damage >= 1.0);
-                    for (p, (dn, ds, dir)) in pts.iter().enumerate() {
-                        let k = PointKinematics {
-                            opening: *dn,
-                            slip: *ds,
-                            size: size[j],
-                        };
-                        let t = lw.evaluate(cs, &k, inv_h, &mut st[p], want_energy);
-                        let on_b = -(n * t.normal + dir * t.shear) * (area / 3.0);
-                        // SAFETY: blocks of one colour share no node, and a block runs on
-                        // one thread, so no two concurrent writes alias; `f` outlives this.
-                        unsafe {
-                            *fp.get().add(faces[j][0][p] as usize) -= on_b;
-                            *fp.get().add(faces[j][1][p] as usize) += on_b;
-                        }
-                        s.dissipated += t.dissipated * area / 3.0;
-                        if want_energy {
-                            s.energy += t.energy * area / 3.0;
-                        }
-                    }
-                    if !was_failed && st.iter().all(|p| p.damage >= 1.0) {
-                        s.newly_failed += 1;
-                    }
+    let run_block = |range: &std::ops::Range<usize>| {
+        let mut s = JointSums::default();
+        for j in range.clone() {
+            // SAFETY: blocks are disjoint ranges of joints, so each state is
+            // borrowed by one iteration only.
+            let st = unsafe { &mut *sp.get().add(j) };
+            let (n, area, pts) = joint_kinematics(&faces[j], x);
+            let (lw, cs) = (&laws[law[j] as usize], &consts[law[j] as usize]);
+            let inv_h = 1.0 / size[j];
+            let was_failed = st.iter().all(|p| p.damage >= 1.0);
+            for (p, (dn, ds, dir)) in pts.iter().enumerate() {
+                let k = PointKinematics {
+                    opening: *dn,
+                    slip: *ds,
+                    slip_vector: dir * *ds,
+                    normal: n,
+                    size: size[j],
+                };
+                let t = lw.evaluate(cs, &k, inv_h, &mut st[p], want_energy);
+                let on_b = -(n * t.normal + dir * t.shear + t.friction) * (area / 3.0);
+                // SAFETY: blocks of one colour share no node, and a block runs on
+                // one thread, so no two concurrent writes alias; `f` outlives this.
+                unsafe {
+                    *fp.get().add(faces[j][0][p] as usize) -= on_b;
+                    *fp.get().add(faces[j][1][p] as usize) += on_b;
                 }
-                s
-            })
-            .collect_into_vec(partials);
+                s.dissipated += t.dissipated * area / 3.0;
+                if want_energy {
+                    s.energy += t.energy * area / 3.0;
+                }
+            }
+            if !was_failed && st.iter().all(|p| p.damage >= 1.0) {
+                s.newly_failed += 1;
+            }
+        }
+        s
+    };
+    for (colour, blocks) in color_blocks.iter().enumerate() {
+        if colour == SEQUENTIAL {
+            partials.clear();
+            partials.extend(blocks.iter().map(run_block));
+        } else {
+            blocks.par_iter().map(run_block).collect_into_vec(partials);
+        }
         for p in partials.iter() {
             total.energy += p.energy;
             total.dissipated += p.dissipated;

@@ -165,16 +165,17 @@ impl std::fmt::Display for TimeStepInfo {
         } else {
             format!("{} × critical", self.safety)
         };
-        write!(
-            f,
-            "dt = {:.4e} s ({how}); critical {:.4e} s set by tet {} of body '{}' at ({:.4}, {:.4}, {:.4})",
-            self.dt, self.critical, self.tet, self.body, c.x, c.y, c.z
-        )?;
-        if let Some((node, alone)) = self.joints {
-            write!(
+        match self.joints {
+            None => write!(
                 f,
-                "; joint penalties lower it from {alone:.4e} s (stiffest at node {node})"
-            )?;
+                "dt = {:.4e} s ({how}); critical {:.4e} s set by tet {} of body '{}' at ({:.4}, {:.4}, {:.4})",
+                self.dt, self.critical, self.tet, self.body, c.x, c.y, c.z
+            )?,
+            Some((node, alone)) => write!(
+                f,
+                "dt = {:.4e} s ({how}); critical {:.4e} s: tetrahedra alone {alone:.4e} s (tet {} of body '{}' at ({:.4}, {:.4}, {:.4})), lowered by the joint penalties (stiffest at node {node})",
+                self.dt, self.critical, self.tet, self.body, c.x, c.y, c.z
+            )?,
         }
         Ok(())
     }

@@ -237,7 +237,7 @@ pub const JOINT_LAW_KEYS: &[Key] = &[
     key("friction_angle", "float", "°", "30", "φ of the Mohr–Coulomb shear strength."),
     key("g_i", "float", "J/m²", "required (cohesive)", "Mode I fracture energy."),
     key("g_ii", "float", "J/m²", "required (cohesive)", "Mode II fracture energy."),
-    key("normal_penalty", "float", "Pa", "10 × young of the body", "p_n: initial normal stiffness p_n/h per unit area (h = mean edge of the face); opening at peak δp = 2h·f_t/p_n. Joints add compliance: 1/E_eff ≈ 1/E + 2.8/p_n on structured box meshes."),
+    key("normal_penalty", "float", "Pa", "10 × young of the body", "p_n: initial normal stiffness p_n/h per unit area (h = mean edge of the face); opening at peak δp = 2h·f_t/p_n. Joints add compliance: 1/E_eff ≈ 1/E + K/p_n, K ≈ 2.8 for cubic-cell box meshes (measured; K depends on the mesh)."),
     key("tangential_penalty", "float", "Pa", "normal_penalty", "p_t: initial shear stiffness p_t/h."),
     key("residual_friction", "float", "-", "tan(friction_angle)", "Coulomb friction μ of broken joints in compression."),
     key("calibration", "string", "", "\"exact\"", "\"exact\": softening length δt = G/(f·∫z), the joint dissipates G; \"y_compatible\": δt = 3G/f as in the Y codes (dissipates 1.159·G with Munjiza's curve)."),
@@ -340,7 +340,7 @@ pub const API: &[FnDoc] = &[
     // ── Queries
     FnDoc { section: "Queries", name: "s.time", signature: "s.time, s.step, s.dt, s.n_nodes, s.n_tets", summary: "Simulated time [s], steps done, time step [s], sizes.", keys: &[] },
     FnDoc { section: "Queries", name: "s.kinetic_energy", signature: "s.kinetic_energy(), s.strain_energy()", summary: "Current kinetic and strain energy [J].", keys: &[] },
-    FnDoc { section: "Queries", name: "s.energy", signature: "s.energy() -> map", summary: "Energy account at the last sample [J]: kinetic, strain, external_work, gravity_work, force_work, reaction_work, damping, balance_error, relative_error.", keys: &[] },
+    FnDoc { section: "Queries", name: "s.energy", signature: "s.energy() -> map", summary: "Energy account at the last sample [J]: kinetic, strain, joint (elastic energy of the joints), external_work, gravity_work, force_work, reaction_work, damping (mass-proportional + viscous), fracture (dissipated by joints), initial, balance_error, relative_error.", keys: &[] },
     FnDoc { section: "Queries", name: "s.displacement", signature: "s.displacement(nodes) -> [x, y, z]", summary: "Mean displacement of the nodes [m]. Also `s.position(nodes)` [m] and `s.velocity(nodes)` [m/s] (means).", keys: &[] },
     FnDoc { section: "Queries", name: "s.reaction", signature: "s.reaction(nodes) -> [x, y, z]", summary: "Sum of the constraint forces on the nodes in the last step [N].", keys: &[] },
     FnDoc { section: "Queries", name: "s.mean_stress", signature: "s.mean_stress(elements) -> [[..], [..], [..]]", summary: "Volume-weighted mean Cauchy stress of the elements [Pa]; `s.max_von_mises(elements)` the largest von Mises stress [Pa].", keys: &[] },

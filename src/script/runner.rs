@@ -262,6 +262,8 @@ fn write_run_output(s: &SimHandle) -> Result<(), String> {
             en.reaction_work,
             en.mass_damping,
             en.viscous_damping,
+            en.joint,
+            en.fracture,
             en.balance_error(),
         ]
     });
@@ -275,6 +277,8 @@ fn write_run_output(s: &SimHandle) -> Result<(), String> {
         "reaction_work",
         "mass_damping",
         "viscous_damping",
+        "joint",
+        "fracture",
         "balance_error",
     ];
     write_csv(&path, &header, rows).map_err(|e| format!("writing {}: {e}", path.display()))?;
@@ -408,8 +412,13 @@ pub fn summary(
         e.relative_balance_error()
     ));
     s.push_str(&format!(
-        "   output: {} ({frames} VTK frames, energy.csv, monitors)\n",
-        out_dir.display()
+        "   output: {} ({frames} VTK frames, energy.csv, monitors{})\n",
+        out_dir.display(),
+        if sim.joints.is_empty() {
+            ""
+        } else {
+            ", cracks.csv"
+        }
     ));
     s
 }
