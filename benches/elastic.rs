@@ -21,7 +21,7 @@ fn main() {
             "elastic/munjiza",
             "elastic/neo_hookean",
         ] {
-            match fdem::cli::bench("elastic", tets, steps, law, layout) {
+            match fdem::cli::bench("elastic", tets, steps, law, "builtin", layout) {
                 Ok(r) => println!("{r}"),
                 Err(e) => eprintln!("{law} {layout}: {e}"),
             }

@@ -57,8 +57,12 @@ enum Command {
         /// Number of time steps.
         #[arg(long, default_value_t = 200)]
         steps: u64,
-        /// Elastic law.
+        /// Elastic law of the tetrahedra.
         #[arg(long, default_value = "elastic/munjiza")]
+        material: String,
+        /// Joint law of the joints case: builtin (cohesive/munjiza) or script (the same law
+        /// written in Rhai, stdlib/joint_laws.rhai, compiled to native code).
+        #[arg(long, default_value = "builtin")]
         law: String,
         /// Body layout: jointed or continuous.
         #[arg(long, default_value = "jointed")]
@@ -157,13 +161,14 @@ pub fn main() {
             case,
             tets,
             steps,
+            material,
             law,
             layout,
             threads,
             json,
         } => {
             set_threads(threads);
-            match bench(&case, tets, steps, &law, &layout) {
+            match bench(&case, tets, steps, &material, &law, &layout) {
                 Ok(r) => {
                     if json {
                         println!("{}", r);
@@ -212,14 +217,15 @@ pub fn bench(
     case: &str,
     tets: usize,
     steps: u64,
-    law: &str,
+    material: &str,
+    joint_law: &str,
     layout: &str,
 ) -> Result<serde_json::Value, String> {
     if case != "elastic" && case != "joints" {
         return Err(format!("bench: unknown case '{case}'; available: elastic, joints (contact and fragmentation cases come with those stages)"));
     }
-    let formulation =
-        Formulation::from_name(law).ok_or_else(|| format!("bench: unknown law '{law}'"))?;
+    let formulation = Formulation::from_name(material)
+        .ok_or_else(|| format!("bench: unknown material law '{material}'"))?;
     let layout = match layout {
         "jointed" => Layout::Jointed,
         "continuous" => Layout::Continuous,
@@ -236,20 +242,57 @@ pub fn bench(
             if layout != Layout::Jointed {
                 return Err("bench: the joints case needs --layout jointed".into());
             }
-            let law = sim.joints.add_law(crate::joints::JointLaw::Cohesive(
-                crate::joints::law::Cohesive {
-                    softening: crate::joints::law::Softening::Munjiza,
-                    calibration: crate::joints::law::Calibration::Exact,
-                    tensile_strength: 5e6,
-                    cohesion: 10e6,
-                    tan_friction: 0.6,
-                    g_i: 50.0,
-                    g_ii: 200.0,
-                    normal_penalty: 3e11,
-                    tangential_penalty: 3e11,
-                    residual_friction: 0.6,
-                },
-            ));
+            let cohesive = crate::joints::law::Cohesive {
+                softening: crate::joints::law::Softening::Munjiza,
+                calibration: crate::joints::law::Calibration::Exact,
+                tensile_strength: 5e6,
+                cohesion: 10e6,
+                tan_friction: 0.6,
+                g_i: 50.0,
+                g_ii: 200.0,
+                normal_penalty: 3e11,
+                tangential_penalty: 3e11,
+                residual_friction: 0.6,
+            };
+            let joint = match joint_law {
+                "builtin" => crate::joints::JointLaw::Cohesive(cohesive),
+                "script" => {
+                    let mut p = rhai::Map::new();
+                    for (k, v) in [
+                        ("tensile_strength", cohesive.tensile_strength),
+                        ("cohesion", cohesive.cohesion),
+                        ("tan_friction", cohesive.tan_friction),
+                        ("g_i", cohesive.g_i),
+                        ("g_ii", cohesive.g_ii),
+                        ("normal_penalty", cohesive.normal_penalty),
+                        ("tangential_penalty", cohesive.tangential_penalty),
+                        ("k_soft", 1.0 / crate::joints::law::Z_INTEGRAL),
+                    ] {
+                        p.insert(k.into(), v.into());
+                    }
+                    let src = script::STDLIB
+                        .iter()
+                        .find(|(n, _)| *n == "stdlib/joint_laws")
+                        .unwrap()
+                        .1;
+                    let ast = rhai::Engine::new_raw()
+                        .compile(src)
+                        .map_err(|e| e.to_string())?;
+                    crate::joints::JointLaw::Script {
+                        law: std::sync::Arc::new(crate::joints::compiled::compile(
+                            &ast, "munjiza", &p,
+                        )?),
+                        normal_penalty: cohesive.normal_penalty,
+                        tangential_penalty: cohesive.tangential_penalty,
+                    }
+                }
+                other => {
+                    return Err(format!(
+                        "bench: joint law '{other}' is not builtin or script"
+                    ))
+                }
+            };
+            let law = sim.joints.add_law(joint);
             let (body, tet_nodes, x0) = (
                 sim.bodies[0].clone(),
                 sim.tets.nodes.clone(),
@@ -277,7 +320,8 @@ pub fn bench(
     let n = sim.tets.len();
     Ok(serde_json::json!({
         "case": case,
-        "law": law,
+        "material": material,
+        "joint_law": if case == "joints" { joint_law } else { "none" },
         "layout": layout.name(),
         "tets": n,
         "nodes": sim.nodes.len(),

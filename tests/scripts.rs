@@ -239,7 +239,8 @@ fn doc_command_matches_the_script_reference_page() {
 #[test]
 fn every_documented_key_is_accepted() {
     // A model that uses every option map with every documented key.
-    let text = r#"let p = params(#{ n: 2 });
+    let text = r#"fn spring(j, p) { #{ normal: p.k * j.opening, shear: p.k * j.slip, damage: 0.0 } }
+let p = params(#{ n: 2 });
 let sim = simulation(#{ name: "all", out_dir: "ignored", energy_every: 3, stress_output: "pk2", vtk_encoding: "base64" });
 let m = material("elastic/neo_hookean", #{ density: 1000.0, young: 1e6, poisson: 0.3, viscosity: 1.0 });
 let mesh = box(#{ min: [0.0, 0.0, 0.0], max: [1.0, 0.5, 0.5] }).mesh(#{ divisions: [2, 1, 1] });
@@ -249,6 +250,14 @@ let j = sim.add_body("j", box(#{ min: [0.0, 0.0, 5.0], max: [1.0, 0.5, 5.5] }).m
 let glue = joint_law("cohesive/munjiza", #{ tensile_strength: 1e5, cohesion: 2e5, friction_angle: 30.0, g_i: 10.0, g_ii: 40.0,
     normal_penalty: 1e7, tangential_penalty: 1e7, residual_friction: 0.5, calibration: "y_compatible" });
 expect_within("joints", sim.insert_joints(#{ within: [j], law: glue, region: box(#{ min: [-1.0, -1.0, 4.0], max: [9.0, 9.0, 6.0] }) }), 1, 100);
+// A joint law written in this script, and one from the stdlib, both compiled to native code.
+let own = joint_law("script", #{ function: "spring", params: #{ k: 1.0e6 }, normal_penalty: 1e7, tangential_penalty: 1e7 });
+let j2 = sim.add_body("j2", box(#{ min: [0.0, 0.0, 7.0], max: [1.0, 0.5, 7.5] }).mesh(#{ size: 0.5 }), m, #{ layout: "jointed" });
+expect_within("script joints", sim.insert_joints(#{ within: j2, law: own }), 1, 100);
+let std_law = joint_law("script", #{ source: "stdlib/joint_laws", function: "munjiza", params: #{ tensile_strength: 1e5,
+    cohesion: 2e5, tan_friction: 0.5, g_i: 10.0, g_ii: 40.0, normal_penalty: 1e7, tangential_penalty: 1e7, k_soft: 3.0 } });
+let j3 = sim.add_body("j3", box(#{ min: [0.0, 0.0, 9.0], max: [1.0, 0.5, 9.5] }).mesh(#{ size: 0.5 }), m, #{ layout: "jointed" });
+expect_within("stdlib joints", sim.insert_joints(#{ within: j3, law: std_law }), 1, 100);
 let t = sim.add_body("t", tet_mesh(#{ nodes: [[0.0, 0.0, 9.0], [1.0, 0.0, 9.0], [0.0, 1.0, 9.0], [0.0, 0.0, 10.0]], tets: [[0, 1, 2, 3]] }), m);
 let c = b.copy("c");
 c.translate([0.0, 0.0, 2.0]);

@@ -16,6 +16,7 @@
 //! colours run one after another (blocks of a colour in parallel, each block in order on one
 //! thread): every node receives its forces in a fixed order, with no atomics and no gather.
 
+pub mod compiled;
 pub mod law;
 
 use crate::math::{Real, Vec3};
@@ -32,12 +33,18 @@ pub const CHUNK: usize = 1024;
 const SEQUENTIAL: usize = 63;
 
 /// A joint constitutive law (registry name ↔ type).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub enum JointLaw {
     /// `"cohesive/munjiza"` and `"cohesive/linear"`: softening, breaking cohesion.
     Cohesive(Cohesive),
     /// `"tied"`: linear penalty springs that never break.
     Tied {
+        normal_penalty: Real,
+        tangential_penalty: Real,
+    },
+    /// `"script"`: a law written in Rhai, compiled to a closure tree ([`compiled`]).
+    Script {
+        law: std::sync::Arc<compiled::CompiledLaw>,
         normal_penalty: Real,
         tangential_penalty: Real,
     },
@@ -51,6 +58,7 @@ impl JointLaw {
                 law::Softening::Linear => "cohesive/linear",
             },
             JointLaw::Tied { .. } => "tied",
+            JointLaw::Script { .. } => "script",
         }
     }
 
@@ -61,6 +69,11 @@ impl JointLaw {
             JointLaw::Tied {
                 normal_penalty,
                 tangential_penalty,
+            }
+            | JointLaw::Script {
+                normal_penalty,
+                tangential_penalty,
+                ..
             } => (*normal_penalty, *tangential_penalty),
         }
     }
@@ -90,13 +103,36 @@ impl JointLaw {
                     dissipated: 0.0,
                 }
             }
+            JointLaw::Script { law, .. } => {
+                // The host keeps the maxima and makes damage non-decreasing and ≤ 1. A script
+                // law has no energy function, so it reports neither stored energy nor
+                // dissipation (the energy account then shows its work as a balance error).
+                s.max_opening = s.max_opening.max(k.opening);
+                s.max_slip = s.max_slip.max(k.slip);
+                let [normal, shear, damage] = law.evaluate([
+                    k.opening,
+                    k.slip,
+                    s.max_opening,
+                    s.max_slip,
+                    k.size,
+                    s.damage,
+                ]);
+                s.damage = s.damage.max(damage.min(1.0));
+                PointTraction {
+                    normal,
+                    shear,
+                    friction: Vec3::zeros(),
+                    energy: 0.0,
+                    dissipated: 0.0,
+                }
+            }
         }
     }
 
     fn consts(&self) -> CohesiveConsts {
         match self {
             JointLaw::Cohesive(c) => c.consts(),
-            JointLaw::Tied { .. } => CohesiveConsts::default(),
+            JointLaw::Tied { .. } | JointLaw::Script { .. } => CohesiveConsts::default(),
         }
     }
 }

@@ -241,6 +241,9 @@ pub const JOINT_LAW_KEYS: &[Key] = &[
     key("tangential_penalty", "float", "Pa", "normal_penalty", "p_t: initial shear stiffness p_t/h."),
     key("residual_friction", "float", "-", "tan(friction_angle)", "Coulomb friction μ of broken joints in compression."),
     key("calibration", "string", "", "\"exact\"", "\"exact\": softening length δt = G/(f·∫z), the joint dissipates G; \"y_compatible\": δt = 3G/f as in the Y codes (dissipates 1.159·G with Munjiza's curve)."),
+    key("function", "string", "", "required (script)", "Name of the Rhai function `fn name(j, p)` that is the law (compiled to native code; see docs/theory/joints.md)."),
+    key("params", "map of numbers", "", "#{}", "The law's parameters, read as `p.<name>` (constants)."),
+    key("source", "string", "", "this script", "Where the function is defined: this script, or a stdlib module such as \"stdlib/joint_laws\"."),
 ];
 pub const INSERT_JOINTS_KEYS: &[Key] = &[
     key(
@@ -313,7 +316,7 @@ pub const API: &[FnDoc] = &[
     FnDoc { section: "Bodies and selections", name: "set + set", signature: "nodes + nodes -> Nodes", summary: "Union of node sets (also for elements). All sets have `len()`.", keys: &[] },
     // ── Joints and fracture
     FnDoc { section: "Joints and fracture", name: "joint_law", signature: "joint_law(law, #{ … }) -> JointLaw",
-        summary: "A joint law. `law`: \"cohesive/munjiza\" (Munjiza's softening z(D), a = 0.63, b = 1.8, c = 6), \"cohesive/linear\" (linear softening), \"tied\" (linear penalty springs that never break; only the penalty keys).", keys: JOINT_LAW_KEYS },
+        summary: "A joint law. `law`: \"cohesive/munjiza\" (Munjiza's softening z(D), a = 0.63, b = 1.8, c = 6), \"cohesive/linear\" (linear softening), \"tied\" (linear penalty springs that never break; only the penalty keys), \"script\" (a law written in Rhai: `function`, `params`, `source` and the penalties; compiled once to native code).", keys: JOINT_LAW_KEYS },
     FnDoc { section: "Joints and fracture", name: "sim.insert_joints", signature: "sim.insert_joints(#{ … }) -> int",
         summary: "Insert a joint on every internal face of jointed bodies (optionally inside a region); returns how many. Faces that already have a joint are skipped.", keys: INSERT_JOINTS_KEYS },
     FnDoc { section: "Joints and fracture", name: "sim.on_joint_broken", signature: "sim.on_joint_broken(|s, joint| …)",

@@ -3,59 +3,18 @@
 use super::api::keys_of;
 use super::opts::{err, vec3_to_array, Opts, RhaiResult};
 use super::types::{BodyHandle, JointLawValue, SimHandle};
+use super::ScriptContext;
 use crate::joints::law::{Calibration, Cohesive, Softening};
 use crate::joints::JointLaw;
 use crate::math::Real;
 use rhai::{Array, Dynamic, Engine, FnPtr, Map};
+use std::rc::Rc;
 
 pub fn register(engine: &mut Engine) {
     engine.register_type_with_name::<JointLawValue>("JointLaw");
     engine.register_fn("to_string", |l: &mut JointLawValue| {
         format!("JointLaw({})", l.name)
     });
-    engine.register_fn("joint_law", |kind: &str, m: Map| -> RhaiResult<JointLawValue> {
-        let o = Opts::new("joint_law", m, keys_of("joint_law"))?;
-        let positive = |k: &str| -> RhaiResult<Real> {
-            o.positive(k)?.map_or_else(|| err(format!("joint_law(\"{kind}\"): missing required key '{k}'")), Ok)
-        };
-        let penalties = (o.positive("normal_penalty")?, o.positive("tangential_penalty")?);
-        let (softening, name) = match kind {
-            "cohesive/munjiza" => (Softening::Munjiza, "cohesive/munjiza"),
-            "cohesive/linear" => (Softening::Linear, "cohesive/linear"),
-            "tied" => {
-                for k in ["tensile_strength", "cohesion", "friction_angle", "g_i", "g_ii", "residual_friction", "calibration"] {
-                    if o.has(k) {
-                        return err(format!("joint_law(\"tied\"): key '{k}' belongs to the cohesive laws; \"tied\" takes normal_penalty and tangential_penalty"));
-                    }
-                }
-                return Ok(JointLawValue { name: "tied".into(), cohesive: None, penalties });
-            }
-            _ => return err(format!("joint_law(): unknown law \"{kind}\"; available: cohesive/munjiza, cohesive/linear, tied")),
-        };
-        let calibration = match o.string("calibration")?.as_deref() {
-            None | Some("exact") => Calibration::Exact,
-            Some("y_compatible") => Calibration::YCompatible,
-            Some(x) => return err(format!("joint_law(): calibration \"{x}\" is not \"exact\" or \"y_compatible\"")),
-        };
-        let friction_angle = o.float("friction_angle")?.unwrap_or(30.0);
-        if !(0.0..90.0).contains(&friction_angle) {
-            return err(format!("joint_law(): friction_angle must lie in [0, 90) degrees, got {friction_angle}"));
-        }
-        let cohesive = Cohesive {
-            softening,
-            calibration,
-            tensile_strength: positive("tensile_strength")?,
-            cohesion: positive("cohesion")?,
-            tan_friction: friction_angle.to_radians().tan(),
-            g_i: positive("g_i")?,
-            g_ii: positive("g_ii")?,
-            normal_penalty: 0.0,
-            tangential_penalty: 0.0,
-            residual_friction: o.float("residual_friction")?.unwrap_or(friction_angle.to_radians().tan()),
-        };
-        Ok(JointLawValue { name: name.into(), cohesive: Some(cohesive), penalties })
-    });
-
     engine.register_fn("insert_joints", |s: &mut SimHandle, m: Map| -> RhaiResult<i64> {
         let o = Opts::new("insert_joints", m, keys_of("sim.insert_joints"))?;
         let law = o.typed::<JointLawValue>("law", "a joint_law(..)")?.map_or_else(|| err("insert_joints(): missing required key 'law'"), Ok)?;
@@ -85,9 +44,10 @@ pub fn register(engine: &mut Engine) {
             let young = st.sim.materials[body.material as usize].young;
             let (pn, pt) = (law.penalties.0.unwrap_or(10.0 * young), law.penalties.1);
             let pt = pt.unwrap_or(pn);
-            let resolved = match &law.cohesive {
-                Some(c) => JointLaw::Cohesive(Cohesive { normal_penalty: pn, tangential_penalty: pt, ..c.clone() }),
-                None => JointLaw::Tied { normal_penalty: pn, tangential_penalty: pt },
+            let resolved = match (&law.cohesive, &law.script) {
+                (Some(c), _) => JointLaw::Cohesive(Cohesive { normal_penalty: pn, tangential_penalty: pt, ..c.clone() }),
+                (None, Some(l)) => JointLaw::Script { law: l.clone(), normal_penalty: pn, tangential_penalty: pt },
+                (None, None) => JointLaw::Tied { normal_penalty: pn, tangential_penalty: pt },
             };
             let id = st.sim.joints.add_law(resolved);
             let (tets, x0) = (st.sim.tets.nodes.clone(), st.sim.nodes.x0.clone());
@@ -134,6 +94,132 @@ pub fn register(engine: &mut Engine) {
             Dynamic::from_array(mass.into_iter().map(Dynamic::from).collect()),
         );
         Ok(m)
+    });
+}
+
+/// `joint_law("script", #{ function, params, source })`: compile a Rhai function to a law.
+fn script_law(ctx: &ScriptContext, o: &Opts) -> RhaiResult<JointLawValue> {
+    for k in [
+        "tensile_strength",
+        "cohesion",
+        "friction_angle",
+        "g_i",
+        "g_ii",
+        "residual_friction",
+        "calibration",
+    ] {
+        if o.has(k) {
+            return err(format!("joint_law(\"script\"): key '{k}' belongs to the built-in cohesive laws; a script law takes function, params, source and the penalties"));
+        }
+    }
+    let function = o.string("function")?.map_or_else(
+        || err("joint_law(\"script\"): missing required key 'function'"),
+        Ok,
+    )?;
+    let params = o
+        .typed::<Map>("params", "a map of numbers")?
+        .unwrap_or_default();
+    let law = match o.string("source")? {
+        None => {
+            let ast = ctx.ast.borrow();
+            let ast = ast
+                .as_ref()
+                .ok_or("joint_law(\"script\"): no script is running")?;
+            crate::joints::compiled::compile(ast, &function, &params)?
+        }
+        Some(src) => {
+            let Some((_, text)) = super::STDLIB.iter().find(|(n, _)| *n == src) else {
+                let names: Vec<&str> = super::STDLIB.iter().map(|(n, _)| *n).collect();
+                return err(format!(
+                    "joint_law(\"script\"): unknown source '{src}'; available: {}",
+                    names.join(", ")
+                ));
+            };
+            let ast = rhai::Engine::new_raw()
+                .compile(*text)
+                .map_err(|e| format!("{src}: {e}"))?;
+            crate::joints::compiled::compile(&ast, &function, &params)?
+        }
+    };
+    Ok(JointLawValue {
+        name: format!("script:{function}"),
+        cohesive: None,
+        script: Some(std::sync::Arc::new(law)),
+        penalties: (
+            o.positive("normal_penalty")?,
+            o.positive("tangential_penalty")?,
+        ),
+    })
+}
+
+/// `joint_law(kind, #{ … })`.
+fn joint_law(ctx: &ScriptContext, kind: &str, m: Map) -> RhaiResult<JointLawValue> {
+    let o = Opts::new("joint_law", m, keys_of("joint_law"))?;
+    let positive = |k: &str| -> RhaiResult<Real> {
+        o.positive(k)?.map_or_else(
+            || err(format!("joint_law(\"{kind}\"): missing required key '{k}'")),
+            Ok,
+        )
+    };
+    let penalties = (
+        o.positive("normal_penalty")?,
+        o.positive("tangential_penalty")?,
+    );
+    let (softening, name) = match kind {
+            "cohesive/munjiza" => (Softening::Munjiza, "cohesive/munjiza"),
+            "cohesive/linear" => (Softening::Linear, "cohesive/linear"),
+            "script" => return script_law(ctx, &o),
+            "tied" => {
+                for k in ["tensile_strength", "cohesion", "friction_angle", "g_i", "g_ii", "residual_friction", "calibration"] {
+                    if o.has(k) {
+                        return err(format!("joint_law(\"tied\"): key '{k}' belongs to the cohesive laws; \"tied\" takes normal_penalty and tangential_penalty"));
+                    }
+                }
+                return Ok(JointLawValue { name: "tied".into(), cohesive: None, script: None, penalties });
+            }
+            _ => return err(format!("joint_law(): unknown law \"{kind}\"; available: cohesive/munjiza, cohesive/linear, tied")),
+        };
+    let calibration = match o.string("calibration")?.as_deref() {
+        None | Some("exact") => Calibration::Exact,
+        Some("y_compatible") => Calibration::YCompatible,
+        Some(x) => {
+            return err(format!(
+                "joint_law(): calibration \"{x}\" is not \"exact\" or \"y_compatible\""
+            ))
+        }
+    };
+    let friction_angle = o.float("friction_angle")?.unwrap_or(30.0);
+    if !(0.0..90.0).contains(&friction_angle) {
+        return err(format!(
+            "joint_law(): friction_angle must lie in [0, 90) degrees, got {friction_angle}"
+        ));
+    }
+    let cohesive = Cohesive {
+        softening,
+        calibration,
+        tensile_strength: positive("tensile_strength")?,
+        cohesion: positive("cohesion")?,
+        tan_friction: friction_angle.to_radians().tan(),
+        g_i: positive("g_i")?,
+        g_ii: positive("g_ii")?,
+        normal_penalty: 0.0,
+        tangential_penalty: 0.0,
+        residual_friction: o
+            .float("residual_friction")?
+            .unwrap_or(friction_angle.to_radians().tan()),
+    };
+    Ok(JointLawValue {
+        name: name.into(),
+        cohesive: Some(cohesive),
+        script: None,
+        penalties,
+    })
+}
+
+/// `joint_law` needs the running script (laws written in it are compiled from its AST).
+pub fn register_script_laws(engine: &mut Engine, ctx: Rc<ScriptContext>) {
+    engine.register_fn("joint_law", move |kind: &str, m: Map| {
+        joint_law(&ctx, kind, m)
     });
 }
 

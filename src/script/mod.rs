@@ -37,6 +37,8 @@ pub struct ScriptContext {
     pub script_path: PathBuf,
     pub params_called: Cell<bool>,
     pub sims: RefCell<Vec<SimHandle>>,
+    /// The running script's AST (joint laws written in it are compiled from here).
+    pub ast: RefCell<Option<rhai::AST>>,
 }
 
 impl ScriptContext {
@@ -55,7 +57,13 @@ impl ScriptContext {
 }
 
 /// The `stdlib/` modules, embedded so scripts run from any directory.
-pub const STDLIB: &[(&str, &str)] = &[("stdlib/units", include_str!("../../stdlib/units.rhai"))];
+pub const STDLIB: &[(&str, &str)] = &[
+    ("stdlib/units", include_str!("../../stdlib/units.rhai")),
+    (
+        "stdlib/joint_laws",
+        include_str!("../../stdlib/joint_laws.rhai"),
+    ),
+];
 
 /// Build the Rhai engine used for every script.
 pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
@@ -74,6 +82,7 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     engine.on_print(move |s| c.say(s));
     engine.on_debug(|s, src, pos| eprintln!("{}:{}: {s}", src.unwrap_or("script"), pos));
     bindings::register(&mut engine, ctx.clone());
+    bindings_joints::register_script_laws(&mut engine, ctx.clone());
     // stdlib modules are compiled by this engine (they may call host functions).
     let mut stdlib = StaticModuleResolver::new();
     for (name, src) in STDLIB {
@@ -149,6 +158,7 @@ pub fn run_source(
         script_path: path.to_path_buf(),
         params_called: Cell::new(false),
         sims: RefCell::new(Vec::new()),
+        ast: RefCell::new(None),
     });
     let engine = build_engine(ctx.clone());
     let label = path.display().to_string();
@@ -156,6 +166,7 @@ pub fn run_source(
         .compile(source)
         .map_err(|e| ScriptError(format_parse_error(&label, source, &e)))?;
     ast.set_source(label.clone());
+    *ctx.ast.borrow_mut() = Some(ast.clone());
     let result = engine.run_ast(&ast);
     // Finish output of every simulation, even after an error.
     for s in ctx.sims.borrow().iter() {

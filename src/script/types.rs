@@ -45,8 +45,10 @@ pub struct SimState {
 #[derive(Clone, Debug)]
 pub struct JointLawValue {
     pub name: String,
-    /// None for "tied".
+    /// None for "tied" and script laws.
     pub cohesive: Option<crate::joints::law::Cohesive>,
+    /// A compiled Rhai law.
+    pub script: Option<std::sync::Arc<crate::joints::compiled::CompiledLaw>>,
     /// (p_n, p_t) [Pa] when given.
     pub penalties: (Option<f64>, Option<f64>),
 }
