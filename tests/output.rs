@@ -279,3 +279,73 @@ fn hexf(s: &str) -> f64 {
         v
     }
 }
+
+/// The crack surface read back by vtkio: one triangle (VTK type 5) per broken joint, with the
+/// time of breaking and the mode bit for bit as in the break events.
+#[test]
+fn crack_surface_reads_back_with_the_break_events() {
+    use vtkio::model::{Attribute, DataSet, IOBuffer, VertexNumbers};
+    let dir = temp_dir("cracks");
+    let script = r#"let sim = simulation(#{ name: "bar", vtk_encoding: "base64" });
+let m = material("elastic/munjiza", #{ density: 2500.0, young: 1.0e10, poisson: 0.0 });
+let bar = sim.add_body("bar", box(#{ min: [0.0, 0.0, 0.0], max: [1.0, 0.1, 0.1] }).mesh(#{ divisions: [10, 2, 2] }), m, #{ layout: "jointed" });
+sim.insert_joints(#{ within: bar, law: joint_law("cohesive/munjiza", #{ tensile_strength: 1.0e6, cohesion: 3.0e6, g_i: 50.0, g_ii: 200.0 }) });
+sim.prescribe_velocity(bar.nodes(half_space(#{ point: [0.0, 0.0, 0.0], normal: [-1.0, 0.0, 0.0] })), #{ x: 0.0 });
+sim.prescribe_velocity(bar.nodes(half_space(#{ point: [1.0, 0.0, 0.0], normal: [1.0, 0.0, 0.0] })), #{ x: table([[0.0, 0.0], [2.5e-3, 0.01]]) });
+sim.run(#{ max_time: 0.03, stop_when: |s| s.fragments().count > 1, check_every: 100 });
+sim.write_vtk();
+"#;
+    let opts = RunOptions {
+        out_dir: Some(dir.clone()),
+        quiet: true,
+        ..Default::default()
+    };
+    let report = run_source(&dir.join("bar.rhai"), script, opts).unwrap_or_else(|e| panic!("{e}"));
+    let st = report.sims[0].0.borrow();
+    let events = &st.sim.break_events;
+    assert!(!events.is_empty(), "the bar broke");
+    let path = dir.join("bar_cracks_000000.vtu");
+    let vtk = vtkio::Vtk::import(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
+        panic!("not an unstructured grid")
+    };
+    let piece = pieces
+        .into_iter()
+        .next()
+        .unwrap()
+        .into_loaded_piece_data(Some(&path))
+        .unwrap();
+    assert!(piece.cells.types.iter().all(|&t| t as u8 == 5), "triangles");
+    assert_eq!(piece.cells.types.len(), events.len());
+    let VertexNumbers::XML { offsets, .. } = piece.cells.cell_verts else {
+        panic!("cells")
+    };
+    assert_eq!(
+        offsets,
+        (1..=events.len() as u64).map(|c| 3 * c).collect::<Vec<_>>()
+    );
+    let cell: Vec<(String, IOBuffer)> = piece
+        .data
+        .cell
+        .into_iter()
+        .map(|a| match a {
+            Attribute::DataArray(d) => (d.name, d.data),
+            Attribute::Field { name, .. } => panic!("unexpected field {name}"),
+        })
+        .collect();
+    assert_eq!(
+        cell.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>(),
+        ["time", "mode", "body", "joint"]
+    );
+    let IOBuffer::F64(time) = &cell[0].1 else {
+        panic!("time is f64")
+    };
+    assert_eq!(
+        bits(time.iter().copied()),
+        bits(events.iter().map(|e| e.time))
+    );
+    let IOBuffer::I32(mode) = &cell[1].1 else {
+        panic!("mode is i32")
+    };
+    assert!(mode.iter().all(|&m| (1..=3).contains(&m)));
+}

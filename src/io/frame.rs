@@ -1,6 +1,7 @@
 //! Build one ParaView frame of a simulation: point and cell fields in VTK layout.
 
 use super::vtu::{encode_vtu_with, DataArray, Encoding, Field, VtuFrame};
+
 use crate::elements::deformation_gradient;
 use crate::material::StressMeasure;
 use crate::math::von_mises;
@@ -122,6 +123,7 @@ pub fn encode_frame(
     let frame = VtuFrame {
         points: &points,
         tets: &sim.tets.nodes,
+        triangles: &[],
         point_data: vec![
             Field {
                 name: "displacement",
@@ -133,6 +135,62 @@ pub fn encode_frame(
             },
         ],
         cell_data,
+    };
+    encode_vtu_with(&frame, encoding)
+}
+
+/// Encode the crack surface as `.vtu` bytes: one triangle per broken joint (face A at its
+/// current position), with cell data `time` of breaking [s], `mode` (1 = I, 2 = II, 3 = mixed),
+/// `body` and `joint`. An empty surface (no joint broken yet) is a valid frame without cells.
+pub fn encode_cracks(sim: &Simulation, encoding: Encoding) -> Result<Vec<u8>, String> {
+    let n = sim.break_events.len();
+    let mut points = Vec::with_capacity(3 * n);
+    let mut triangles = Vec::with_capacity(n);
+    let (mut time, mut mode, mut body, mut joint) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    );
+    for e in &sim.break_events {
+        let base = points.len() as u32;
+        for &node in &sim.joints.faces[e.joint][0] {
+            let p = sim.nodes.x[node as usize];
+            points.push([p.x, p.y, p.z]);
+        }
+        triangles.push([base, base + 1, base + 2]);
+        time.push(e.time);
+        mode.push(match e.mode {
+            crate::fracture::BreakMode::I => 1,
+            crate::fracture::BreakMode::II => 2,
+            crate::fracture::BreakMode::Mixed => 3,
+        });
+        body.push(e.body as i32);
+        joint.push(e.joint as i32);
+    }
+    let frame = VtuFrame {
+        points: &points,
+        tets: &[],
+        triangles: &triangles,
+        point_data: Vec::new(),
+        cell_data: vec![
+            Field {
+                name: "time",
+                data: DataArray::ScalarF64(&time),
+            },
+            Field {
+                name: "mode",
+                data: DataArray::ScalarI32(&mode),
+            },
+            Field {
+                name: "body",
+                data: DataArray::ScalarI32(&body),
+            },
+            Field {
+                name: "joint",
+                data: DataArray::ScalarI32(&joint),
+            },
+        ],
     };
     encode_vtu_with(&frame, encoding)
 }

@@ -46,6 +46,7 @@ use std::path::{Path, PathBuf};
 
 /// VTK cell type code for a linear tetrahedron.
 const VTK_TETRA: u8 = 10;
+const VTK_TRIANGLE: u8 = 5;
 
 /// Values of one field: one entry per point (point data) or per tet (cell data).
 #[derive(Clone, Copy, Debug)]
@@ -123,13 +124,16 @@ pub struct Field<'a> {
     pub data: DataArray<'a>,
 }
 
-/// Tetrahedra only (VTK cell type 10). points: n x 3; tets: node indices.
+/// Tetrahedra (VTK cell type 10) or triangles (type 5): points n × 3; exactly one of `tets`
+/// and `triangles` is non-empty (both empty: a frame without cells).
 #[derive(Clone, Debug)]
 pub struct VtuFrame<'a> {
     /// Node coordinates.
     pub points: &'a [[f64; 3]],
     /// Four node indices (into `points`) per tetrahedron.
     pub tets: &'a [[u32; 4]],
+    /// Three node indices per triangle (surfaces such as cracks).
+    pub triangles: &'a [[u32; 3]],
     /// Fields with one value per point.
     pub point_data: Vec<Field<'a>>,
     /// Fields with one value per tetrahedron.
@@ -190,7 +194,15 @@ pub fn encode_vtu_into_with(
 ) -> Result<(), String> {
     out.clear();
     let n_points = frame.points.len();
-    let n_cells = frame.tets.len();
+    if !frame.tets.is_empty() && !frame.triangles.is_empty() {
+        return Err("a frame holds either tetrahedra or triangles, not both".into());
+    }
+    let (stride, cell_type, connectivity): (usize, u8, &[u32]) = if frame.triangles.is_empty() {
+        (4, VTK_TETRA, frame.tets.as_flattened())
+    } else {
+        (3, VTK_TRIANGLE, frame.triangles.as_flattened())
+    };
+    let n_cells = connectivity.len() / stride;
     validate_fields("point", &frame.point_data, n_points)?;
     validate_fields("cell", &frame.cell_data, n_cells)?;
 
@@ -246,7 +258,7 @@ pub fn encode_vtu_into_with(
     data_array(&mut xml, "Float64", "Points", 3, n_points * 24);
     xml.push_str("      </Points>\n");
     xml.push_str("      <Cells>\n");
-    data_array(&mut xml, "Int64", "connectivity", 1, n_cells * 32);
+    data_array(&mut xml, "Int64", "connectivity", 1, n_cells * stride * 8);
     data_array(&mut xml, "Int64", "offsets", 1, n_cells * 8);
     data_array(&mut xml, "UInt8", "types", 1, n_cells);
     xml.push_str("      </Cells>\n");
@@ -272,34 +284,33 @@ pub fn encode_vtu_into_with(
     put_header(out, n_points * 24);
     put_f64s(out, frame.points.as_flattened());
 
-    put_header(out, n_cells * 32);
+    put_header(out, n_cells * stride * 8);
     let mut max_index: u32 = 0;
-    for tet in frame.tets {
-        for &i in tet {
-            max_index = max_index.max(i);
-            out.extend_from_slice(&i64::from(i).to_le_bytes());
-        }
+    for &i in connectivity {
+        max_index = max_index.max(i);
+        out.extend_from_slice(&i64::from(i).to_le_bytes());
     }
     if n_cells > 0 && max_index as usize >= n_points {
-        let (t, tet) = frame
-            .tets
+        let c = connectivity
             .iter()
-            .enumerate()
-            .find(|(_, tet)| tet.iter().any(|&i| i as usize >= n_points))
-            .expect("an out-of-range index was seen");
+            .position(|&i| i as usize >= n_points)
+            .expect("an out-of-range index was seen")
+            / stride;
+        let cell = &connectivity[stride * c..stride * (c + 1)];
+        let kind = if stride == 4 { "tets" } else { "triangles" };
         out.clear();
         return Err(format!(
-            "tets[{t}] = {tet:?} refers to a node index out of range: there are {n_points} points"
+            "{kind}[{c}] = {cell:?} refers to a node index out of range: there are {n_points} points"
         ));
     }
 
     put_header(out, n_cells * 8);
     for c in 1..=n_cells as i64 {
-        out.extend_from_slice(&(4 * c).to_le_bytes());
+        out.extend_from_slice(&(stride as i64 * c).to_le_bytes());
     }
 
     put_header(out, n_cells);
-    out.resize(out.len() + n_cells, VTK_TETRA);
+    out.resize(out.len() + n_cells, cell_type);
 
     debug_assert_eq!(out.len() - binary_start, binary_len);
     if encoding == Encoding::Base64 {
@@ -506,6 +517,7 @@ mod tests {
         let frame = VtuFrame {
             points: &points,
             tets: &tets,
+            triangles: &[],
             point_data: vec![Field {
                 name: "s",
                 data: DataArray::ScalarF64(&s),
@@ -561,6 +573,7 @@ mod tests {
         let frame = VtuFrame {
             points: &points,
             tets: &tets,
+            triangles: &[],
             point_data: vec![
                 Field {
                     name: "pressure",
@@ -582,6 +595,7 @@ mod tests {
         let frame = VtuFrame {
             points: &points,
             tets: &tets,
+            triangles: &[],
             point_data: vec![],
             cell_data: vec![Field {
                 name: "body",
@@ -600,6 +614,7 @@ mod tests {
         let frame = VtuFrame {
             points: &points,
             tets: &tets,
+            triangles: &[],
             point_data: vec![],
             cell_data: vec![],
         };
@@ -618,6 +633,7 @@ mod tests {
             let frame = VtuFrame {
                 points: &points,
                 tets: &tets,
+                triangles: &[],
                 point_data: names
                     .iter()
                     .map(|n| Field {
@@ -637,6 +653,7 @@ mod tests {
         let frame = VtuFrame {
             points: &[],
             tets: &[],
+            triangles: &[],
             point_data: vec![Field {
                 name: "a<b & \"c\"",
                 data: DataArray::ScalarF64(&[]),

@@ -339,7 +339,7 @@ pub const API: &[FnDoc] = &[
     FnDoc { section: "Hooks, monitors and output", name: "sim.monitor", signature: "sim.monitor(name, #{ … }, |s| value) -> Monitor",
         summary: "Record a number during runs; written to `<out_dir>/<name>.csv` after every run. Monitor methods: `last()`, `peak()` (largest value), `min()`, `max()`, `len()`, `values()`, `times()`, `write_csv()`.", keys: MONITOR_KEYS },
     FnDoc { section: "Hooks, monitors and output", name: "sim.write_vtk", signature: "sim.write_vtk()",
-        summary: "Write a ParaView frame `<name>_NNNNNN.vtu` and update `<name>.pvd`: displacement, velocity (points); Cauchy stress, von Mises, principal stresses, body, material, and with joints `damage` (largest joint damage on the tet's faces) and `fragment` (cells).", keys: &[] },
+        summary: "Write a ParaView frame `<name>_NNNNNN.vtu` and update `<name>.pvd`: displacement, velocity (points); Cauchy stress, von Mises, principal stresses, body, material, and with joints `damage` (largest joint damage on the tet's faces) and `fragment` (cells). Once a joint has broken it also writes the crack surface `<name>_cracks_NNNNNN.vtu` + `<name>_cracks.pvd`: one triangle per broken joint with `time` of breaking, `mode` (1 = I, 2 = II, 3 = mixed), `body`, `joint`.", keys: &[] },
     // ── Queries
     FnDoc { section: "Queries", name: "s.time", signature: "s.time, s.step, s.dt, s.n_nodes, s.n_tets", summary: "Simulated time [s], steps done, time step [s], sizes.", keys: &[] },
     FnDoc { section: "Queries", name: "s.kinetic_energy", signature: "s.kinetic_energy(), s.strain_energy()", summary: "Current kinetic and strain energy [J].", keys: &[] },

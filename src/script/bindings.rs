@@ -352,6 +352,7 @@ fn register_simulation(engine: &mut Engine, ctx: Rc<ScriptContext>) {
             sim,
             vtk_encoding,
             vtk: VtkSeries::new(out_dir.clone(), name.clone()),
+            cracks_vtk: VtkSeries::new(out_dir.clone(), format!("{name}_cracks")),
             name,
             out_dir,
             stress_output,

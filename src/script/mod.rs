@@ -170,7 +170,9 @@ pub fn run_source(
     let result = engine.run_ast(&ast);
     // Finish output of every simulation, even after an error.
     for s in ctx.sims.borrow().iter() {
-        let _ = s.0.borrow_mut().vtk.flush();
+        let mut st = s.0.borrow_mut();
+        let _ = st.vtk.flush();
+        let _ = st.cracks_vtk.flush();
     }
     match result {
         Err(e) if matches!(&*e, EvalAltResult::ErrorTerminated(t, _) if t.to_string() == runner::CHECK_DONE) =>

@@ -309,7 +309,8 @@ fn write_run_output(s: &SimHandle) -> Result<(), String> {
         )
         .map_err(|e| format!("writing {}: {e}", path.display()))?;
     }
-    st.vtk.flush()
+    st.vtk.flush()?;
+    st.cracks_vtk.flush()
 }
 
 /// `sim.write_vtk()`: encode a frame now and queue it for the background writer.
@@ -322,6 +323,15 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
     st.vtk
         .push(t, bytes)
         .map_err(|e| format!("write_vtk(): {e}"))?;
+    // Crack frames start with the first crack (some readers, meshio among them, cannot read a
+    // frame without cells).
+    if !st.sim.break_events.is_empty() {
+        let cracks = crate::io::frame::encode_cracks(&st.sim, st.vtk_encoding)
+            .map_err(|e| format!("write_vtk(): {e}"))?;
+        st.cracks_vtk
+            .push(t, cracks)
+            .map_err(|e| format!("write_vtk(): {e}"))?;
+    }
     Ok(())
 }
 

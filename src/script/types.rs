@@ -25,6 +25,8 @@ pub struct SimState {
     pub hooks: Vec<Hook>,
     pub monitors: Vec<MonitorHandle>,
     pub vtk: VtkSeries,
+    /// The crack surface, one frame per `write_vtk` when the model has joints.
+    pub cracks_vtk: VtkSeries,
     /// Material uid (from `material(..)`) → material id in this simulation.
     pub material_ids: HashMap<u64, u32>,
     /// Number of completed `run` calls.
