@@ -591,7 +591,7 @@ fn rhai_munjiza_law_equals_the_builtin() {
                 ss.max_opening = ss.max_opening.max(opening);
                 ss.max_slip = ss.max_slip.max(slip);
                 let [n, t, d] =
-                    script.evaluate([opening, slip, ss.max_opening, ss.max_slip, h, ss.damage]);
+                    script.evaluate(&[opening, slip, ss.max_opening, ss.max_slip, h, ss.damage]);
                 ss.damage = ss.damage.max(d.min(1.0));
                 let scale = coh.cohesion.max(coh.tensile_strength);
                 assert!(
@@ -626,7 +626,7 @@ fn unsupported_construct_in_a_script_law_is_refused_with_its_line() {
         ("fn law(j, p) {\n    let x = 0.0;\n    for i in 0..3 { x += 1.0; }\n    #{ normal: x, shear: 0.0, damage: 0.0 }\n}", "line 3: a loop"),
         ("fn law(j, p) {\n    #{ normal: print(1.0), shear: 0.0, damage: 0.0 }\n}", "line 2: the function 'print'"),
         ("fn law(j, p) {\n    #{ normal: j.speed, shear: 0.0, damage: 0.0 }\n}", "line 2: j.speed is not an input"),
-        ("fn law(j, p) {\n    #{ normal: 0.0, shear: 0.0 }\n}", "needs the keys normal, shear and damage"),
+        ("fn law(j, p) {\n    #{ normal: 0.0, shear: 0.0 }\n}", "needs the keys normal, shear, damage"),
     ];
     for (src, expected) in cases {
         let ast = rhai::Engine::new_raw().compile(src).unwrap();

@@ -26,13 +26,52 @@ pub const INPUTS: [&str; 6] = [
     "size",
     "damage",
 ];
-/// Local variable slots available to a law (inputs included).
+/// Local variable slots available to a function (inputs included).
 pub const MAX_SLOTS: usize = 48;
+/// Largest number of outputs.
+pub const MAX_OUTPUTS: usize = 4;
+
+/// What a compiled function is: its kind (for messages), inputs and outputs.
+#[derive(Clone, Copy, Debug)]
+pub struct Signature {
+    pub kind: &'static str,
+    pub inputs: &'static [&'static str],
+    pub outputs: &'static [&'static str],
+}
+
+/// A joint law: `fn law(j, p)` returning `#{ normal, shear, damage }`.
+pub const LAW: Signature = Signature {
+    kind: "joint law",
+    inputs: &INPUTS,
+    outputs: &["normal", "shear", "damage"],
+};
+
+/// Inputs of a fracture criterion (per joint): largest damage, mean opening and slip, largest
+/// opening and slip so far, centroid, size, time.
+pub const CRITERION_INPUTS: [&str; 10] = [
+    "damage",
+    "opening",
+    "slip",
+    "max_opening",
+    "max_slip",
+    "x",
+    "y",
+    "z",
+    "size",
+    "time",
+];
+
+/// A fracture criterion: `fn criterion(j, p)` returning true (break) or false.
+pub const CRITERION: Signature = Signature {
+    kind: "fracture criterion",
+    inputs: &CRITERION_INPUTS,
+    outputs: &["broken"],
+};
 
 /// The evaluation frame: variable slots and the three outputs.
 pub struct Frame {
     pub v: [f64; MAX_SLOTS],
-    pub out: [f64; 3],
+    pub out: [f64; MAX_OUTPUTS],
 }
 
 type ExprFn = Box<dyn Fn(&mut Frame) -> f64 + Send + Sync>;
@@ -120,9 +159,10 @@ fn truth(b: bool) -> f64 {
 /// Returns true when the law has returned (the outputs are set).
 type StmtFn = Box<dyn Fn(&mut Frame) -> bool + Send + Sync>;
 
-/// A compiled joint law.
+/// A compiled joint law or fracture criterion.
 pub struct CompiledLaw {
     pub name: String,
+    pub signature: Signature,
     body: Vec<StmtFn>,
 }
 
@@ -133,30 +173,42 @@ impl std::fmt::Debug for CompiledLaw {
 }
 
 impl CompiledLaw {
-    /// Evaluate with inputs in [`INPUTS`] order; returns (normal, shear, damage). A law that
-    /// ends without returning gives NaN, which stops the run as unstable.
+    /// Evaluate with inputs in the signature's order; returns the outputs in the signature's
+    /// order (for a law: normal, shear, damage). A function that ends without returning gives
+    /// NaN, which stops the run as unstable.
     #[inline]
-    pub fn evaluate(&self, inputs: [f64; 6]) -> [f64; 3] {
+    pub fn evaluate<const N: usize>(&self, inputs: &[f64]) -> [f64; N] {
         let mut f = Frame {
             v: [0.0; MAX_SLOTS],
-            out: [f64::NAN; 3],
+            out: [f64::NAN; MAX_OUTPUTS],
         };
-        f.v[..6].copy_from_slice(&inputs);
+        f.v[..inputs.len()].copy_from_slice(inputs);
         for s in &self.body {
             if s(&mut f) {
                 break;
             }
         }
-        f.out
+        std::array::from_fn(|i| f.out[i])
     }
 }
 
-/// Compile the script function `name` of `ast` with parameters `params`.
+/// Compile the joint law `name` of `ast` with parameters `params`.
 pub fn compile(ast: &AST, name: &str, params: &Map) -> Result<CompiledLaw, String> {
+    compile_with(ast, name, params, LAW)
+}
+
+/// Compile the script function `name` of `ast` as a function of signature `sig`.
+pub fn compile_with(
+    ast: &AST,
+    name: &str,
+    params: &Map,
+    sig: Signature,
+) -> Result<CompiledLaw, String> {
+    let kind = sig.kind;
     let Some(def) = ast.iter_fn_def().find(|f| f.name == name) else {
         let names: Vec<String> = ast.iter_functions().map(|f| f.name.to_string()).collect();
         return Err(format!(
-            "joint law: no function '{name}' in the script; functions defined: {}",
+            "{kind}: no function '{name}' in the script; functions defined: {}",
             if names.is_empty() {
                 "none".into()
             } else {
@@ -166,7 +218,7 @@ pub fn compile(ast: &AST, name: &str, params: &Map) -> Result<CompiledLaw, Strin
     };
     if def.params.len() != 2 {
         return Err(format!(
-            "joint law '{name}': the function must take two parameters (j, p), it takes {}",
+            "{kind} '{name}': the function must take two parameters (j, p), it takes {}",
             def.params.len()
         ));
     }
@@ -190,17 +242,20 @@ pub fn compile(ast: &AST, name: &str, params: &Map) -> Result<CompiledLaw, Strin
         p: def.params[1].to_string(),
         params,
         scopes: vec![Vec::new()],
-        next: INPUTS.len(),
+        next: sig.inputs.len(),
+        sig,
     };
     let body = c.statements(&stmts, true)?;
     Ok(CompiledLaw {
         name: name.to_string(),
+        signature: sig,
         body,
     })
 }
 
 struct Compiler<'a> {
     name: &'a str,
+    sig: Signature,
     j: String,
     p: String,
     params: &'a Map,
@@ -226,7 +281,12 @@ fn line(pos: Position) -> String {
 
 impl Compiler<'_> {
     fn refuse<T>(&self, pos: Position, what: &str) -> Result<T, String> {
-        Err(format!("joint law '{}': line {}: {what} is not supported in compiled laws (allowed: {ALLOWED})", self.name, line(pos)))
+        Err(format!(
+            "{} '{}': line {}: {what} is not supported in compiled functions (allowed: {ALLOWED})",
+            self.sig.kind,
+            self.name,
+            line(pos)
+        ))
     }
 
     fn lookup(&self, name: &str) -> Option<usize> {
@@ -261,7 +321,10 @@ impl Compiler<'_> {
                 if self.next >= MAX_SLOTS {
                     return self.refuse(
                         *pos,
-                        &format!("more than {} local variables", MAX_SLOTS - INPUTS.len()),
+                        &format!(
+                            "more than {} local variables",
+                            MAX_SLOTS - self.sig.inputs.len()
+                        ),
                     );
                 }
                 let slot = self.next;
@@ -333,64 +396,95 @@ impl Compiler<'_> {
     }
 
     /// A return value: `#{ normal, shear, damage }`, or an `if` whose branches return one.
+    /// A return value: a map with the signature's output keys (or, with a single output, a
+    /// plain value), or an `if` whose branches return one.
     fn ret(&mut self, e: &Expr) -> Result<StmtFn, String> {
+        let outputs = self.sig.outputs;
+        let keys = outputs.join(", ");
+        let slot_of = |this: &Self, key: &str, pos: Position| -> Result<usize, String> {
+            outputs.iter().position(|&o| o == key).ok_or_else(|| {
+                format!(
+                    "{} '{}': line {}: the result map has key '{key}'; allowed keys: {keys}",
+                    this.sig.kind,
+                    this.name,
+                    line(pos)
+                )
+            })
+        };
+        let missing = |this: &Self, pos: Position| {
+            format!(
+                "{} '{}': line {}: the result map needs the keys {keys}",
+                this.sig.kind,
+                this.name,
+                line(pos)
+            )
+        };
         match e {
             Expr::Map(x, pos) => {
-                let mut outs: [Option<ExprFn>; 3] = [None, None, None];
+                let mut outs: Vec<Option<ExprFn>> = (0..outputs.len()).map(|_| None).collect();
                 for (ident, value) in x.0.iter() {
-                    let k = match ident.name.as_str() {
-                        "normal" => 0,
-                        "shear" => 1,
-                        "damage" => 2,
-                        other => return Err(format!("joint law '{}': line {}: the result map has key '{other}'; allowed keys: normal, shear, damage", self.name, line(ident.pos))),
-                    };
+                    let k = slot_of(self, ident.name.as_str(), ident.pos)?;
                     outs[k] = Some(self.expr(value)?.boxed());
                 }
-                let [Some(n), Some(s), Some(d)] = outs else {
-                    return Err(format!("joint law '{}': line {}: the result map needs the keys normal, shear and damage", self.name, line(*pos)));
-                };
+                let outs: Vec<ExprFn> = outs
+                    .into_iter()
+                    .collect::<Option<_>>()
+                    .ok_or_else(|| missing(self, *pos))?;
                 Ok(Box::new(move |f| {
-                    f.out = [n(f), s(f), d(f)];
+                    for (k, o) in outs.iter().enumerate() {
+                        f.out[k] = o(f);
+                    }
                     true
                 }))
             }
-            Expr::Stmt(b) => {
+            Expr::Stmt(b)
+                if outputs.len() > 1
+                    || b.statements().len() != 1
+                    || !matches!(b.statements()[0], Stmt::If(..)) =>
+            {
                 let b = self.block(b, true)?;
                 Ok(Box::new(move |f| b.iter().any(|s| s(f))))
             }
             // An all-constant map literal, folded by Rhai's optimizer.
             Expr::DynamicConstant(d, pos) if d.is_map() => {
                 let m = d.clone().cast::<Map>();
-                let mut outs = [None; 3];
+                let mut outs: Vec<Option<f64>> = vec![None; outputs.len()];
                 for (key, value) in &m {
-                    let k = match key.as_str() {
-                        "normal" => 0,
-                        "shear" => 1,
-                        "damage" => 2,
-                        other => return Err(format!("joint law '{}': line {}: the result map has key '{other}'; allowed keys: normal, shear, damage", self.name, line(*pos))),
-                    };
+                    let k = slot_of(self, key.as_str(), *pos)?;
                     let v = value
                         .as_float()
                         .ok()
-                        .or_else(|| value.as_int().ok().map(|i| i as f64));
+                        .or_else(|| value.as_int().ok().map(|i| i as f64))
+                        .or_else(|| value.as_bool().ok().map(truth));
                     outs[k] = Some(v.ok_or_else(|| {
                         format!(
-                            "joint law '{}': line {}: result '{key}' is not a number",
+                            "{} '{}': line {}: result '{key}' is not a number",
+                            self.sig.kind,
                             self.name,
                             line(*pos)
                         )
                     })?);
                 }
-                let [Some(n), Some(s), Some(d)] = outs else {
-                    return Err(format!("joint law '{}': line {}: the result map needs the keys normal, shear and damage", self.name, line(*pos)));
-                };
+                let outs: Vec<f64> = outs
+                    .into_iter()
+                    .collect::<Option<_>>()
+                    .ok_or_else(|| missing(self, *pos))?;
                 Ok(Box::new(move |f| {
-                    f.out = [n, s, d];
+                    f.out[..outs.len()].copy_from_slice(&outs);
+                    true
+                }))
+            }
+            // A single output may be returned as a plain value.
+            other if outputs.len() == 1 => {
+                let v = self.expr(other)?.boxed();
+                Ok(Box::new(move |f| {
+                    f.out[0] = v(f);
                     true
                 }))
             }
             other => Err(format!(
-                "joint law '{}': line {}: a law must return #{{ normal: …, shear: …, damage: … }}",
+                "{} '{}': line {}: the function must return #{{ {keys} }}",
+                self.sig.kind,
                 self.name,
                 line(other.position())
             )),
@@ -521,14 +615,15 @@ impl Compiler<'_> {
             (Expr::Variable(v, ..), Expr::Property(p, ppos)) if self.lookup(&v.1).is_none() => {
                 let field = p.2.as_str();
                 if v.1 == self.j {
-                    match INPUTS.iter().position(|&i| i == field) {
+                    match self.sig.inputs.iter().position(|&i| i == field) {
                         Some(slot) => Ok(Node::Var(slot)),
                         None => Err(format!(
-                            "joint law '{}': line {}: {}.{field} is not an input; inputs: {}",
+                            "{} '{}': line {}: {}.{field} is not an input; inputs: {}",
+                            self.sig.kind,
                             self.name,
                             line(*ppos),
                             self.j,
-                            INPUTS.join(", ")
+                            self.sig.inputs.join(", ")
                         )),
                     }
                 } else if v.1 == self.p {
@@ -542,7 +637,7 @@ impl Compiler<'_> {
                             let mut names: Vec<&str> =
                                 self.params.keys().map(|k| k.as_str()).collect();
                             names.sort_unstable();
-                            Err(format!("joint law '{}': line {}: parameter '{field}' is not a number in the law's params; params: {}", self.name, line(*ppos), names.join(", ")))
+                            Err(format!("{} '{}': line {}: parameter '{field}' is not a number in the params; params: {}", self.sig.kind, self.name, line(*ppos), names.join(", ")))
                         }
                     }
                 } else {

@@ -109,7 +109,7 @@ impl JointLaw {
                 // dissipation (the energy account then shows its work as a balance error).
                 s.max_opening = s.max_opening.max(k.opening);
                 s.max_slip = s.max_slip.max(k.slip);
-                let [normal, shear, damage] = law.evaluate([
+                let [normal, shear, damage] = law.evaluate(&[
                     k.opening,
                     k.slip,
                     s.max_opening,
