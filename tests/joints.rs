@@ -634,3 +634,107 @@ fn unsupported_construct_in_a_script_law_is_refused_with_its_line() {
         assert!(e.contains(expected), "{e}");
     }
 }
+
+fn criterion(
+    src: &str,
+    params: &[(&str, Real)],
+    when: fdem::fracture::CriterionWhen,
+) -> fdem::fracture::FractureCriterion {
+    let ast = rhai::Engine::new_raw().compile(src).unwrap();
+    let mut p = rhai::Map::new();
+    for (k, v) in params {
+        p.insert((*k).into(), (*v).into());
+    }
+    let f = fdem::joints::compiled::compile_with(
+        &ast,
+        "criterion",
+        &p,
+        fdem::joints::compiled::CRITERION,
+    )
+    .unwrap();
+    fdem::fracture::FractureCriterion::new(std::sync::Arc::new(f), when)
+}
+
+/// A criterion that gates breaking ("damaged"): the fully damaged joint breaks only once it
+/// has opened to the limit the criterion sets (1.5× the full softening length), within one step.
+#[test]
+fn fracture_criterion_gates_fully_damaged_joints() {
+    let coh = law(Calibration::Exact);
+    let mut r = rig(coh.clone(), constant(Vec3::zeros()));
+    r.sim.prepare().unwrap();
+    let (dnp, (dnt, _)) = (
+        coh.peak_opening(r.size),
+        coh.softening_lengths(coh.cohesion),
+    );
+    let limit = 1.5 * (dnp + dnt);
+    r.sim.fracture_criterion = Some(criterion(
+        "fn criterion(j, p) { j.max_opening > p.limit }",
+        &[("limit", limit)],
+        fdem::fracture::CriterionWhen::Damaged,
+    ));
+    let v = 2.0 * limit / (20_000.0 * r.sim.dt);
+    r.sim.loads.prescribed[1].components = constant(r.n * v).map(Some);
+    r.sim.invalidate();
+    let mut failed_at = None;
+    while r.sim.break_events.is_empty() {
+        r.sim.step().unwrap();
+        assert!(r.sim.step < 30_000);
+        if failed_at.is_none() && r.sim.joints.state[0].iter().all(|p| p.damage >= 1.0) {
+            failed_at = Some(r.opening().dot(&r.n));
+        }
+    }
+    let at = r.opening().dot(&r.n);
+    assert!(
+        failed_at.unwrap() < 0.7 * limit,
+        "the joint was fully damaged well before the limit"
+    );
+    assert!(
+        (at - limit).abs() <= 2.0 * v * r.sim.dt,
+        "broke at opening {at:e}, criterion limit {limit:e}"
+    );
+}
+
+/// A criterion that triggers breaking ("always"): the joint breaks before its peak, at half the
+/// peak opening; the energy it stored is released as fracture dissipation, so the driver's work
+/// equals the fracture energy (1 %).
+#[test]
+fn fracture_criterion_breaks_intact_joints_and_books_their_energy() {
+    let coh = law(Calibration::Exact);
+    let mut r = rig(coh.clone(), constant(Vec3::zeros()));
+    r.sim.prepare().unwrap();
+    let dnp = coh.peak_opening(r.size);
+    r.sim.fracture_criterion = Some(criterion(
+        "fn criterion(j, p) { j.opening > p.limit }",
+        &[("limit", 0.5 * dnp)],
+        fdem::fracture::CriterionWhen::Always { every: 1 },
+    ));
+    let v = dnp / (1000.0 * r.sim.dt);
+    r.sim.loads.prescribed[1].components = constant(r.n * v).map(Some);
+    r.sim.invalidate();
+    while r.sim.break_events.is_empty() {
+        r.sim.step().unwrap();
+        assert!(r.sim.step < 5_000);
+    }
+    let at = r.opening().dot(&r.n);
+    assert!(
+        (at - 0.5 * dnp).abs() <= 2.0 * v * r.sim.dt,
+        "broke at {at:e}, limit {:e}",
+        0.5 * dnp
+    );
+    assert!(r.sim.joints.state[0].iter().all(|p| p.damage == 1.0));
+    for _ in 0..5 {
+        r.sim.step().unwrap();
+    }
+    let e = r.sim.energy;
+    // Stored at x = δ/δp = 1/2: f_t·δp·(x² − x³/3) per area.
+    let stored = coh.tensile_strength * dnp * (0.25 - 0.125 / 3.0) * r.area;
+    assert!(
+        (e.fracture - stored).abs() < 0.01 * stored,
+        "released {:e} vs stored {stored:e}",
+        e.fracture
+    );
+    assert!(
+        (e.reaction_work - e.fracture).abs() < 0.01 * stored,
+        "{e:?}"
+    );
+}

@@ -240,6 +240,7 @@ fn doc_command_matches_the_script_reference_page() {
 fn every_documented_key_is_accepted() {
     // A model that uses every option map with every documented key.
     let text = r#"fn spring(j, p) { #{ normal: p.k * j.opening, shear: p.k * j.slip, damage: 0.0 } }
+fn gate(j, p) { j.opening > p.limit || j.damage >= 1.0 }
 let p = params(#{ n: 2 });
 let sim = simulation(#{ name: "all", out_dir: "ignored", energy_every: 3, stress_output: "pk2", vtk_encoding: "base64" });
 let m = material("elastic/neo_hookean", #{ density: 1000.0, young: 1e6, poisson: 0.3, viscosity: 1.0 });
@@ -258,6 +259,7 @@ let std_law = joint_law("script", #{ source: "stdlib/joint_laws", function: "mun
     cohesion: 2e5, tan_friction: 0.5, g_i: 10.0, g_ii: 40.0, normal_penalty: 1e7, tangential_penalty: 1e7, k_soft: 3.0 } });
 let j3 = sim.add_body("j3", box(#{ min: [0.0, 0.0, 9.0], max: [1.0, 0.5, 9.5] }).mesh(#{ size: 0.5 }), m, #{ layout: "jointed" });
 expect_within("stdlib joints", sim.insert_joints(#{ within: j3, law: std_law }), 1, 100);
+sim.fracture_criterion(#{ function: "gate", params: #{ limit: 1.0e-3 }, when: "always", every: 10 });
 let t = sim.add_body("t", tet_mesh(#{ nodes: [[0.0, 0.0, 9.0], [1.0, 0.0, 9.0], [0.0, 1.0, 9.0], [0.0, 0.0, 10.0]], tets: [[0, 1, 2, 3]] }), m);
 let c = b.copy("c");
 c.translate([0.0, 0.0, 2.0]);

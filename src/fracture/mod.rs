@@ -39,48 +39,170 @@ pub struct BreakEvent {
     pub body: u32,
 }
 
-/// Stage 3: mark joints whose points all reached D = 1 as broken and record the events.
+/// When a user fracture criterion is consulted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CriterionWhen {
+    /// For fully damaged joints (all points at D = 1): the joint breaks only when the
+    /// criterion also says so; until then it stays pending and is asked again every step.
+    Damaged,
+    /// Every `every` steps for every intact joint: the joint breaks when the criterion says
+    /// so, or when it is fully damaged.
+    Always { every: u64 },
+}
+
+/// A fracture criterion written in Rhai and compiled ([`crate::joints::compiled::CRITERION`]).
+#[derive(Clone, Debug)]
+pub struct FractureCriterion {
+    pub function: std::sync::Arc<crate::joints::compiled::CompiledLaw>,
+    pub when: CriterionWhen,
+    /// Fully damaged joints the criterion has not let break yet.
+    pending: Vec<usize>,
+}
+
+impl FractureCriterion {
+    pub fn new(
+        function: std::sync::Arc<crate::joints::compiled::CompiledLaw>,
+        when: CriterionWhen,
+    ) -> Self {
+        FractureCriterion {
+            function,
+            when,
+            pending: Vec::new(),
+        }
+    }
+
+    /// Ask the criterion about joint `j`.
+    fn says_break(&self, joints: &Joints, j: usize, x: &[Vec3], time: Real) -> bool {
+        let (_, _, pts) = joint_kinematics(&joints.faces[j], x);
+        let st = &joints.state[j];
+        let c = joints.faces[j]
+            .iter()
+            .flatten()
+            .map(|&n| x[n as usize])
+            .sum::<Vec3>()
+            / 6.0;
+        let inputs = [
+            st.iter().map(|p| p.damage).fold(0.0, Real::max),
+            pts.iter().map(|p| p.0).sum::<Real>() / 3.0,
+            pts.iter().map(|p| p.1).sum::<Real>() / 3.0,
+            st.iter()
+                .map(|p| p.max_opening)
+                .fold(Real::NEG_INFINITY, Real::max),
+            st.iter().map(|p| p.max_slip).fold(0.0, Real::max),
+            c.x,
+            c.y,
+            c.z,
+            joints.size[j],
+            time,
+        ];
+        let [b] = self.function.evaluate(&inputs);
+        b != 0.0 && !b.is_nan()
+    }
+}
+
+/// Stage 3: break the joints whose points all reached D = 1 (subject to a user criterion, if
+/// any) and record the events. Returns the energy released by joints a criterion broke before
+/// they were fully damaged [J] (their stored energy, counted as fracture dissipation).
+#[allow(clippy::too_many_arguments)]
 pub fn break_joints(
     joints: &mut Joints,
     x: &[Vec3],
     tet_body: &[u32],
     time: Real,
+    step: u64,
+    newly_failed: usize,
+    criterion: Option<&mut FractureCriterion>,
     events: &mut Vec<BreakEvent>,
-) -> usize {
-    let mut count = 0;
-    for j in 0..joints.len() {
-        if joints.broken[j] || !joints.state[j].iter().all(|p| p.damage >= 1.0) {
-            continue;
+) -> Real {
+    let failed = |joints: &Joints, j: usize| {
+        !joints.broken[j] && joints.state[j].iter().all(|p| p.damage >= 1.0)
+    };
+    let mut released = 0.0;
+    match criterion {
+        None => {
+            if newly_failed > 0 {
+                for j in 0..joints.len() {
+                    if failed(joints, j) {
+                        record(joints, j, x, tet_body, time, events);
+                    }
+                }
+            }
         }
-        joints.broken[j] = true;
-        count += 1;
-        let (_, _, pts) = joint_kinematics(&joints.faces[j], x);
-        let (open, slip) = pts
-            .iter()
-            .fold((0.0, 0.0), |a, p| (a.0 + p.0.max(0.0), a.1 + p.1));
-        let angle = slip.atan2(open).to_degrees();
-        let mode = if angle < 15.0 {
-            BreakMode::I
-        } else if angle > 75.0 {
-            BreakMode::II
-        } else {
-            BreakMode::Mixed
-        };
-        let c = joints.faces[j][0]
-            .iter()
-            .chain(&joints.faces[j][1])
-            .map(|&n| x[n as usize])
-            .sum::<Vec3>()
-            / 6.0;
-        events.push(BreakEvent {
-            joint: j,
-            time,
-            centroid: c,
-            mode,
-            body: tet_body[joints.tets[j][0] as usize],
-        });
+        Some(c) => {
+            if newly_failed > 0 {
+                for j in 0..joints.len() {
+                    if failed(joints, j) && !c.pending.contains(&j) {
+                        c.pending.push(j);
+                    }
+                }
+            }
+            // Fully damaged joints break when the criterion agrees (Damaged) or at once (Always).
+            let mut still = Vec::new();
+            for j in std::mem::take(&mut c.pending) {
+                if joints.broken[j] {
+                    continue;
+                }
+                if matches!(c.when, CriterionWhen::Always { .. })
+                    || c.says_break(joints, j, x, time)
+                {
+                    record(joints, j, x, tet_body, time, events);
+                } else {
+                    still.push(j);
+                }
+            }
+            c.pending = still;
+            if let CriterionWhen::Always { every } = c.when {
+                if step.is_multiple_of(every.max(1)) {
+                    for j in 0..joints.len() {
+                        if !joints.broken[j] && c.says_break(joints, j, x, time) {
+                            released += joints.stored_energy(j, x);
+                            for p in joints.state[j].iter_mut() {
+                                p.damage = 1.0;
+                            }
+                            record(joints, j, x, tet_body, time, events);
+                        }
+                    }
+                }
+            }
+        }
     }
-    count
+    released
+}
+
+fn record(
+    joints: &mut Joints,
+    j: usize,
+    x: &[Vec3],
+    tet_body: &[u32],
+    time: Real,
+    events: &mut Vec<BreakEvent>,
+) {
+    joints.broken[j] = true;
+    let (_, _, pts) = joint_kinematics(&joints.faces[j], x);
+    let (open, slip) = pts
+        .iter()
+        .fold((0.0, 0.0), |a, p| (a.0 + p.0.max(0.0), a.1 + p.1));
+    let angle = Real::atan2(slip, open).to_degrees();
+    let mode = if angle < 15.0 {
+        BreakMode::I
+    } else if angle > 75.0 {
+        BreakMode::II
+    } else {
+        BreakMode::Mixed
+    };
+    let c = joints.faces[j][0]
+        .iter()
+        .chain(&joints.faces[j][1])
+        .map(|&n| x[n as usize])
+        .sum::<Vec3>()
+        / 6.0;
+    events.push(BreakEvent {
+        joint: j,
+        time,
+        centroid: c,
+        mode,
+        body: tet_body[joints.tets[j][0] as usize],
+    });
 }
 
 /// Connected components of tetrahedra over shared nodes and intact joints: a fragment id per

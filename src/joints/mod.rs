@@ -289,6 +289,35 @@ impl Joints {
         self.colored = self.faces.len();
     }
 
+    /// Recoverable energy of joint `j` at the current positions [J] (its history unchanged).
+    pub fn stored_energy(&self, j: usize, x: &[Vec3]) -> Real {
+        let (n, area, pts) = joint_kinematics(&self.faces[j], x);
+        let (law, consts) = (
+            &self.laws[self.law[j] as usize],
+            self.consts
+                .get(self.law[j] as usize)
+                .copied()
+                .unwrap_or_default(),
+        );
+        let mut st = self.state[j];
+        pts.iter()
+            .enumerate()
+            .map(|(p, (dn, ds, dir))| {
+                let k = PointKinematics {
+                    opening: *dn,
+                    slip: *ds,
+                    slip_vector: dir * *ds,
+                    normal: n,
+                    size: self.size[j],
+                };
+                law.evaluate(&consts, &k, 1.0 / self.size[j], &mut st[p], true)
+                    .energy
+                    * area
+                    / 3.0
+            })
+            .sum()
+    }
+
     /// Stiffness of the joint springs at each node, Σ max(p_n, p_t)/h·A/3 [N/m] (for the
     /// critical time step).
     pub fn nodal_stiffness(&self, n_nodes: usize) -> Vec<Real> {

@@ -237,6 +237,8 @@ pub struct Simulation {
     pub joints: crate::joints::Joints,
     /// Joints broken so far (stage 3), in the order they broke.
     pub break_events: Vec<crate::fracture::BreakEvent>,
+    /// A user fracture criterion (stage 3), if any.
+    pub fracture_criterion: Option<crate::fracture::FractureCriterion>,
     pub settings: Settings,
     pub time: Real,
     pub step: u64,
@@ -534,15 +536,17 @@ impl Simulation {
 
         // 3. fracture
         let t = Instant::now();
-        if js.newly_failed > 0 {
-            crate::fracture::break_joints(
-                &mut self.joints,
-                &self.nodes.x,
-                &self.tets.body,
-                self.time,
-                &mut self.break_events,
-            );
-        }
+        let released = crate::fracture::break_joints(
+            &mut self.joints,
+            &self.nodes.x,
+            &self.tets.body,
+            self.time,
+            self.step,
+            js.newly_failed,
+            self.fracture_criterion.as_mut(),
+            &mut self.break_events,
+        );
+        self.accumulated.fracture += released;
         self.timers.seconds[Stage::Fracture as usize] += t.elapsed().as_secs_f64();
 
         // 4. contact detection, 5. contact interaction: not built yet (issue #5).

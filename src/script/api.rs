@@ -245,6 +245,13 @@ pub const JOINT_LAW_KEYS: &[Key] = &[
     key("params", "map of numbers", "", "#{}", "The law's parameters, read as `p.<name>` (constants)."),
     key("source", "string", "", "this script", "Where the function is defined: this script, or a stdlib module such as \"stdlib/joint_laws\"."),
 ];
+pub const FRACTURE_CRITERION_KEYS: &[Key] = &[
+    key("function", "string", "", "required", "Name of the Rhai function `fn name(j, p)` returning true to break (compiled to native code). Inputs j.damage (largest over the joint's points), j.opening, j.slip (means), j.max_opening, j.max_slip (largest so far), j.x, j.y, j.z (centroid), j.size, j.time."),
+    key("params", "map of numbers", "", "#{}", "Parameters read as `p.<name>`."),
+    key("source", "string", "", "this script", "Where the function is defined: this script or a stdlib module."),
+    key("when", "string", "", "\"damaged\"", "\"damaged\": asked only for fully damaged joints, which break when it agrees (e.g. an extra opening needed); \"always\": asked for every intact joint every `every` steps, which break when it says so (or at D = 1)."),
+    key("every", "int", "steps", "1", "With when: \"always\": how often the criterion is evaluated (it costs one compiled call per joint)."),
+];
 pub const INSERT_JOINTS_KEYS: &[Key] = &[
     key(
         "within",
@@ -319,6 +326,8 @@ pub const API: &[FnDoc] = &[
         summary: "A joint law. `law`: \"cohesive/munjiza\" (Munjiza's softening z(D), a = 0.63, b = 1.8, c = 6), \"cohesive/linear\" (linear softening), \"tied\" (linear penalty springs that never break; only the penalty keys), \"script\" (a law written in Rhai: `function`, `params`, `source` and the penalties; compiled once to native code).", keys: JOINT_LAW_KEYS },
     FnDoc { section: "Joints and fracture", name: "sim.insert_joints", signature: "sim.insert_joints(#{ … }) -> int",
         summary: "Insert a joint on every internal face of jointed bodies (optionally inside a region); returns how many. Faces that already have a joint are skipped.", keys: INSERT_JOINTS_KEYS },
+    FnDoc { section: "Joints and fracture", name: "sim.fracture_criterion", signature: "sim.fracture_criterion(#{ … })",
+        summary: "A user rule for when joints break, written in Rhai and compiled like the joint laws. A joint broken by it before full damage releases its stored energy as fracture dissipation.", keys: FRACTURE_CRITERION_KEYS },
     FnDoc { section: "Joints and fracture", name: "sim.on_joint_broken", signature: "sim.on_joint_broken(|s, joint| …)",
         summary: "Called after each step for every joint that broke (all its points reached D = 1): `joint` is #{ id, time, centroid, mode (\"I\", \"II\", \"mixed\"), body }. Every run also writes `cracks.csv`.", keys: &[] },
     FnDoc { section: "Joints and fracture", name: "s.fragments", signature: "s.fragments() -> #{ count, volumes, masses }",

@@ -119,28 +119,8 @@ fn script_law(ctx: &ScriptContext, o: &Opts) -> RhaiResult<JointLawValue> {
     let params = o
         .typed::<Map>("params", "a map of numbers")?
         .unwrap_or_default();
-    let law = match o.string("source")? {
-        None => {
-            let ast = ctx.ast.borrow();
-            let ast = ast
-                .as_ref()
-                .ok_or("joint_law(\"script\"): no script is running")?;
-            crate::joints::compiled::compile(ast, &function, &params)?
-        }
-        Some(src) => {
-            let Some((_, text)) = super::STDLIB.iter().find(|(n, _)| *n == src) else {
-                let names: Vec<&str> = super::STDLIB.iter().map(|(n, _)| *n).collect();
-                return err(format!(
-                    "joint_law(\"script\"): unknown source '{src}'; available: {}",
-                    names.join(", ")
-                ));
-            };
-            let ast = rhai::Engine::new_raw()
-                .compile(*text)
-                .map_err(|e| format!("{src}: {e}"))?;
-            crate::joints::compiled::compile(&ast, &function, &params)?
-        }
-    };
+    let law = compile_from(ctx, o, &function, &params, crate::joints::compiled::LAW)
+        .map_err(|e| format!("joint_law(\"script\"): {e}"))?;
     Ok(JointLawValue {
         name: format!("script:{function}"),
         cohesive: None,
@@ -218,9 +198,63 @@ fn joint_law(ctx: &ScriptContext, kind: &str, m: Map) -> RhaiResult<JointLawValu
 
 /// `joint_law` needs the running script (laws written in it are compiled from its AST).
 pub fn register_script_laws(engine: &mut Engine, ctx: Rc<ScriptContext>) {
+    let c = ctx.clone();
     engine.register_fn("joint_law", move |kind: &str, m: Map| {
-        joint_law(&ctx, kind, m)
+        joint_law(&c, kind, m)
     });
+    engine.register_fn("fracture_criterion", move |s: &mut SimHandle, m: Map| -> RhaiResult<()> {
+        let o = Opts::new("fracture_criterion", m, keys_of("sim.fracture_criterion"))?;
+        let function = o.string("function")?.map_or_else(|| err("fracture_criterion(): missing required key 'function'"), Ok)?;
+        let params = o.typed::<Map>("params", "a map of numbers")?.unwrap_or_default();
+        let compiled = compile_from(&ctx, &o, &function, &params, crate::joints::compiled::CRITERION)
+            .map_err(|e| format!("fracture_criterion(): {e}"))?;
+        let when = match o.string("when")?.as_deref() {
+            None | Some("damaged") => {
+                if o.has("every") {
+                    return err("fracture_criterion(): 'every' applies to when: \"always\"");
+                }
+                crate::fracture::CriterionWhen::Damaged
+            }
+            Some("always") => crate::fracture::CriterionWhen::Always { every: o.positive_int("every")?.unwrap_or(1) },
+            Some(x) => return err(format!("fracture_criterion(): when \"{x}\" is not \"damaged\" or \"always\"")),
+        };
+        let mut st = s.0.borrow_mut();
+        if st.sim.joints.is_empty() {
+            return err("fracture_criterion(): the model has no joints (insert them first with sim.insert_joints(..))");
+        }
+        st.sim.fracture_criterion = Some(crate::fracture::FractureCriterion::new(std::sync::Arc::new(compiled), when));
+        Ok(())
+    });
+}
+
+/// Compile `function` from the running script or from the stdlib module named by `source`.
+fn compile_from(
+    ctx: &ScriptContext,
+    o: &Opts,
+    function: &str,
+    params: &Map,
+    sig: crate::joints::compiled::Signature,
+) -> Result<crate::joints::compiled::CompiledLaw, String> {
+    match o.string("source").map_err(|e| e.to_string())? {
+        None => {
+            let ast = ctx.ast.borrow();
+            let ast = ast.as_ref().ok_or("no script is running")?;
+            crate::joints::compiled::compile_with(ast, function, params, sig)
+        }
+        Some(src) => {
+            let Some((_, text)) = super::STDLIB.iter().find(|(n, _)| *n == src) else {
+                let names: Vec<&str> = super::STDLIB.iter().map(|(n, _)| *n).collect();
+                return Err(format!(
+                    "unknown source '{src}'; available: {}",
+                    names.join(", ")
+                ));
+            };
+            let ast = rhai::Engine::new_raw()
+                .compile(*text)
+                .map_err(|e| format!("{src}: {e}"))?;
+            crate::joints::compiled::compile_with(&ast, function, params, sig)
+        }
+    }
 }
 
 /// The map a script's `on_joint_broken` callback receives.
