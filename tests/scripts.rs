@@ -260,6 +260,8 @@ let std_law = joint_law("script", #{ source: "stdlib/joint_laws", function: "mun
 let j3 = sim.add_body("j3", box(#{ min: [0.0, 0.0, 9.0], max: [1.0, 0.5, 9.5] }).mesh(#{ size: 0.5 }), m, #{ layout: "jointed" });
 expect_within("stdlib joints", sim.insert_joints(#{ within: j3, law: std_law }), 1, 100);
 sim.fracture_criterion(#{ function: "gate", params: #{ limit: 1.0e-3 }, when: "always", every: 10 });
+let slab = sim.add_body("slab", box(#{ min: [0.0, 0.0, -0.5], max: [1.0, 0.5, 0.0] }).mesh(#{ divisions: [2, 1, 1] }), m);
+expect_within("glue", sim.insert_joints(#{ between: [slab, b], law: glue, gap_tolerance: 1.0e-6 }), 1, 100);
 let t = sim.add_body("t", tet_mesh(#{ nodes: [[0.0, 0.0, 9.0], [1.0, 0.0, 9.0], [0.0, 1.0, 9.0], [0.0, 0.0, 10.0]], tets: [[0, 1, 2, 3]] }), m);
 let c = b.copy("c");
 c.translate([0.0, 0.0, 2.0]);

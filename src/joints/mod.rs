@@ -254,6 +254,117 @@ impl Joints {
         Ok(inserted)
     }
 
+    /// Insert a joint on every pair of coincident boundary faces of two different bodies among
+    /// `bodies` (mortar between blocks, a block glued to a base): faces whose three vertices
+    /// match within `tol` [m]. Either body may be jointed or continuous. Face A keeps its
+    /// outward order (normal from A to B); B's vertices are paired by position. Returns the
+    /// number inserted; pairs that already carry a joint are skipped.
+    pub fn insert_between(&mut self, bodies: &[&Body], x0: &[Vec3], law: u32, tol: Real) -> usize {
+        let faces: Vec<(usize, &crate::mesh::BoundaryFace)> = bodies
+            .iter()
+            .enumerate()
+            .flat_map(|(b, body)| body.boundary.iter().map(move |f| (b, f)))
+            .collect();
+        if faces.is_empty() {
+            return 0;
+        }
+        let pts = |f: &crate::mesh::BoundaryFace| f.nodes.map(|n| x0[n as usize]);
+        let min_edge = faces
+            .iter()
+            .map(|(_, f)| {
+                let p = pts(f);
+                (p[1] - p[0])
+                    .norm()
+                    .min((p[2] - p[1]).norm())
+                    .min((p[0] - p[2]).norm())
+            })
+            .fold(Real::INFINITY, Real::min);
+        let cell = (0.25 * min_edge).max(4.0 * tol).max(Real::MIN_POSITIVE);
+        let key = |c: Vec3| {
+            [
+                (c.x / cell).floor() as i64,
+                (c.y / cell).floor() as i64,
+                (c.z / cell).floor() as i64,
+            ]
+        };
+        let centroid = |f: &crate::mesh::BoundaryFace| {
+            let p = pts(f);
+            (p[0] + p[1] + p[2]) / 3.0
+        };
+        let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::with_capacity(faces.len());
+        for (i, (_, f)) in faces.iter().enumerate() {
+            grid.entry(key(centroid(f))).or_default().push(i);
+        }
+        let existing: std::collections::HashSet<[u32; 2]> = self
+            .tets
+            .iter()
+            .map(|t| [t[0].min(t[1]), t[0].max(t[1])])
+            .collect();
+        let mut used = vec![false; faces.len()];
+        let mut inserted = 0;
+        for i in 0..faces.len() {
+            if used[i] {
+                continue;
+            }
+            let (bi, fa) = faces[i];
+            let (ca, pa) = (centroid(fa), pts(fa));
+            let k = key(ca);
+            let mut partner = None;
+            'search: for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        for &m in grid
+                            .get(&[k[0] + dx, k[1] + dy, k[2] + dz])
+                            .map(Vec::as_slice)
+                            .unwrap_or(&[])
+                        {
+                            let (bm, fb) = faces[m];
+                            if bm == bi || used[m] || (centroid(fb) - ca).norm() > tol {
+                                continue;
+                            }
+                            let pb = pts(fb);
+                            let pairing: Option<Vec<usize>> = pa
+                                .iter()
+                                .map(|p| (0..3).find(|&v| (pb[v] - p).norm() <= tol))
+                                .collect();
+                            if let Some(pairing) = pairing {
+                                partner = Some((m, pairing));
+                                break 'search;
+                            }
+                        }
+                    }
+                }
+            }
+            let Some((m, pairing)) = partner else {
+                continue;
+            };
+            let fb = faces[m].1;
+            let pair = [fa.tet.min(fb.tet), fa.tet.max(fb.tet)];
+            used[i] = true;
+            used[m] = true;
+            if existing.contains(&pair) {
+                continue;
+            }
+            let face_b = [
+                fb.nodes[pairing[0]],
+                fb.nodes[pairing[1]],
+                fb.nodes[pairing[2]],
+            ];
+            let area = 0.5 * (pa[1] - pa[0]).cross(&(pa[2] - pa[0])).norm();
+            let size =
+                ((pa[1] - pa[0]).norm() + (pa[2] - pa[1]).norm() + (pa[0] - pa[2]).norm()) / 3.0;
+            self.faces.push([fa.nodes, face_b]);
+            self.tets.push([fa.tet, fb.tet]);
+            self.law.push(law);
+            self.size.push(size);
+            self.area0.push(area);
+            self.state.push([PointState::default(); 3]);
+            self.broken.push(false);
+            inserted += 1;
+        }
+        inserted
+    }
+
     /// Group the joints into blocks of `CHUNK` consecutive joints (insertion order is
     /// spatially coherent) and colour the blocks so that no two blocks of a colour share a
     /// node. Stage 2 runs the colours one after another, the blocks of a colour in parallel,

@@ -257,8 +257,22 @@ pub const INSERT_JOINTS_KEYS: &[Key] = &[
         "within",
         "body or array of bodies",
         "",
-        "required",
-        "Jointed bodies whose internal faces get joints.",
+        "-",
+        "Jointed bodies whose internal faces get joints (give this or `between`).",
+    ),
+    key(
+        "between",
+        "body or array of bodies",
+        "",
+        "-",
+        "Bodies (jointed or continuous) whose coincident boundary faces get joints: mortar between blocks, a block glued to a base. Faces must match vertex for vertex.",
+    ),
+    key(
+        "gap_tolerance",
+        "float",
+        "m",
+        "1e-9 × model size",
+        "With `between`: how far apart matching vertices may be.",
     ),
     key("law", "JointLaw", "", "required", "From `joint_law(..)`."),
     key(
@@ -266,7 +280,7 @@ pub const INSERT_JOINTS_KEYS: &[Key] = &[
         "shape",
         "",
         "everywhere",
-        "Only faces whose centroid lies in this region.",
+        "With `within`: only faces whose centroid lies in this region.",
     ),
 ];
 pub const VELOCITY_KEYS: &[Key] = &[
@@ -325,7 +339,7 @@ pub const API: &[FnDoc] = &[
     FnDoc { section: "Joints and fracture", name: "joint_law", signature: "joint_law(law, #{ … }) -> JointLaw",
         summary: "A joint law. `law`: \"cohesive/munjiza\" (Munjiza's softening z(D), a = 0.63, b = 1.8, c = 6), \"cohesive/linear\" (linear softening), \"tied\" (linear penalty springs that never break; only the penalty keys), \"script\" (a law written in Rhai: `function`, `params`, `source` and the penalties; compiled once to native code).", keys: JOINT_LAW_KEYS },
     FnDoc { section: "Joints and fracture", name: "sim.insert_joints", signature: "sim.insert_joints(#{ … }) -> int",
-        summary: "Insert a joint on every internal face of jointed bodies (optionally inside a region); returns how many. Faces that already have a joint are skipped.", keys: INSERT_JOINTS_KEYS },
+        summary: "Insert joints on every internal face of jointed bodies (`within`, optionally inside a region) or on the coincident faces of different bodies (`between`); returns how many. Faces that already have a joint are skipped.", keys: INSERT_JOINTS_KEYS },
     FnDoc { section: "Joints and fracture", name: "sim.fracture_criterion", signature: "sim.fracture_criterion(#{ … })",
         summary: "A user rule for when joints break, written in Rhai and compiled like the joint laws. A joint broken by it before full damage releases its stored energy as fracture dissipation.", keys: FRACTURE_CRITERION_KEYS },
     FnDoc { section: "Joints and fracture", name: "sim.on_joint_broken", signature: "sim.on_joint_broken(|s, joint| …)",

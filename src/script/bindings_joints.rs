@@ -18,45 +18,66 @@ pub fn register(engine: &mut Engine) {
     engine.register_fn("insert_joints", |s: &mut SimHandle, m: Map| -> RhaiResult<i64> {
         let o = Opts::new("insert_joints", m, keys_of("sim.insert_joints"))?;
         let law = o.typed::<JointLawValue>("law", "a joint_law(..)")?.map_or_else(|| err("insert_joints(): missing required key 'law'"), Ok)?;
-        let bodies: Vec<BodyHandle> = match o.get("within") {
-            None => return err("insert_joints(): missing required key 'within' (a body or an array of bodies)"),
-            Some(d) => {
-                if let Some(b) = d.clone().try_cast::<BodyHandle>() {
-                    vec![b]
-                } else if let Some(a) = d.clone().try_cast::<Array>() {
-                    a.into_iter()
-                        .map(|x| x.try_cast::<BodyHandle>().ok_or_else(|| "insert_joints(): 'within' must hold bodies".to_string()))
-                        .collect::<Result<_, _>>()?
-                } else {
-                    return err(format!("insert_joints(): 'within' must be a body or an array of bodies, got {}", d.type_name()));
-                }
+        let bodies_of = |key: &str| -> RhaiResult<Option<Vec<BodyHandle>>> {
+            let Some(d) = o.get(key) else { return Ok(None) };
+            if let Some(b) = d.clone().try_cast::<BodyHandle>() {
+                return Ok(Some(vec![b]));
             }
+            let Some(a) = d.clone().try_cast::<Array>() else {
+                return err(format!("insert_joints(): '{key}' must be a body or an array of bodies, got {}", d.type_name()));
+            };
+            a.into_iter()
+                .map(|x| x.try_cast::<BodyHandle>().ok_or_else(|| format!("insert_joints(): '{key}' must hold bodies").into()))
+                .collect::<RhaiResult<Vec<_>>>()
+                .map(Some)
         };
+        let (within, between) = (bodies_of("within")?, bodies_of("between")?);
+        if within.is_some() == between.is_some() {
+            return err("insert_joints(): give exactly one of 'within' (internal faces of jointed bodies) or 'between' (coincident faces of different bodies)");
+        }
         let region = o.typed::<super::types::Shape>("region", "a shape")?;
         let mut st = s.0.borrow_mut();
         if st.sim.step > 0 {
             return err("insert_joints(): joints must be inserted before the first step");
         }
         let tol = st.sim.length_tolerance();
-        let mut total = 0;
-        for b in bodies {
-            let body = st.sim.bodies[b.id].clone();
-            let young = st.sim.materials[body.material as usize].young;
-            let (pn, pt) = (law.penalties.0.unwrap_or(10.0 * young), law.penalties.1);
-            let pt = pt.unwrap_or(pn);
-            let resolved = match (&law.cohesive, &law.script) {
+        // Penalties default to 10 × the Young's modulus of the (softest) body involved.
+        let resolve = |young: f64| {
+            let pn = law.penalties.0.unwrap_or(10.0 * young);
+            let pt = law.penalties.1.unwrap_or(pn);
+            match (&law.cohesive, &law.script) {
                 (Some(c), _) => JointLaw::Cohesive(Cohesive { normal_penalty: pn, tangential_penalty: pt, ..c.clone() }),
                 (None, Some(l)) => JointLaw::Script { law: l.clone(), normal_penalty: pn, tangential_penalty: pt },
                 (None, None) => JointLaw::Tied { normal_penalty: pn, tangential_penalty: pt },
-            };
-            let id = st.sim.joints.add_law(resolved);
-            let (tets, x0) = (st.sim.tets.nodes.clone(), st.sim.nodes.x0.clone());
-            let n = st
-                .sim
-                .joints
-                .insert_in_body(&body, &tets, &x0, id, |c| region.as_ref().is_none_or(|r| r.0.contains(c, tol)))
-                .map_err(|e| format!("insert_joints(): {e}"))?;
-            total += n;
+            }
+        };
+        let mut total = 0;
+        if let Some(bodies) = within {
+            for b in bodies {
+                let body = st.sim.bodies[b.id].clone();
+                let young = st.sim.materials[body.material as usize].young;
+                let id = st.sim.joints.add_law(resolve(young));
+                let (tets, x0) = (st.sim.tets.nodes.clone(), st.sim.nodes.x0.clone());
+                total += st
+                    .sim
+                    .joints
+                    .insert_in_body(&body, &tets, &x0, id, |c| region.as_ref().is_none_or(|r| r.0.contains(c, tol)))
+                    .map_err(|e| format!("insert_joints(): {e}"))?;
+            }
+        } else if let Some(bodies) = between {
+            if region.is_some() {
+                return err("insert_joints(): 'region' applies to 'within'");
+            }
+            let gap = o.positive("gap_tolerance")?.unwrap_or(tol);
+            let list: Vec<crate::pipeline::Body> = bodies.iter().map(|b| st.sim.bodies[b.id].clone()).collect();
+            let young = list.iter().map(|b| st.sim.materials[b.material as usize].young).fold(f64::INFINITY, f64::min);
+            let id = st.sim.joints.add_law(resolve(young));
+            let x0 = st.sim.nodes.x0.clone();
+            let refs: Vec<&crate::pipeline::Body> = list.iter().collect();
+            total = st.sim.joints.insert_between(&refs, &x0, id, gap);
+            if total == 0 {
+                return err(format!("insert_joints(): no coincident faces between the bodies within gap_tolerance = {gap:e} m (faces must match vertex for vertex)"));
+            }
         }
         st.sim.invalidate();
         Ok(total as i64)
