@@ -410,6 +410,19 @@ pub fn summary(
             sim.break_events.len(),
             sim.joints.len()
         ));
+        let id = crate::fracture::fragments(&sim.tets.nodes, &sim.joints, sim.nodes.len());
+        let count = id.iter().max().map_or(0, |m| *m as usize + 1);
+        let mut volume = vec![0.0; count];
+        for (e, &f) in id.iter().enumerate() {
+            volume[f as usize] += sim.tets.vol0[e];
+        }
+        volume.sort_by(|a, b| b.total_cmp(a));
+        let shown: Vec<String> = volume.iter().take(5).map(|v| format!("{v:.3e}")).collect();
+        let more = if count > 5 { ", …" } else { "" };
+        s.push_str(&format!(
+            "   fragments            {count} (volumes [m³], largest first: {}{more})\n",
+            shown.join(", ")
+        ));
     }
     s.push_str(&format!(
         "   {:<20} {:>14.6e}\n",
