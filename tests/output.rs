@@ -42,28 +42,33 @@ fn run(encoding: &str, test: &str) -> (PathBuf, fdem::script::ScriptReport) {
     (dir, report)
 }
 
+/// The single piece of a `.vtu` file, read by vtkio.
+fn vtkio_piece(path: &Path) -> vtkio::model::UnstructuredGridPiece {
+    use vtkio::model::DataSet;
+    let vtk = vtkio::Vtk::import(path)
+        .unwrap_or_else(|e| panic!("vtkio cannot read {}: {e}", path.display()));
+    let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
+        panic!("not an unstructured grid")
+    };
+    pieces
+        .into_iter()
+        .next()
+        .unwrap()
+        .into_loaded_piece_data(Some(path))
+        .unwrap()
+}
+
 fn bits(v: impl IntoIterator<Item = f64>) -> Vec<u64> {
     v.into_iter().map(f64::to_bits).collect()
 }
 
 #[test]
 fn vtkio_reads_base64_frames_bit_for_bit() {
-    use vtkio::model::{Attribute, DataSet, IOBuffer, VertexNumbers};
+    use vtkio::model::{Attribute, IOBuffer, VertexNumbers};
     let (dir, report) = run("base64", "vtkio");
     let st = report.sims[0].0.borrow();
     let sim = &st.sim;
-    let path = dir.join("frames_000001.vtu");
-    let vtk = vtkio::Vtk::import(&path)
-        .unwrap_or_else(|e| panic!("vtkio cannot read {}: {e}", path.display()));
-    let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
-        panic!("not an unstructured grid")
-    };
-    let piece = pieces
-        .into_iter()
-        .next()
-        .unwrap()
-        .into_loaded_piece_data(Some(&path))
-        .unwrap();
+    let piece = vtkio_piece(&dir.join("frames_000001.vtu"));
     let IOBuffer::F64(points) = piece.points else {
         panic!("points are not f64")
     };
@@ -284,7 +289,7 @@ fn hexf(s: &str) -> f64 {
 /// time of breaking and the mode bit for bit as in the break events.
 #[test]
 fn crack_surface_reads_back_with_the_break_events() {
-    use vtkio::model::{Attribute, DataSet, IOBuffer, VertexNumbers};
+    use vtkio::model::{Attribute, IOBuffer, VertexNumbers};
     let dir = temp_dir("cracks");
     let script = r#"let sim = simulation(#{ name: "bar", vtk_encoding: "base64" });
 let m = material("elastic/munjiza", #{ density: 2500.0, young: 1.0e10, poisson: 0.0 });
@@ -304,17 +309,7 @@ sim.write_vtk();
     let st = report.sims[0].0.borrow();
     let events = &st.sim.break_events;
     assert!(!events.is_empty(), "the bar broke");
-    let path = dir.join("bar_cracks_000000.vtu");
-    let vtk = vtkio::Vtk::import(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
-        panic!("not an unstructured grid")
-    };
-    let piece = pieces
-        .into_iter()
-        .next()
-        .unwrap()
-        .into_loaded_piece_data(Some(&path))
-        .unwrap();
+    let piece = vtkio_piece(&dir.join("bar_cracks_000000.vtu"));
     assert!(piece.cells.types.iter().all(|&t| t as u8 == 5), "triangles");
     assert_eq!(piece.cells.types.len(), events.len());
     let VertexNumbers::XML { offsets, .. } = piece.cells.cell_verts else {

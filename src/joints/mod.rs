@@ -238,20 +238,25 @@ impl Joints {
                 if !keep(&centroid) {
                     continue;
                 }
-                let area = 0.5 * (p[1] - p[0]).cross(&(p[2] - p[0])).norm();
-                let size =
-                    ((p[1] - p[0]).norm() + (p[2] - p[1]).norm() + (p[0] - p[2]).norm()) / 3.0;
-                self.faces.push([face_a, face_b]);
-                self.tets.push([ta, tb]);
-                self.law.push(law);
-                self.size.push(size);
-                self.area0.push(area);
-                self.state.push([PointState::default(); 3]);
-                self.broken.push(false);
+                self.push_joint([face_a, face_b], [ta, tb], law, &p);
                 inserted += 1;
             }
         }
         Ok(inserted)
+    }
+
+    /// Append one joint: faces A and B (paired vertices), their tets, its law, and face A's
+    /// reference vertices (for the area and the size h = mean edge length).
+    fn push_joint(&mut self, faces: [[u32; 3]; 2], tets: [u32; 2], law: u32, p: &[Vec3; 3]) {
+        self.faces.push(faces);
+        self.tets.push(tets);
+        self.law.push(law);
+        self.size
+            .push(((p[1] - p[0]).norm() + (p[2] - p[1]).norm() + (p[0] - p[2]).norm()) / 3.0);
+        self.area0
+            .push(0.5 * (p[1] - p[0]).cross(&(p[2] - p[0])).norm());
+        self.state.push([PointState::default(); 3]);
+        self.broken.push(false);
     }
 
     /// Insert a joint on every pair of coincident boundary faces of two different bodies among
@@ -350,16 +355,7 @@ impl Joints {
                 fb.nodes[pairing[1]],
                 fb.nodes[pairing[2]],
             ];
-            let area = 0.5 * (pa[1] - pa[0]).cross(&(pa[2] - pa[0])).norm();
-            let size =
-                ((pa[1] - pa[0]).norm() + (pa[2] - pa[1]).norm() + (pa[0] - pa[2]).norm()) / 3.0;
-            self.faces.push([fa.nodes, face_b]);
-            self.tets.push([fa.tet, fb.tet]);
-            self.law.push(law);
-            self.size.push(size);
-            self.area0.push(area);
-            self.state.push([PointState::default(); 3]);
-            self.broken.push(false);
+            self.push_joint([fa.nodes, face_b], [fa.tet, fb.tet], law, &pa);
             inserted += 1;
         }
         inserted
