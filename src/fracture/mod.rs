@@ -26,6 +26,15 @@ impl BreakMode {
             BreakMode::Mixed => "mixed",
         }
     }
+
+    /// Numeric code for CSV and VTK output: 1 = I, 2 = II, 3 = mixed.
+    pub fn code(self) -> i32 {
+        match self {
+            BreakMode::I => 1,
+            BreakMode::II => 2,
+            BreakMode::Mixed => 3,
+        }
+    }
 }
 
 /// A joint that broke.
@@ -203,6 +212,23 @@ fn record(
         mode,
         body: tet_body[joints.tets[j][0] as usize],
     });
+}
+
+/// Fragments with their volumes [m³] and masses [kg]: (fragment id per tet, volumes, masses).
+pub fn fragment_sizes(
+    tets: &crate::pipeline::Tets,
+    materials: &[crate::material::Material],
+    joints: &Joints,
+    n_nodes: usize,
+) -> (Vec<u32>, Vec<Real>, Vec<Real>) {
+    let id = fragments(&tets.nodes, joints, n_nodes);
+    let count = id.iter().max().map_or(0, |m| *m as usize + 1);
+    let (mut volume, mut mass) = (vec![0.0; count], vec![0.0; count]);
+    for (e, &f) in id.iter().enumerate() {
+        volume[f as usize] += tets.vol0[e];
+        mass[f as usize] += tets.vol0[e] * materials[tets.material[e] as usize].density;
+    }
+    (id, volume, mass)
 }
 
 /// Connected components of tetrahedra over shared nodes and intact joints: a fragment id per

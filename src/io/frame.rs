@@ -160,11 +160,7 @@ pub fn encode_cracks(sim: &Simulation, encoding: Encoding) -> Result<Vec<u8>, St
         }
         triangles.push([base, base + 1, base + 2]);
         time.push(e.time);
-        mode.push(match e.mode {
-            crate::fracture::BreakMode::I => 1,
-            crate::fracture::BreakMode::II => 2,
-            crate::fracture::BreakMode::Mixed => 3,
-        });
+        mode.push(e.mode.code());
         body.push(e.body as i32);
         joint.push(e.joint as i32);
     }

@@ -96,14 +96,13 @@ pub fn register(engine: &mut Engine) {
         let mut st = s.0.borrow_mut();
         st.sim.prepare().map_err(|e| e.to_string())?;
         let sim = &st.sim;
-        let id = crate::fracture::fragments(&sim.tets.nodes, &sim.joints, sim.nodes.len());
-        let count = id.iter().max().map_or(0, |m| m + 1) as usize;
-        let (mut vol, mut mass) = (vec![0.0; count], vec![0.0; count]);
-        for (e, &f) in id.iter().enumerate() {
-            vol[f as usize] += sim.tets.vol0[e];
-            mass[f as usize] +=
-                sim.tets.vol0[e] * sim.materials[sim.tets.material[e] as usize].density;
-        }
+        let (_, vol, mass) = crate::fracture::fragment_sizes(
+            &sim.tets,
+            &sim.materials,
+            &sim.joints,
+            sim.nodes.len(),
+        );
+        let count = vol.len();
         let mut m = Map::new();
         m.insert("count".into(), (count as i64).into());
         m.insert(

@@ -287,11 +287,7 @@ fn write_run_output(s: &SimHandle) -> Result<(), String> {
         let sim = &st.sim;
         // mode: 1 = I, 2 = II, 3 = mixed; body: body id.
         let rows = sim.break_events.iter().map(|e| {
-            let mode = match e.mode {
-                crate::fracture::BreakMode::I => 1.0,
-                crate::fracture::BreakMode::II => 2.0,
-                crate::fracture::BreakMode::Mixed => 3.0,
-            };
+            let mode = e.mode.code() as f64;
             vec![
                 e.joint as f64,
                 e.time,
@@ -410,12 +406,13 @@ pub fn summary(
             sim.break_events.len(),
             sim.joints.len()
         ));
-        let id = crate::fracture::fragments(&sim.tets.nodes, &sim.joints, sim.nodes.len());
-        let count = id.iter().max().map_or(0, |m| *m as usize + 1);
-        let mut volume = vec![0.0; count];
-        for (e, &f) in id.iter().enumerate() {
-            volume[f as usize] += sim.tets.vol0[e];
-        }
+        let (_, mut volume, _) = crate::fracture::fragment_sizes(
+            &sim.tets,
+            &sim.materials,
+            &sim.joints,
+            sim.nodes.len(),
+        );
+        let count = volume.len();
         volume.sort_by(|a, b| b.total_cmp(a));
         let shown: Vec<String> = volume.iter().take(5).map(|v| format!("{v:.3e}")).collect();
         let more = if count > 5 { ", …" } else { "" };
