@@ -63,7 +63,7 @@ pub fn box_mesh(min: Vec3, max: Vec3, divisions: [usize; 3]) -> Mesh {
             }
         }
     }
-    Mesh { nodes, tets }
+    Mesh::new(nodes, tets)
 }
 
 /// Cell counts for a box of extent `size_xyz` meshed with target edge `h`: round(L/h), ≥ 1.

@@ -6,14 +6,17 @@
 //! layout for fracture) is decided when the body is added to a simulation.
 
 mod generators;
+pub mod quality;
 mod region;
 mod topology;
 
 pub use generators::{box_mesh, divisions_for};
+pub use quality::Quality;
 pub use region::Region;
 pub use topology::{boundary_faces, BoundaryFace, TET_FACES};
 
 use crate::math::{rotation_matrix, tet_volume, Mat3, Real, Vec3};
+use std::collections::BTreeMap;
 
 /// A tetrahedral mesh with shared nodes. Tet node order is right-handed: the signed volume
 /// `(p1−p0)·((p2−p0)×(p3−p0))/6` is positive.
@@ -21,6 +24,62 @@ use crate::math::{rotation_matrix, tet_volume, Mat3, Real, Vec3};
 pub struct Mesh {
     pub nodes: Vec<Vec3>,
     pub tets: Vec<[u32; 4]>,
+    /// Named sets (Gmsh physical groups, generator sets such as `top` or `intrados`).
+    pub sets: MeshSets,
+}
+
+/// Named subsets of a mesh, by index into the mesh's own nodes and tets. They move with the
+/// mesh (translate, rotate, copy) and follow it into a body.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshSets {
+    /// Element sets: sorted, unique tet indices.
+    pub elements: BTreeMap<String, Vec<u32>>,
+    /// Node sets: sorted, unique node indices.
+    pub nodes: BTreeMap<String, Vec<u32>>,
+    /// Face sets: (tet, local face 0..4 as in [`TET_FACES`]), sorted and unique.
+    pub faces: BTreeMap<String, Vec<(u32, u8)>>,
+}
+
+impl MeshSets {
+    pub fn is_empty(&self) -> bool {
+        self.elements.is_empty() && self.nodes.is_empty() && self.faces.is_empty()
+    }
+
+    /// Every set name with its kind ("elements", "nodes", "faces") and size, sorted by name.
+    pub fn summary(&self) -> Vec<(String, &'static str, usize)> {
+        let mut out: Vec<(String, &'static str, usize)> = Vec::new();
+        out.extend(
+            self.elements
+                .iter()
+                .map(|(k, v)| (k.clone(), "elements", v.len())),
+        );
+        out.extend(
+            self.nodes
+                .iter()
+                .map(|(k, v)| (k.clone(), "nodes", v.len())),
+        );
+        out.extend(
+            self.faces
+                .iter()
+                .map(|(k, v)| (k.clone(), "faces", v.len())),
+        );
+        out.sort();
+        out
+    }
+
+    /// All names, sorted and deduplicated (for "unknown set; the mesh has …" errors).
+    pub fn names(&self) -> Vec<String> {
+        let mut n: Vec<String> = self
+            .elements
+            .keys()
+            .chain(self.nodes.keys())
+            .chain(self.faces.keys())
+            .cloned()
+            .collect();
+        n.sort();
+        n.dedup();
+        n
+    }
 }
 
 /// A problem found in a mesh, with the element and its place.
@@ -65,7 +124,11 @@ impl std::fmt::Display for MeshError {
 
 impl Mesh {
     pub fn new(nodes: Vec<Vec3>, tets: Vec<[u32; 4]>) -> Self {
-        Mesh { nodes, tets }
+        Mesh {
+            nodes,
+            tets,
+            sets: MeshSets::default(),
+        }
     }
 
     pub fn tet_points(&self, e: usize) -> [Vec3; 4] {
