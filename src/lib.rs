@@ -17,6 +17,8 @@
 //! [`io`] (ParaView and CSV output) and [`cli`].
 
 pub mod cli;
+pub mod contact_detection;
+pub mod contact_interaction;
 pub mod elements;
 pub mod fracture;
 pub mod integration;

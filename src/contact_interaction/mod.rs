@@ -1,0 +1,3 @@
+//! Stage 5: contact interaction.
+
+pub mod potential;
