@@ -1,1 +1,567 @@
-//! Stage 4: contact detection.
+//! Stage 4: contact detection — candidate pairs of surface elements whose (inflated) bounding
+//! boxes overlap.
+//!
+//! **NBS (Munjiza's No Binary Search).** The cell size d is the largest box extent. Every
+//! element is mapped to the integer cell of its box centre, `floor(c/d)`; two boxes that
+//! overlap have centres less than d apart on every axis, so they sit in the same or
+//! neighbouring cells, and only those 27 cells are searched. Occupied cells are found by
+//! hashing their integer coordinates (an open-addressing table of ≥ 2N slots), never by
+//! searching or by an array over the domain: time and memory are O(N) whatever the extent
+//! (fragments kilometres apart cost what they cost packed). Elements are scattered into
+//! their cells in index order and every pair is emitted once, by its lower index, in index
+//! order — the pair list is identical for any number of threads.
+//!
+//! **Skin.** Boxes are inflated by `skin/2` on every side. While no node has moved more than
+//! `skin/2` since the last detection, every box still lies inside its inflated box, so every
+//! pair that can touch is already a candidate: detection need not run again (see
+//! [`Detector::needs_update`]).
+//!
+//! [`brute_force_pairs`] is the test oracle; [`sweep_pairs`] (sort and sweep, N log N) is a
+//! comparison point for the benchmark.
+
+use crate::math::{Real, Vec3};
+use rayon::prelude::*;
+
+/// Axis-aligned box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub lo: Vec3,
+    pub hi: Vec3,
+}
+
+impl Aabb {
+    #[inline(always)]
+    pub fn of_points(p: &[Vec3]) -> Self {
+        let mut lo = p[0];
+        let mut hi = p[0];
+        for q in &p[1..] {
+            lo = lo.inf(q);
+            hi = hi.sup(q);
+        }
+        Aabb { lo, hi }
+    }
+    #[inline(always)]
+    pub fn inflate(&self, r: Real) -> Self {
+        Aabb {
+            lo: self.lo - Vec3::repeat(r),
+            hi: self.hi + Vec3::repeat(r),
+        }
+    }
+    #[inline(always)]
+    pub fn overlaps(&self, o: &Aabb) -> bool {
+        self.lo.x <= o.hi.x
+            && o.lo.x <= self.hi.x
+            && self.lo.y <= o.hi.y
+            && o.lo.y <= self.hi.y
+            && self.lo.z <= o.hi.z
+            && o.lo.z <= self.hi.z
+    }
+    #[inline(always)]
+    fn centre(&self) -> Vec3 {
+        (self.lo + self.hi) * 0.5
+    }
+    #[inline(always)]
+    fn max_extent(&self) -> Real {
+        (self.hi - self.lo).max()
+    }
+}
+
+const EMPTY: u32 = u32::MAX;
+const CHUNK: usize = 2048;
+
+/// Reusable NBS buffers (no allocation per detection once warmed up).
+#[derive(Clone, Debug, Default)]
+pub struct NbsWorkspace {
+    /// Integer cell of each element.
+    cell_xyz: Vec<[i64; 3]>,
+    /// Hash slot → cell id (EMPTY when free).
+    slots: Vec<u32>,
+    /// Per cell: integer coordinates, then start/count in `sorted`.
+    cells: Vec<[i64; 3]>,
+    start: Vec<u32>,
+    count: Vec<u32>,
+    /// Cell id of each element.
+    cell_of: Vec<u32>,
+    /// Elements grouped by cell, in index order within each cell.
+    sorted: Vec<u32>,
+    fill: Vec<u32>,
+    chunk_pairs: Vec<Vec<[u32; 2]>>,
+}
+
+impl NbsWorkspace {
+    /// Bytes held by the buffers (capacity) [B].
+    pub fn bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.cell_xyz.capacity() * size_of::<[i64; 3]>()
+            + self.slots.capacity() * 4
+            + self.cells.capacity() * size_of::<[i64; 3]>()
+            + (self.start.capacity() + self.count.capacity() + self.cell_of.capacity()) * 4
+            + (self.sorted.capacity() + self.fill.capacity()) * 4
+            + self
+                .chunk_pairs
+                .iter()
+                .map(|c| c.capacity() * 8)
+                .sum::<usize>()
+    }
+}
+
+#[inline(always)]
+fn hash(c: &[i64; 3], mask: usize) -> usize {
+    let h = (c[0] as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        ^ (c[1] as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
+        ^ (c[2] as u64).wrapping_mul(0x1656_67B1_9E37_79F9);
+    ((h ^ (h >> 29)) as usize) & mask
+}
+
+/// Cell id of integer coordinates `c`, or EMPTY.
+#[inline(always)]
+fn lookup(slots: &[u32], cells: &[[i64; 3]], c: &[i64; 3]) -> u32 {
+    let mask = slots.len() - 1;
+    let mut h = hash(c, mask);
+    loop {
+        let id = slots[h];
+        if id == EMPTY || cells[id as usize] == *c {
+            return id;
+        }
+        h = (h + 1) & mask;
+    }
+}
+
+/// All pairs `[i, j]` (i < j) of boxes that overlap and pass `keep`, by NBS. Pairs are
+/// ordered by i, and for equal i in a fixed order; the result does not depend on threads.
+pub fn nbs_pairs(
+    boxes: &[Aabb],
+    ws: &mut NbsWorkspace,
+    keep: &(impl Fn(u32, u32) -> bool + Sync),
+    out: &mut Vec<[u32; 2]>,
+) {
+    out.clear();
+    let n = boxes.len();
+    if n < 2 {
+        return;
+    }
+    // Cell size: the largest box; cells counted from the smallest centre (only to keep the
+    // integers small — nothing is sized by the extent).
+    let (d, origin) = boxes
+        .par_iter()
+        .map(|b| (b.max_extent(), b.centre()))
+        .reduce(
+            || (0.0, Vec3::repeat(Real::INFINITY)),
+            |a, b| (a.0.max(b.0), a.1.inf(&b.1)),
+        );
+    let d = if d > 0.0 { d } else { 1.0 };
+    let inv = 1.0 / d;
+    ws.cell_xyz.clear();
+    ws.cell_xyz.par_extend(boxes.par_iter().map(|b| {
+        let c = (b.centre() - origin) * inv;
+        [c.x.floor() as i64, c.y.floor() as i64, c.z.floor() as i64]
+    }));
+    // Occupied cells (sequential hash insertion, in element order: deterministic ids).
+    let cap = (2 * n).next_power_of_two();
+    ws.slots.clear();
+    ws.slots.resize(cap, EMPTY);
+    ws.cells.clear();
+    ws.count.clear();
+    ws.cell_of.clear();
+    let mask = cap - 1;
+    for c in &ws.cell_xyz {
+        let mut h = hash(c, mask);
+        let id = loop {
+            let id = ws.slots[h];
+            if id == EMPTY {
+                let id = ws.cells.len() as u32;
+                ws.slots[h] = id;
+                ws.cells.push(*c);
+                ws.count.push(0);
+                break id;
+            }
+            if ws.cells[id as usize] == *c {
+                break id;
+            }
+            h = (h + 1) & mask;
+        };
+        ws.count[id as usize] += 1;
+        ws.cell_of.push(id);
+    }
+    // Counting sort of elements by cell.
+    ws.start.clear();
+    let mut acc = 0u32;
+    for &c in &ws.count {
+        ws.start.push(acc);
+        acc += c;
+    }
+    ws.fill.clear();
+    ws.fill.extend_from_slice(&ws.start);
+    ws.sorted.clear();
+    ws.sorted.resize(n, 0);
+    for (e, &c) in ws.cell_of.iter().enumerate() {
+        let k = &mut ws.fill[c as usize];
+        ws.sorted[*k as usize] = e as u32;
+        *k += 1;
+    }
+    // Search the 27 cells around each element's cell for higher-indexed overlapping boxes.
+    let n_chunks = n.div_ceil(CHUNK);
+    ws.chunk_pairs.resize_with(n_chunks, Vec::new);
+    let (slots, cells, start, count, sorted, cell_xyz) = (
+        &ws.slots,
+        &ws.cells,
+        &ws.start,
+        &ws.count,
+        &ws.sorted,
+        &ws.cell_xyz,
+    );
+    ws.chunk_pairs
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(ci, pairs)| {
+            pairs.clear();
+            for e in ci * CHUNK..((ci + 1) * CHUNK).min(n) {
+                let c = cell_xyz[e];
+                let be = &boxes[e];
+                for dz in -1..=1 {
+                    for dy in -1..=1 {
+                        for dx in -1..=1 {
+                            let id = lookup(slots, cells, &[c[0] + dx, c[1] + dy, c[2] + dz]);
+                            if id == EMPTY {
+                                continue;
+                            }
+                            let s = start[id as usize] as usize;
+                            for &f in &sorted[s..s + count[id as usize] as usize] {
+                                if f as usize > e
+                                    && be.overlaps(&boxes[f as usize])
+                                    && keep(e as u32, f)
+                                {
+                                    pairs.push([e as u32, f]);
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        });
+    for p in &ws.chunk_pairs {
+        out.extend_from_slice(p);
+    }
+}
+
+/// All overlapping pairs by checking every pair: O(N²), the test oracle. Sorted.
+pub fn brute_force_pairs(boxes: &[Aabb], keep: impl Fn(u32, u32) -> bool) -> Vec<[u32; 2]> {
+    let mut out = Vec::new();
+    for i in 0..boxes.len() {
+        for j in i + 1..boxes.len() {
+            if boxes[i].overlaps(&boxes[j]) && keep(i as u32, j as u32) {
+                out.push([i as u32, j as u32]);
+            }
+        }
+    }
+    out
+}
+
+/// Sort and sweep along x (O(N log N) + pairs): a comparison point. Sorted.
+pub fn sweep_pairs(boxes: &[Aabb]) -> Vec<[u32; 2]> {
+    let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
+    order.par_sort_unstable_by(|&a, &b| {
+        boxes[a as usize]
+            .lo
+            .x
+            .total_cmp(&boxes[b as usize].lo.x)
+            .then(a.cmp(&b))
+    });
+    let mut out = Vec::new();
+    for (k, &a) in order.iter().enumerate() {
+        let ba = &boxes[a as usize];
+        for &b in &order[k + 1..] {
+            let bb = &boxes[b as usize];
+            if bb.lo.x > ba.hi.x {
+                break;
+            }
+            if ba.overlaps(bb) {
+                out.push([a.min(b), a.max(b)]);
+            }
+        }
+    }
+    out.par_sort_unstable();
+    out
+}
+
+/// Detection state between steps: candidate pairs, positions at the last detection, skin.
+#[derive(Clone, Debug, Default)]
+pub struct Detector {
+    /// Skin [m]: boxes are inflated by skin/2.
+    pub skin: Real,
+    /// Node positions at the last detection (only nodes of surface elements are checked).
+    pub x_at_detection: Vec<Vec3>,
+    /// Detections done.
+    pub detections: u64,
+    /// Force a detection at the next step (topology changed, first step, …).
+    pub stale: bool,
+    pub workspace: NbsWorkspace,
+}
+
+impl Detector {
+    /// True when some node in `nodes` moved more than skin/2 since the last detection (then
+    /// a pair could come into contact that was not a candidate). `max` is exact, so the
+    /// answer does not depend on threads.
+    pub fn needs_update(&self, x: &[Vec3], nodes: &[u32]) -> bool {
+        if self.stale || self.x_at_detection.len() != x.len() {
+            return true;
+        }
+        let half = 0.5 * self.skin;
+        let limit = half * half;
+        nodes.par_chunks(4096).any(|c| {
+            c.iter()
+                .any(|&n| (x[n as usize] - self.x_at_detection[n as usize]).norm_squared() > limit)
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn random_boxes(n: usize, seed: u64, spread: Real, sizes: &[Real]) -> Vec<Aabb> {
+        let mut s = seed;
+        let mut r = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as Real / (1u64 << 53) as Real
+        };
+        (0..n)
+            .map(|i| {
+                let c = Vec3::new(r(), r(), r()) * spread;
+                let h = sizes[i % sizes.len()] * (0.5 + r());
+                Aabb {
+                    lo: c - Vec3::repeat(h * 0.5),
+                    hi: c + Vec3::new(h, h * r(), h * 0.7) * 0.5,
+                }
+            })
+            .collect()
+    }
+
+    fn sorted(mut v: Vec<[u32; 2]>) -> Vec<[u32; 2]> {
+        v.sort_unstable();
+        v
+    }
+
+    #[test]
+    fn nbs_equals_brute_force_and_sweep() {
+        let mut ws = NbsWorkspace::default();
+        let mut out = Vec::new();
+        for (seed, spread, sizes) in [
+            (1u64, 10.0, vec![1.0]),
+            (2, 3.0, vec![1.0]),                  // dense
+            (3, 100.0, vec![1.0]),                // sparse
+            (4, 10.0, vec![0.1, 0.5, 2.0, 0.05]), // mixed sizes
+        ] {
+            let boxes = random_boxes(1500, seed, spread, &sizes);
+            let brute = brute_force_pairs(&boxes, |_, _| true);
+            nbs_pairs(&boxes, &mut ws, &|_, _| true, &mut out);
+            assert_eq!(sorted(out.clone()), brute, "seed {seed}");
+            assert_eq!(sweep_pairs(&boxes), brute, "seed {seed}");
+            assert!(!brute.is_empty());
+        }
+    }
+
+    /// Two clusters 1e6 cell sizes apart: same pairs, and the buffers do not grow with the
+    /// distance.
+    #[test]
+    fn far_apart_costs_no_memory() {
+        let near = random_boxes(2000, 9, 10.0, &[1.0]);
+        let mut far = near.clone();
+        for b in far.iter_mut().skip(1000) {
+            b.lo.x += 1.0e6;
+            b.hi.x += 1.0e6;
+        }
+        let mut ws = NbsWorkspace::default();
+        let mut out = Vec::new();
+        nbs_pairs(&near, &mut ws, &|_, _| true, &mut out);
+        let bytes_near = ws.bytes();
+        let mut ws2 = NbsWorkspace::default();
+        nbs_pairs(&far, &mut ws2, &|_, _| true, &mut out);
+        assert_eq!(sorted(out.clone()), brute_force_pairs(&far, |_, _| true));
+        assert!(
+            ws2.bytes() <= bytes_near + bytes_near / 4,
+            "{} vs {}",
+            ws2.bytes(),
+            bytes_near
+        );
+    }
+}
+
+/// Stage 4: refresh the surface lists when the topology changed, and re-detect the candidate
+/// pairs when a node moved more than skin/2 since the last detection. Friction history is
+/// carried over for pairs that remain candidates. Returns true when it detected.
+///
+/// Pairs are excluded while their tets are connected: in the same fragment and touching in
+/// the reference configuration (a shared reference node position: neighbours in one mesh,
+/// or glued faces of two bodies), unless they are the two sides of a broken joint. So
+/// intact material never contacts itself, cracks and separate fragments do, and a far part
+/// of one flexible body may contact another part of it.
+pub fn update_pairs(
+    contact: &mut crate::contact_interaction::Contact,
+    nodes: &crate::pipeline::Nodes,
+    tets: &crate::pipeline::Tets,
+    bodies: &[crate::pipeline::Body],
+    joints: &crate::joints::Joints,
+) -> bool {
+    if contact.surface_stale {
+        refresh_surface(contact, nodes, tets, bodies, joints);
+    }
+    if !contact
+        .detector
+        .needs_update(&nodes.x, &contact.surface_nodes)
+    {
+        return false;
+    }
+    let x = &nodes.x;
+    let tn = &tets.nodes;
+    // Boxes of the surface tets at the current positions.
+    if contact.skin.is_none() && contact.detector.skin == 0.0 {
+        let mean = contact
+            .surface
+            .par_iter()
+            .map(|&e| Aabb::of_points(&tn[e as usize].map(|n| x[n as usize])).max_extent())
+            .sum::<Real>()
+            / contact.surface.len().max(1) as Real;
+        contact.detector.skin = 0.25 * mean;
+    }
+    if let Some(s) = contact.skin {
+        contact.detector.skin = s;
+    }
+    let half = 0.5 * contact.detector.skin;
+    contact.boxes.clear();
+    contact.boxes.par_extend(
+        contact
+            .surface
+            .par_iter()
+            .map(|&e| Aabb::of_points(&tn[e as usize].map(|n| x[n as usize])).inflate(half)),
+    );
+    let (surface, fragment, broken) = (&contact.surface, &contact.fragment, &contact.broken_faces);
+    let x0 = &nodes.x0;
+    let keep = |i: u32, j: u32| {
+        let (a, b) = (surface[i as usize], surface[j as usize]);
+        if fragment[a as usize] != fragment[b as usize] {
+            return true;
+        }
+        let (na, nb) = (tn[a as usize], tn[b as usize]);
+        let mut shared = 0;
+        for p in na {
+            if nb.iter().any(|q| x0[*q as usize] == x0[p as usize]) {
+                shared += 1;
+            }
+        }
+        if shared == 0 {
+            return true;
+        }
+        shared == 3 && broken.binary_search(&[a.min(b), a.max(b)]).is_ok()
+    };
+    let old_pairs = std::mem::take(&mut contact.pairs);
+    let old_state = std::mem::take(&mut contact.state);
+    let old_surface_len = contact.boxes.len();
+    let mut pairs = Vec::with_capacity(old_pairs.len());
+    nbs_pairs(
+        &contact.boxes,
+        &mut contact.detector.workspace,
+        &keep,
+        &mut pairs,
+    );
+    // Carry the history of pairs found again (both lists are ordered by their first index).
+    let mut state = Vec::with_capacity(pairs.len());
+    let mut k = 0;
+    for p in &pairs {
+        while k < old_pairs.len() && old_pairs[k][0] < p[0] {
+            k += 1;
+        }
+        let mut s = crate::contact_interaction::PairState::default();
+        let mut q = k;
+        while q < old_pairs.len() && old_pairs[q][0] == p[0] {
+            if old_pairs[q][1] == p[1] {
+                s = old_state[q];
+                break;
+            }
+            q += 1;
+        }
+        state.push(s);
+    }
+    debug_assert_eq!(old_surface_len, contact.surface.len());
+    contact.pairs = pairs;
+    contact.state = state;
+    contact.detector.x_at_detection.clear();
+    contact.detector.x_at_detection.extend_from_slice(x);
+    contact.detector.stale = false;
+    contact.detector.detections += 1;
+    true
+}
+
+/// Surface tets, their nodes, fragments and broken faces. Pair history is dropped when the
+/// surface list changes (pair indices refer to it).
+fn refresh_surface(
+    contact: &mut crate::contact_interaction::Contact,
+    nodes: &crate::pipeline::Nodes,
+    tets: &crate::pipeline::Tets,
+    bodies: &[crate::pipeline::Body],
+    joints: &crate::joints::Joints,
+) {
+    use crate::pipeline::Layout;
+    let mut free = vec![0i32; tets.len()];
+    for b in bodies {
+        match b.layout {
+            Layout::Jointed => free[b.tets.clone()].iter_mut().for_each(|f| *f = 4),
+            Layout::Continuous => {
+                for f in &b.boundary {
+                    free[f.tet as usize] += 1;
+                }
+            }
+        }
+    }
+    let mut broken = Vec::new();
+    for j in 0..joints.len() {
+        let [a, b] = joints.tets[j];
+        if joints.broken[j] {
+            broken.push([a.min(b), a.max(b)]);
+        } else {
+            free[a as usize] -= 1;
+            free[b as usize] -= 1;
+        }
+    }
+    broken.sort_unstable();
+    let surface: Vec<u32> = (0..tets.len() as u32)
+        .filter(|&e| free[e as usize] > 0)
+        .collect();
+    // Map old pair history onto the new surface indices.
+    if surface != contact.surface {
+        let mut new_index = vec![u32::MAX; tets.len()];
+        for (i, &e) in surface.iter().enumerate() {
+            new_index[e as usize] = i as u32;
+        }
+        let mut moved: Vec<([u32; 2], crate::contact_interaction::PairState)> = contact
+            .pairs
+            .iter()
+            .zip(&contact.state)
+            .filter_map(|(p, s)| {
+                let (a, b) = (
+                    new_index[contact.surface[p[0] as usize] as usize],
+                    new_index[contact.surface[p[1] as usize] as usize],
+                );
+                (a != u32::MAX && b != u32::MAX).then(|| ([a.min(b), a.max(b)], *s))
+            })
+            .collect();
+        moved.sort_unstable_by_key(|m| m.0);
+        contact.pairs = moved.iter().map(|m| m.0).collect();
+        contact.state = moved.iter().map(|m| m.1).collect();
+        contact.surface = surface;
+    }
+    let mut sn: Vec<u32> = contact
+        .surface
+        .iter()
+        .flat_map(|&e| tets.nodes[e as usize])
+        .collect();
+    sn.sort_unstable();
+    sn.dedup();
+    contact.surface_nodes = sn;
+    contact.fragment = crate::fracture::fragments(&tets.nodes, joints, nodes.len());
+    contact.broken_faces = broken;
+    contact.surface_stale = false;
+    contact.detector.stale = true;
+}

@@ -1,3 +1,385 @@
-//! Stage 5: contact interaction.
+//! Stage 5: contact interaction — potential contact forces with Coulomb friction between the
+//! candidate pairs found by stage 4.
+//!
+//! **Normal force**: [`potential::tet_tet`], the exact gradient of E = p∫(φ_c + φ_t) dV.
+//!
+//! **Friction** (per pair, with history): the contact normal n is the direction of the
+//! normal force on the contactor, the contact point x_p the centroid of the clipped facets.
+//! Each step the relative displacement of the two elements at x_p over the last step,
+//! Δu = Σ N_i^c(x_p)·Δx_i^c − Σ N_j^t(x_p)·Δx_j^t, is projected on the tangent plane and
+//! added to an elastic spring s (itself re-projected on the current tangent plane). The
+//! trial force f = −k_t·s is returned to the Coulomb cone |f| ≤ μ|F_n| (the spring is cut
+//! back to the cone: sliding), and the work μ|F_n|·(slip) is dissipated. The spring
+//! stiffness follows the normal one for a thin overlap, k_t = 4·p_t·A·(1/h_c + 1/h_t), with
+//! A the contact area and h the smallest height of each element: static friction holds with
+//! an elastic offset of |f|/k_t, kinetic friction slides at μ|F_n|.
+//!
+//! **Determinism**: pairs are evaluated in parallel and their forces added to the nodes in
+//! pair order on one thread.
 
 pub mod potential;
+
+use crate::contact_detection::{Aabb, Detector};
+use crate::math::{Real, Vec3};
+use crate::pipeline::Nodes;
+use potential::{tet_tet, TetGeom};
+use rayon::prelude::*;
+
+/// Contact parameters of one pair of materials.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactProps {
+    /// Normal penalty p [Pa] (energy per overlap volume at φ = 1).
+    pub penalty: Real,
+    /// Tangential penalty p_t [Pa] (spring k_t = 4·p_t·A·(1/h_c + 1/h_t)).
+    pub tangential_penalty: Real,
+    /// Coulomb friction coefficient μ [-].
+    pub friction: Real,
+}
+
+/// A contact rule from the script: defaults apply to every pair of materials, rules with
+/// `materials` to one pair (later rules override earlier ones).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ContactRule {
+    pub materials: Option<(u32, u32)>,
+    /// None: 10 × the larger Young's modulus of the pair.
+    pub penalty: Option<Real>,
+    /// None: equal to the normal penalty.
+    pub tangential_penalty: Option<Real>,
+    pub friction: Real,
+}
+
+/// A pair that came into contact (for `on_new_contact_pair`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactEvent {
+    pub time: Real,
+    /// Simulation tet ids (contactor, target).
+    pub tets: [u32; 2],
+    pub point: Vec3,
+}
+
+/// History of one candidate pair.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PairState {
+    /// Tangential spring extension [m].
+    pub spring: Vec3,
+    pub touching: bool,
+}
+
+/// Per-step totals of stage 5.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ContactSums {
+    /// Recoverable contact energy: penalty energy + friction springs [J].
+    pub energy: Real,
+    /// Dissipated by friction this step [J].
+    pub dissipated: Real,
+    /// Pairs that overlap.
+    pub active: usize,
+    /// Σ |normal force| over active pairs [N].
+    pub normal_force: Real,
+    /// Σ |friction force| [N].
+    pub friction_force: Real,
+}
+
+/// Output of one touching pair.
+#[derive(Clone, Copy, Debug)]
+struct PairOut {
+    pair: u32,
+    f: [Vec3; 8],
+    point: Vec3,
+}
+
+/// Contact state of a simulation (stages 4 and 5).
+#[derive(Clone, Debug, Default)]
+pub struct Contact {
+    /// Rules as given by the script.
+    pub rules: Vec<ContactRule>,
+    /// Resolved parameters, `props[a * n_materials + b]`.
+    pub props: Vec<ContactProps>,
+    pub n_materials: usize,
+    pub detector: Detector,
+    /// Skin given by the script [m] (None: a quarter of the mean surface element size).
+    pub skin: Option<Real>,
+    /// Surface tets (a free face: outer boundary or broken joint), simulation ids.
+    pub surface: Vec<u32>,
+    /// Nodes of surface tets, sorted.
+    pub surface_nodes: Vec<u32>,
+    /// Fragment of each tet at the last detection.
+    pub fragment: Vec<u32>,
+    /// Tet pairs (lower id first) across a broken joint, sorted.
+    pub broken_faces: Vec<[u32; 2]>,
+    /// Candidate pairs (indices into `surface`), from stage 4.
+    pub pairs: Vec<[u32; 2]>,
+    pub state: Vec<PairState>,
+    /// Surface lists must be rebuilt (joints broke, model changed).
+    pub surface_stale: bool,
+    pub boxes: Vec<Aabb>,
+    geom: Vec<Option<TetGeom>>,
+    inv_h: Vec<Real>,
+    chunk_out: Vec<Vec<PairOut>>,
+    chunk_sums: Vec<ContactSums>,
+    /// Contact force on each node in the last step [N] (zero where none).
+    pub node_force: Vec<Vec3>,
+    touched: Vec<u32>,
+    /// Record `events` for new touching pairs.
+    pub record_events: bool,
+    pub events: Vec<ContactEvent>,
+    /// Totals of the last step.
+    pub last: ContactSums,
+}
+
+const CHUNK: usize = 1024;
+
+impl Contact {
+    pub fn is_enabled(&self) -> bool {
+        !self.rules.is_empty()
+    }
+
+    /// Resolve the rules for every pair of materials (by Young's moduli for defaults).
+    pub fn resolve(&mut self, young: &[Real]) {
+        let n = young.len();
+        self.n_materials = n;
+        self.props.clear();
+        for a in 0..n {
+            for b in 0..n {
+                let mut p = ContactProps {
+                    penalty: 10.0 * young[a].max(young[b]),
+                    tangential_penalty: 0.0,
+                    friction: 0.0,
+                };
+                let mut pt = None;
+                for r in &self.rules {
+                    let applies = match r.materials {
+                        None => true,
+                        Some((x, y)) => {
+                            (x as usize == a && y as usize == b)
+                                || (x as usize == b && y as usize == a)
+                        }
+                    };
+                    if applies {
+                        if let Some(v) = r.penalty {
+                            p.penalty = v;
+                        }
+                        pt = r.tangential_penalty.or(pt);
+                        p.friction = r.friction;
+                    }
+                }
+                p.tangential_penalty = pt.unwrap_or(p.penalty);
+                self.props.push(p);
+            }
+        }
+    }
+
+    #[inline]
+    pub fn props_of(&self, ma: u32, mb: u32) -> ContactProps {
+        self.props[ma as usize * self.n_materials + mb as usize]
+    }
+
+    /// Largest penalty over material pairs [Pa] (for the critical time step).
+    pub fn max_penalty(&self) -> Real {
+        self.props
+            .iter()
+            .map(|p| p.penalty.max(p.tangential_penalty))
+            .fold(0.0, Real::max)
+    }
+
+    /// Bytes held by the contact buffers (capacity).
+    pub fn bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.detector.workspace.bytes()
+            + self.pairs.capacity() * 8
+            + self.state.capacity() * size_of::<PairState>()
+            + self.boxes.capacity() * size_of::<Aabb>()
+            + self.geom.capacity() * size_of::<Option<TetGeom>>()
+            + self.surface.capacity() * 4
+            + self.surface_nodes.capacity() * 4
+            + self.detector.x_at_detection.capacity() * size_of::<Vec3>()
+            + self.node_force.capacity() * size_of::<Vec3>()
+    }
+}
+
+/// Stage 5: add the contact and friction forces of every touching candidate pair to
+/// `nodes.f`. `tet_nodes` and `tet_material` are the simulation's tet arrays; `dt_prev` is
+/// the last step (Δx = v·dt_prev for the friction springs).
+pub fn add_contact_forces(
+    contact: &mut Contact,
+    nodes: &mut Nodes,
+    tet_nodes: &[[u32; 4]],
+    tet_material: &[u32],
+    dt_prev: Real,
+    time: Real,
+) -> ContactSums {
+    let Contact {
+        surface,
+        pairs,
+        state,
+        geom,
+        inv_h,
+        chunk_out,
+        chunk_sums,
+        node_force,
+        touched,
+        record_events,
+        events,
+        ..
+    } = contact;
+    let x = &nodes.x;
+    let v = &nodes.v;
+    // Current geometry of the surface tets.
+    geom.clear();
+    geom.par_extend(
+        surface
+            .par_iter()
+            .map(|&e| TetGeom::new(tet_nodes[e as usize].map(|n| x[n as usize]))),
+    );
+    inv_h.clear();
+    inv_h.par_extend(geom.par_iter().map(|g| {
+        g.as_ref()
+            .map_or(0.0, |g| g.g.iter().map(|v| v.norm()).fold(0.0, Real::max))
+    }));
+    let n_chunks = pairs.len().div_ceil(CHUNK);
+    chunk_out.resize_with(n_chunks, Vec::new);
+    chunk_sums.resize(n_chunks, ContactSums::default());
+    let props = &contact.props;
+    let n_mat = contact.n_materials;
+    let (geom, inv_h) = (&*geom, &*inv_h);
+    let pairs_ref = &*pairs;
+    let surface_ref = &*surface;
+    state
+        .par_chunks_mut(CHUNK)
+        .zip(chunk_out.par_iter_mut())
+        .zip(chunk_sums.par_iter_mut())
+        .enumerate()
+        .for_each(|(ci, ((st, out), sums))| {
+            out.clear();
+            *sums = ContactSums::default();
+            for (k, ps) in st.iter_mut().enumerate() {
+                let pi = ci * CHUNK + k;
+                let [a, b] = pairs_ref[pi];
+                let (Some(gc), Some(gt)) = (&geom[a as usize], &geom[b as usize]) else {
+                    ps.touching = false;
+                    ps.spring = Vec3::zeros();
+                    continue;
+                };
+                let (ea, eb) = (surface_ref[a as usize], surface_ref[b as usize]);
+                let pr = props[tet_material[ea as usize] as usize * n_mat
+                    + tet_material[eb as usize] as usize];
+                // Cheap rejection on current boxes.
+                if !Aabb::of_points(&gc.x).overlaps(&Aabb::of_points(&gt.x)) {
+                    ps.touching = false;
+                    ps.spring = Vec3::zeros();
+                    continue;
+                }
+                let r = tet_tet(gc, gt, pr.penalty);
+                if !r.touching {
+                    ps.touching = false;
+                    ps.spring = Vec3::zeros();
+                    continue;
+                }
+                let mut f = [Vec3::zeros(); 8];
+                f[..4].copy_from_slice(&r.fc);
+                f[4..].copy_from_slice(&r.ft);
+                let f_normal: Vec3 = r.fc.iter().sum();
+                let fn_mag = f_normal.norm();
+                let mut energy = r.energy;
+                if pr.friction > 0.0 && fn_mag > 0.0 {
+                    let n = f_normal / fn_mag;
+                    let nc = gc.bary(&r.point);
+                    let nt = gt.bary(&r.point);
+                    let (na, nb) = (tet_nodes[ea as usize], tet_nodes[eb as usize]);
+                    let mut dv = Vec3::zeros();
+                    for i in 0..4 {
+                        dv += v[na[i] as usize] * nc[i] - v[nb[i] as usize] * nt[i];
+                    }
+                    let du = dv * dt_prev;
+                    let mut s = ps.spring;
+                    s -= n * n.dot(&s);
+                    s += du - n * n.dot(&du);
+                    let kt = 4.0
+                        * pr.tangential_penalty
+                        * r.area
+                        * (inv_h[a as usize] + inv_h[b as usize]);
+                    let limit = pr.friction * fn_mag;
+                    let mut ft = -s * kt;
+                    let mag = ft.norm();
+                    if mag > limit {
+                        let keep = limit / mag;
+                        sums.dissipated += limit * (s.norm() * (1.0 - keep));
+                        s *= keep;
+                        ft *= keep;
+                    }
+                    ps.spring = s;
+                    energy += 0.5 * kt * s.norm_squared();
+                    for i in 0..4 {
+                        f[i] += ft * nc[i];
+                        f[4 + i] -= ft * nt[i];
+                    }
+                    sums.friction_force += ft.norm();
+                } else {
+                    ps.spring = Vec3::zeros();
+                }
+                sums.energy += energy;
+                sums.active += 1;
+                sums.normal_force += fn_mag;
+                if !ps.touching && *record_events {
+                    // Reported in pair order below.
+                    ps.touching = true;
+                    out.push(PairOut {
+                        pair: pi as u32 | NEW_FLAG,
+                        f,
+                        point: r.point,
+                    });
+                } else {
+                    ps.touching = true;
+                    out.push(PairOut {
+                        pair: pi as u32,
+                        f,
+                        point: r.point,
+                    });
+                }
+            }
+        });
+    // Add to the nodes in pair order (deterministic), recording the contact force per node.
+    if node_force.len() != nodes.len() {
+        node_force.clear();
+        node_force.resize(nodes.len(), Vec3::zeros());
+    }
+    for &n in touched.iter() {
+        node_force[n as usize] = Vec3::zeros();
+    }
+    touched.clear();
+    let mut total = ContactSums::default();
+    for (out, s) in chunk_out.iter().zip(chunk_sums.iter()) {
+        total.energy += s.energy;
+        total.dissipated += s.dissipated;
+        total.active += s.active;
+        total.normal_force += s.normal_force;
+        total.friction_force += s.friction_force;
+        for po in out {
+            let pi = (po.pair & !NEW_FLAG) as usize;
+            let [a, b] = pairs[pi];
+            let (ea, eb) = (surface[a as usize], surface[b as usize]);
+            let ids = tet_nodes[ea as usize]
+                .into_iter()
+                .chain(tet_nodes[eb as usize]);
+            for (k, n) in ids.enumerate() {
+                nodes.f[n as usize] += po.f[k];
+                if node_force[n as usize] == Vec3::zeros() {
+                    touched.push(n);
+                }
+                node_force[n as usize] += po.f[k];
+            }
+            if po.pair & NEW_FLAG != 0 {
+                events.push(ContactEvent {
+                    time,
+                    tets: [ea, eb],
+                    point: po.point,
+                });
+            }
+        }
+    }
+    contact.last = total;
+    total
+}
+
+/// Marks a pair that started touching in this step (top bit of the pair index).
+const NEW_FLAG: u32 = 1 << 31;

@@ -152,6 +152,9 @@ pub struct Joints {
     pub state: Vec<[PointState; 3]>,
     /// Set by stage 3 when every point is fully damaged.
     pub broken: Vec<bool>,
+    /// Broken joints carry no force (contact has taken over their faces). Without contact a
+    /// broken joint keeps resisting penetration and rubbing with its own law.
+    pub broken_inert: bool,
     pub laws: Vec<JointLaw>,
     consts: Vec<CohesiveConsts>,
     /// Blocks of joints by colour: blocks of one colour share no node.
@@ -482,12 +485,15 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
         law,
         size,
         state,
+        broken,
+        broken_inert,
         laws,
         consts,
         color_blocks,
         partials,
         ..
     } = joints;
+    let skip_broken = *broken_inert;
     let x = &nodes.x;
     let fp = SyncPtr(nodes.f.as_mut_ptr());
     let sp = StatePtr(state.as_mut_ptr());
@@ -495,6 +501,9 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
     let run_block = |range: &std::ops::Range<usize>| {
         let mut s = JointSums::default();
         for j in range.clone() {
+            if skip_broken && broken[j] {
+                continue;
+            }
             // SAFETY: blocks are disjoint ranges of joints, so each state is
             // borrowed by one iteration only.
             let st = unsafe { &mut *sp.get().add(j) };

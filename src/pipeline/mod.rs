@@ -47,16 +47,9 @@ impl Stage {
             Stage::Integration => "integration",
         }
     }
-    /// Whether the stage exists in this build (contact comes with issue #5).
+    /// Whether the stage exists in this build (all seven do).
     pub fn is_built(self) -> bool {
-        matches!(
-            self,
-            Stage::Elements
-                | Stage::Joints
-                | Stage::Fracture
-                | Stage::ExternalLoads
-                | Stage::Integration
-        )
+        true
     }
 }
 
@@ -94,6 +87,10 @@ pub struct Energy {
     pub joint: Real,
     /// Dissipated by joint damage and friction on broken joints (fracture).
     pub fracture: Real,
+    /// Recoverable contact energy: penalty energy p∫(φ_c + φ_t) and friction springs.
+    pub contact: Real,
+    /// Dissipated by contact friction.
+    pub friction: Real,
     /// Kinetic + strain energy at the first step.
     pub initial: Real,
 }
@@ -103,11 +100,11 @@ impl Energy {
         self.gravity_work + self.force_work + self.reaction_work
     }
     pub fn dissipated(&self) -> Real {
-        self.mass_damping + self.viscous_damping + self.fracture
+        self.mass_damping + self.viscous_damping + self.fracture + self.friction
     }
-    /// (kinetic + strain + joint + dissipated) − (initial + external work) [J].
+    /// (kinetic + strain + joint + contact + dissipated) − (initial + external work) [J].
     pub fn balance_error(&self) -> Real {
-        self.kinetic + self.strain + self.joint + self.dissipated()
+        self.kinetic + self.strain + self.joint + self.contact + self.dissipated()
             - (self.initial + self.external_work())
     }
     /// Balance error relative to the largest energy in the account.
@@ -116,6 +113,7 @@ impl Energy {
             self.kinetic,
             self.strain,
             self.joint,
+            self.contact,
             self.initial,
             self.gravity_work.abs(),
             self.force_work.abs(),
@@ -155,6 +153,8 @@ pub struct TimeStepInfo {
     /// With joints: the node whose joint springs are stiffest and the critical step of the
     /// tetrahedra alone.
     pub joints: Option<(usize, Real)>,
+    /// The contact penalty lowered the critical step.
+    pub contact: bool,
 }
 
 impl std::fmt::Display for TimeStepInfo {
@@ -171,11 +171,20 @@ impl std::fmt::Display for TimeStepInfo {
                 "dt = {:.4e} s ({how}); critical {:.4e} s set by tet {} of body '{}' at ({:.4}, {:.4}, {:.4})",
                 self.dt, self.critical, self.tet, self.body, c.x, c.y, c.z
             )?,
-            Some((node, alone)) => write!(
-                f,
-                "dt = {:.4e} s ({how}); critical {:.4e} s: tetrahedra alone {alone:.4e} s (tet {} of body '{}' at ({:.4}, {:.4}, {:.4})), lowered by the joint penalties (stiffest at node {node})",
-                self.dt, self.critical, self.tet, self.body, c.x, c.y, c.z
-            )?,
+            Some((node, alone)) => {
+                let by = match (node == usize::MAX, self.contact) {
+                    (true, _) => "the contact penalty".to_string(),
+                    (false, false) => format!("the joint penalties (stiffest at node {node})"),
+                    (false, true) => {
+                        format!("the joint (stiffest at node {node}) and contact penalties")
+                    }
+                };
+                write!(
+                    f,
+                    "dt = {:.4e} s ({how}); critical {:.4e} s: tetrahedra alone {alone:.4e} s (tet {} of body '{}' at ({:.4}, {:.4}, {:.4})), lowered by {by}",
+                    self.dt, self.critical, self.tet, self.body, c.x, c.y, c.z
+                )?
+            }
         }
         Ok(())
     }
@@ -239,6 +248,8 @@ pub struct Simulation {
     pub break_events: Vec<crate::fracture::BreakEvent>,
     /// A user fracture criterion (stage 3), if any.
     pub fracture_criterion: Option<crate::fracture::FractureCriterion>,
+    /// Contact (stages 4–5): off until a contact law is set.
+    pub contact: crate::contact_interaction::Contact,
     pub settings: Settings,
     pub time: Real,
     pub step: u64,
@@ -256,6 +267,10 @@ pub struct Simulation {
     ready: bool,
     elements_ws: ElementsWorkspace,
     integration_partials: Vec<IntegrationSums>,
+    /// Break events already handed to contact (its surface changes when joints break).
+    contact_seen_breaks: usize,
+    contact_energy: Real,
+    contact_dissipated: Real,
 }
 
 impl Simulation {
@@ -433,6 +448,12 @@ impl Simulation {
             Vec::with_capacity(self.nodes.len().div_ceil(integration::CHUNK));
         self.loads.apply_constraint_masks(&mut self.nodes);
         self.joints.prepare(self.nodes.len());
+        if self.contact.is_enabled() {
+            let young: Vec<Real> = self.materials.iter().map(|m| m.young).collect();
+            self.contact.resolve(&young);
+            self.joints.broken_inert = true;
+            self.contact.surface_stale = true;
+        }
         let info = self.stable_time_step()?;
         self.dt = info.dt;
         self.dt_info = Some(info);
@@ -467,6 +488,7 @@ impl Simulation {
         // bound on the joint part, ω² ≤ ω_tets² + max_n 2·Σk_joint/m_n.
         let mut critical = critical_tets;
         let mut joints_note = None;
+        let mut contact_lowered = false;
         if !self.joints.is_empty() {
             let k = self.joints.nodal_stiffness(self.nodes.len());
             let (w2, node) = k
@@ -478,6 +500,27 @@ impl Simulation {
             let w_tets = 2.0 / critical_tets;
             critical = 2.0 / (w_tets * w_tets + w2).sqrt();
             joints_note = Some((node, critical_tets));
+        }
+        // Contact springs likewise: a thin overlap under face k of a tet is a spring
+        // k_n = 4pA_k(1/H_c + 1/H_t) ≤ 8pA_k/H_k for equal heights, a third per face node.
+        if self.contact.is_enabled() {
+            let p = self.contact.max_penalty();
+            let w2 = (0..self.tets.len())
+                .into_par_iter()
+                .map(|e| {
+                    let k = contact_nodal_stiffness(&self.tets.dm_inv[e], self.tets.vol0[e], p);
+                    self.tets.nodes[e]
+                        .iter()
+                        .map(|&n| 2.0 * k / self.nodes.m[n as usize])
+                        .fold(0.0, Real::max)
+                })
+                .reduce(|| 0.0, Real::max);
+            let w = 2.0 / critical;
+            critical = 2.0 / (w * w + w2).sqrt();
+            if joints_note.is_none() {
+                joints_note = Some((usize::MAX, critical_tets));
+            }
+            contact_lowered = true;
         }
         let body = &self.bodies[self.tets.body[tet] as usize];
         let centroid = self.tets.nodes[tet]
@@ -494,6 +537,7 @@ impl Simulation {
             centroid,
             fixed: false,
             joints: joints_note,
+            contact: contact_lowered,
         };
         if let Some(dt) = self.settings.dt {
             if dt > critical {
@@ -549,7 +593,35 @@ impl Simulation {
         self.accumulated.fracture += released;
         self.timers.seconds[Stage::Fracture as usize] += t.elapsed().as_secs_f64();
 
-        // 4. contact detection, 5. contact interaction: not built yet (issue #5).
+        if self.contact.is_enabled() {
+            if self.break_events.len() != self.contact_seen_breaks {
+                self.contact.surface_stale = true;
+                self.contact_seen_breaks = self.break_events.len();
+            }
+            // 4. contact detection
+            let t = Instant::now();
+            crate::contact_detection::update_pairs(
+                &mut self.contact,
+                &self.nodes,
+                &self.tets,
+                &self.bodies,
+                &self.joints,
+            );
+            self.timers.seconds[Stage::ContactDetection as usize] += t.elapsed().as_secs_f64();
+            // 5. contact interaction
+            let t = Instant::now();
+            let cs = crate::contact_interaction::add_contact_forces(
+                &mut self.contact,
+                &mut self.nodes,
+                &self.tets.nodes,
+                &self.tets.material,
+                self.dt_prev,
+                self.time,
+            );
+            self.contact_energy = cs.energy;
+            self.contact_dissipated = cs.dissipated;
+            self.timers.seconds[Stage::ContactInteraction as usize] += t.elapsed().as_secs_f64();
+        }
 
         // 6. external loads
         let t = Instant::now();
@@ -590,6 +662,8 @@ impl Simulation {
                 viscous_damping: a.viscous_damping + 0.5 * viscous,
                 joint: js.energy,
                 fracture: a.fracture + js.dissipated,
+                contact: self.contact_energy,
+                friction: a.friction + self.contact_dissipated,
                 initial: if self.step == 0 {
                     is.kinetic + el.strain_energy
                 } else {
@@ -610,6 +684,7 @@ impl Simulation {
         }
         self.accumulated.viscous_damping += viscous;
         self.accumulated.fracture += js.dissipated;
+        self.accumulated.friction += self.contact_dissipated;
         self.accumulated.mass_damping += is.damping_before + is.damping_after;
         self.accumulated.reaction_work += is.reaction_work_before + is.reaction_work_after;
         self.dt_prev = dt;
@@ -700,4 +775,19 @@ impl Simulation {
     pub fn total_mass(&self) -> Real {
         self.nodes.m.iter().sum()
     }
+}
+
+/// Contact stiffness at a node of a tet for the critical step: (8/3)·p·max_k(A_k/H_k) [N/m],
+/// the stiffest face of the tet in a thin overlap with an equal partner. With ∇λ_k = g_k,
+/// H_k = 1/|g_k| and A_k = 3V|g_k|, so A_k/H_k = 3V|g_k|².
+fn contact_nodal_stiffness(dm_inv: &crate::math::Mat3, vol0: Real, p: Real) -> Real {
+    let g1 = dm_inv.row(0).transpose();
+    let g2 = dm_inv.row(1).transpose();
+    let g3 = dm_inv.row(2).transpose();
+    let g0 = -(g1 + g2 + g3);
+    let g2max = [g0, g1, g2, g3]
+        .iter()
+        .map(|g| g.norm_squared())
+        .fold(0.0, Real::max);
+    8.0 / 3.0 * p * 3.0 * vol0.abs() * g2max
 }

@@ -939,6 +939,8 @@ fn register_queries(engine: &mut Engine) {
             ("damping", e.mass_damping + e.viscous_damping),
             ("joint", e.joint),
             ("fracture", e.fracture),
+            ("contact", e.contact),
+            ("friction", e.friction),
             ("initial", e.initial),
             ("balance_error", e.balance_error()),
             ("relative_error", e.relative_balance_error()),

@@ -264,6 +264,8 @@ fn write_run_output(s: &SimHandle) -> Result<(), String> {
             en.viscous_damping,
             en.joint,
             en.fracture,
+            en.contact,
+            en.friction,
             en.balance_error(),
         ]
     });
@@ -279,6 +281,8 @@ fn write_run_output(s: &SimHandle) -> Result<(), String> {
         "viscous_damping",
         "joint",
         "fracture",
+        "contact",
+        "friction",
         "balance_error",
     ];
     write_csv(&path, &header, rows).map_err(|e| format!("writing {}: {e}", path.display()))?;
@@ -391,13 +395,26 @@ pub fn summary(
         e.reaction_work
     ));
     s.push_str(&format!(
-        "   {:<20} {:>14.6e}   (mass damping {:.4e}, viscous {:.4e}, fracture {:.4e})\n",
+        "   {:<20} {:>14.6e}   (mass damping {:.4e}, viscous {:.4e}, fracture {:.4e}, friction {:.4e})\n",
         "dissipated",
         e.dissipated(),
         e.mass_damping,
         e.viscous_damping,
-        e.fracture
+        e.fracture,
+        e.friction
     ));
+    if sim.contact.is_enabled() {
+        let c = &sim.contact;
+        s.push_str(&format!(
+            "   {:<20} {:>14.6e}   ({} surface tets, {} candidate pairs, {} touching, {} detections)\n",
+            "contact (elastic)",
+            e.contact,
+            c.surface.len(),
+            c.pairs.len(),
+            c.last.active,
+            c.detector.detections
+        ));
+    }
     if !sim.joints.is_empty() {
         s.push_str(&format!(
             "   {:<20} {:>14.6e}   ({} of {} joints broken)\n",
