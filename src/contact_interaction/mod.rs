@@ -6,13 +6,20 @@
 //! **Friction** (per pair, with history): the contact normal n is the direction of the
 //! normal force on the contactor, the contact point x_p the centroid of the clipped facets.
 //! Each step the relative displacement of the two elements at x_p over the last step,
-//! Δu = Σ N_i^c(x_p)·Δx_i^c − Σ N_j^t(x_p)·Δx_j^t, is projected on the tangent plane and
-//! added to an elastic spring s (itself re-projected on the current tangent plane). The
-//! trial force f = −k_t·s is returned to the Coulomb cone |f| ≤ μ|F_n| (the spring is cut
-//! back to the cone: sliding), and the work μ|F_n|·(slip) is dissipated. The spring
-//! stiffness follows the normal one for a thin overlap, k_t = 4·p_t·A·(1/h_c + 1/h_t), with
-//! A the contact area and h the smallest height of each element: static friction holds with
-//! an elastic offset of |f|/k_t, kinetic friction slides at μ|F_n|.
+//! Δu = Σ N_i^c(x_p)·Δx_i^c − Σ N_j^t(x_p)·Δx_j^t, is projected on the tangent plane and the
+//! tangential force is updated incrementally, f_t ← P_n(f_t) − k_t·Δu_t (P_n re-projects the
+//! stored force on the current tangent plane, keeping its magnitude), then returned to the
+//! Coulomb cone |f_t| ≤ μ|F_n| (sliding). The work μ|F_n|·(|f_trial| − μ|F_n|)/k_t of each
+//! slip is dissipated and ½|f_t|²/k_t is stored. The spring stiffness follows the normal one
+//! for a thin overlap, k_t = 4·p_t·A·(1/h_c + 1/h_t), with A the contact area and h the
+//! smallest height of each element: static friction holds with an elastic offset |f_t|/k_t,
+//! kinetic friction slides at μ|F_n|. Storing the force rather than the spring extension
+//! keeps the force continuous when A (hence k_t) changes.
+//!
+//! **Normal damping** (optional, ratio ζ): a dashpot on the normal relative velocity at x_p,
+//! f_d = −2ζ·√(k_n·m*)·(v_rel·n)·n with k_n = 4·p·A·(1/h_c + 1/h_t) and m* the reduced mass
+//! of the two tetrahedra, never pulling harder than the contact pushes. Its work is
+//! dissipated (booked with friction).
 //!
 //! **Determinism**: pairs are evaluated in parallel and their forces added to the nodes in
 //! pair order on one thread.
@@ -34,6 +41,8 @@ pub struct ContactProps {
     pub tangential_penalty: Real,
     /// Coulomb friction coefficient μ [-].
     pub friction: Real,
+    /// Normal damping ratio ζ [-].
+    pub damping: Real,
 }
 
 /// A contact rule from the script: defaults apply to every pair of materials, rules with
@@ -46,6 +55,7 @@ pub struct ContactRule {
     /// None: equal to the normal penalty.
     pub tangential_penalty: Option<Real>,
     pub friction: Real,
+    pub damping: Real,
 }
 
 /// A pair that came into contact (for `on_new_contact_pair`).
@@ -60,7 +70,7 @@ pub struct ContactEvent {
 /// History of one candidate pair.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PairState {
-    /// Tangential spring extension [m].
+    /// Tangential friction force on the contactor [N].
     pub spring: Vec3,
     pub touching: bool,
 }
@@ -70,7 +80,7 @@ pub struct PairState {
 pub struct ContactSums {
     /// Recoverable contact energy: penalty energy + friction springs [J].
     pub energy: Real,
-    /// Dissipated by friction this step [J].
+    /// Dissipated by friction and normal damping this step [J].
     pub dissipated: Real,
     /// Pairs that overlap.
     pub active: usize,
@@ -86,6 +96,8 @@ struct PairOut {
     pair: u32,
     f: [Vec3; 8],
     point: Vec3,
+    /// Mean normal contact pressure |F_n|/A [Pa].
+    pressure: Real,
 }
 
 /// Contact state of a simulation (stages 4 and 5).
@@ -120,11 +132,16 @@ pub struct Contact {
     /// Contact force on each node in the last step [N] (zero where none).
     pub node_force: Vec<Vec3>,
     touched: Vec<u32>,
+    /// Largest contact pressure on each tet in the last step [Pa] (zero where none).
+    pub tet_pressure: Vec<Real>,
+    touched_tets: Vec<u32>,
     /// Record `events` for new touching pairs.
     pub record_events: bool,
     pub events: Vec<ContactEvent>,
     /// Totals of the last step.
     pub last: ContactSums,
+    /// Mass ρV₀ of every tet [kg] (for the normal damping).
+    pub tet_mass: Vec<Real>,
 }
 
 const CHUNK: usize = 1024;
@@ -145,6 +162,7 @@ impl Contact {
                     penalty: 10.0 * young[a].max(young[b]),
                     tangential_penalty: 0.0,
                     friction: 0.0,
+                    damping: 0.0,
                 };
                 let mut pt = None;
                 for r in &self.rules {
@@ -161,6 +179,7 @@ impl Contact {
                         }
                         pt = r.tangential_penalty.or(pt);
                         p.friction = r.friction;
+                        p.damping = r.damping;
                     }
                 }
                 p.tangential_penalty = pt.unwrap_or(p.penalty);
@@ -218,6 +237,8 @@ pub fn add_contact_forces(
         chunk_sums,
         node_force,
         touched,
+        tet_pressure,
+        touched_tets,
         record_events,
         events,
         ..
@@ -240,6 +261,7 @@ pub fn add_contact_forces(
     chunk_out.resize_with(n_chunks, Vec::new);
     chunk_sums.resize(n_chunks, ContactSums::default());
     let props = &contact.props;
+    let tet_mass = &contact.tet_mass;
     let n_mat = contact.n_materials;
     let (geom, inv_h) = (&*geom, &*inv_h);
     let pairs_ref = &*pairs;
@@ -281,7 +303,7 @@ pub fn add_contact_forces(
                 let f_normal: Vec3 = r.fc.iter().sum();
                 let fn_mag = f_normal.norm();
                 let mut energy = r.energy;
-                if pr.friction > 0.0 && fn_mag > 0.0 {
+                if (pr.friction > 0.0 || pr.damping > 0.0) && fn_mag > 0.0 {
                     let n = f_normal / fn_mag;
                     let nc = gc.bary(&r.point);
                     let nt = gt.bary(&r.point);
@@ -290,30 +312,52 @@ pub fn add_contact_forces(
                     for i in 0..4 {
                         dv += v[na[i] as usize] * nc[i] - v[nb[i] as usize] * nt[i];
                     }
-                    let du = dv * dt_prev;
-                    let mut s = ps.spring;
-                    s -= n * n.dot(&s);
-                    s += du - n * n.dot(&du);
-                    let kt = 4.0
-                        * pr.tangential_penalty
-                        * r.area
-                        * (inv_h[a as usize] + inv_h[b as usize]);
-                    let limit = pr.friction * fn_mag;
-                    let mut ft = -s * kt;
-                    let mag = ft.norm();
-                    if mag > limit {
-                        let keep = limit / mag;
-                        sums.dissipated += limit * (s.norm() * (1.0 - keep));
-                        s *= keep;
-                        ft *= keep;
+                    let stiff = 4.0 * r.area * (inv_h[a as usize] + inv_h[b as usize]);
+                    let mut fx = Vec3::zeros();
+                    // Normal dashpot first: Coulomb acts on the whole normal force.
+                    let mut normal = fn_mag;
+                    if pr.damping > 0.0 {
+                        let kn = pr.penalty * stiff;
+                        let (mc, mt) = (tet_mass[ea as usize], tet_mass[eb as usize]);
+                        let m_red = mc * mt / (mc + mt);
+                        let c = 2.0 * pr.damping * (kn * m_red).sqrt();
+                        let vn = n.dot(&dv);
+                        // Never pull harder than the contact pushes.
+                        let fd = (-c * vn).max(-fn_mag);
+                        sums.dissipated += -fd * vn * dt_prev;
+                        fx += n * fd;
+                        normal += fd;
                     }
-                    ps.spring = s;
-                    energy += 0.5 * kt * s.norm_squared();
+                    if pr.friction > 0.0 {
+                        let du = dv * dt_prev;
+                        let du_t = du - n * n.dot(&du);
+                        let kt = pr.tangential_penalty * stiff;
+                        // Keep the stored force's magnitude on the new tangent plane.
+                        let old = ps.spring;
+                        let mut ft = old - n * n.dot(&old);
+                        let m_old = old.norm();
+                        let m_new = ft.norm();
+                        if m_new > 0.0 {
+                            ft *= m_old / m_new;
+                        }
+                        ft -= du_t * kt;
+                        let limit = pr.friction * normal;
+                        let mag = ft.norm();
+                        if mag > limit {
+                            sums.dissipated += limit * (mag - limit) / kt;
+                            ft *= limit / mag;
+                        }
+                        ps.spring = ft;
+                        energy += 0.5 * ft.norm_squared() / kt;
+                        sums.friction_force += ft.norm();
+                        fx += ft;
+                    } else {
+                        ps.spring = Vec3::zeros();
+                    }
                     for i in 0..4 {
-                        f[i] += ft * nc[i];
-                        f[4 + i] -= ft * nt[i];
+                        f[i] += fx * nc[i];
+                        f[4 + i] -= fx * nt[i];
                     }
-                    sums.friction_force += ft.norm();
                 } else {
                     ps.spring = Vec3::zeros();
                 }
@@ -327,6 +371,7 @@ pub fn add_contact_forces(
                         pair: pi as u32 | NEW_FLAG,
                         f,
                         point: r.point,
+                        pressure: fn_mag / r.area,
                     });
                 } else {
                     ps.touching = true;
@@ -334,6 +379,7 @@ pub fn add_contact_forces(
                         pair: pi as u32,
                         f,
                         point: r.point,
+                        pressure: fn_mag / r.area,
                     });
                 }
             }
@@ -347,6 +393,14 @@ pub fn add_contact_forces(
         node_force[n as usize] = Vec3::zeros();
     }
     touched.clear();
+    if tet_pressure.len() != tet_nodes.len() {
+        tet_pressure.clear();
+        tet_pressure.resize(tet_nodes.len(), 0.0);
+    }
+    for &e in touched_tets.iter() {
+        tet_pressure[e as usize] = 0.0;
+    }
+    touched_tets.clear();
     let mut total = ContactSums::default();
     for (out, s) in chunk_out.iter().zip(chunk_sums.iter()) {
         total.energy += s.energy;
@@ -358,6 +412,12 @@ pub fn add_contact_forces(
             let pi = (po.pair & !NEW_FLAG) as usize;
             let [a, b] = pairs[pi];
             let (ea, eb) = (surface[a as usize], surface[b as usize]);
+            for e in [ea, eb] {
+                if tet_pressure[e as usize] == 0.0 {
+                    touched_tets.push(e);
+                }
+                tet_pressure[e as usize] = tet_pressure[e as usize].max(po.pressure);
+            }
             let ids = tet_nodes[ea as usize]
                 .into_iter()
                 .chain(tet_nodes[eb as usize]);

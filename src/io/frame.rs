@@ -11,7 +11,9 @@ use rayon::prelude::*;
 /// Encode the current state as `.vtu` bytes: points at the current positions; point data
 /// `displacement` [m] and `velocity` [m/s] (half-step); cell data `stress` (Cauchy, 9
 /// components, Pa), `von_mises` [Pa], `principal_stress` (σ1 ≥ σ2 ≥ σ3, Pa), `body`, `material`, and `stress_pk1`/`stress_pk2` when
-/// `extra` asks for it.
+/// `extra` asks for it. With joints: cell data `damage` and `fragment`; with contact: point
+/// data `contact_force` [N] and cell data `contact_pressure` [Pa] (the largest mean pressure
+/// |F_n|/A over the element's touching pairs) of the last step.
 pub fn encode_frame(
     sim: &Simulation,
     extra: StressMeasure,
@@ -114,6 +116,24 @@ pub fn encode_frame(
             data: DataArray::ScalarI32(&fragment),
         });
     }
+    let contact_on = sim.contact.is_enabled()
+        && sim.contact.node_force.len() == sim.nodes.len()
+        && sim.contact.tet_pressure.len() == sim.tets.len();
+    if contact_on {
+        cell_data.push(Field {
+            name: "contact_pressure",
+            data: DataArray::ScalarF64(&sim.contact.tet_pressure),
+        });
+    }
+    let contact_force: Vec<[f64; 3]> = if contact_on {
+        sim.contact
+            .node_force
+            .iter()
+            .map(|f| [f.x, f.y, f.z])
+            .collect()
+    } else {
+        Vec::new()
+    };
     if let Some(s) = &extra_stress {
         cell_data.push(Field {
             name: &extra_name,
@@ -136,6 +156,13 @@ pub fn encode_frame(
         ],
         cell_data,
     };
+    let mut frame = frame;
+    if contact_on {
+        frame.point_data.push(Field {
+            name: "contact_force",
+            data: DataArray::VectorF64(&contact_force),
+        });
+    }
     encode_vtu_with(&frame, encoding)
 }
 

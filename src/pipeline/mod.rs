@@ -451,6 +451,9 @@ impl Simulation {
         if self.contact.is_enabled() {
             let young: Vec<Real> = self.materials.iter().map(|m| m.young).collect();
             self.contact.resolve(&young);
+            self.contact.tet_mass = (0..self.tets.len())
+                .map(|e| self.materials[self.tets.material[e] as usize].density * self.tets.vol0[e])
+                .collect();
             self.joints.broken_inert = true;
             self.contact.surface_stale = true;
         }

@@ -49,6 +49,7 @@ pub const SECTIONS: &[(&str, &str)] = &[
     ("Geometry and meshes", "Shapes (also used as selection regions), meshing, transformations."),
     ("Bodies and selections", "Bodies are meshes placed in the simulation; selections are node, face and element sets."),
     ("Joints and fracture", "Stages 2–3: cohesive joints between the tetrahedra of jointed bodies; joints break, bodies fragment. Equations in docs/theory/joints.md."),
+    ("Contact", "Stages 4–5: surface elements (outer faces and broken joints) touch, slide and collide through Munjiza's potential contact force with Coulomb friction. Equations in docs/theory/contact.md."),
     ("Loads and constraints", "Stage 6: gravity, forces, tractions, fixed and prescribed-velocity nodes, initial velocity."),
     ("Hooks, monitors and output", "Periodic callbacks, monitored quantities (CSV), ParaView frames."),
     ("Queries", "Read the state from a script or a callback (`s` is the simulation)."),
@@ -283,6 +284,16 @@ pub const INSERT_JOINTS_KEYS: &[Key] = &[
         "With `within`: only faces whose centroid lies in this region.",
     ),
 ];
+pub const CONTACT_LAW_KEYS: &[Key] = &[
+    key("penalty", "float", "Pa", "E of the stiffer material", "Normal penalty p: contact energy p∫(φ_c + φ_t) dV over the overlap. Overlap depth ≈ H·σ/(8p) under contact pressure σ (H the element height); the critical time step falls as p grows."),
+    key("tangential_penalty", "float", "Pa", "= penalty", "Friction spring: stiffness 4·p_t·A·(1/h_c + 1/h_t) per pair (A contact area, h element heights)."),
+    key("friction", "float", "-", "0", "Coulomb coefficient μ (static = kinetic)."),
+    key("damping", "float", "-", "0", "Normal damping ratio ζ in [0, 1]: a dashpot 2ζ√(k_n·m*) on the normal approach speed (for settling; dissipation is booked with friction)."),
+    key("between", "[material, material]", "", "all pairs", "Apply to this pair of materials only (later calls override earlier ones)."),
+];
+pub const CONTACT_DETECTION_KEYS: &[Key] = &[
+    key("skin", "float", "m", "¼ of the mean surface element size", "Boxes are inflated by skin/2; detection runs again only when a node has moved more than skin/2 since the last one (no contact can be missed)."),
+];
 pub const VELOCITY_KEYS: &[Key] = &[
     key(
         "x",
@@ -347,6 +358,13 @@ pub const API: &[FnDoc] = &[
     FnDoc { section: "Joints and fracture", name: "s.fragments", signature: "s.fragments() -> #{ count, volumes, masses }",
         summary: "Fragments: connected components of tetrahedra over intact joints and shared nodes, with their volumes [m³] and masses [kg]. Also `s.broken_joints()` and `s.n_joints`.", keys: &[] },
     // ── Loads
+    // ── Contact
+    FnDoc { section: "Contact", name: "sim.contact_law", signature: "sim.contact_law(\"potential\", #{ … })",
+        summary: "Switch contact on (between all bodies, fragments and crack faces) or set it for one pair of materials. Broken joints hand their faces over to contact.", keys: CONTACT_LAW_KEYS },
+    FnDoc { section: "Contact", name: "sim.contact_detection", signature: "sim.contact_detection(#{ … })", summary: "Options of the NBS contact detection (stage 4).", keys: CONTACT_DETECTION_KEYS },
+    FnDoc { section: "Contact", name: "sim.on_new_contact_pair", signature: "sim.on_new_contact_pair(|s, pair| …)", summary: "Call a closure for every pair of elements that starts touching, with `#{ time, point, bodies, elements }`.", keys: &[] },
+    FnDoc { section: "Contact", name: "s.contact", signature: "s.contact() -> #{ … }", summary: "Contact in the last step: `pairs` (candidates), `active` (touching), `surface_elements`, `normal_force` and `friction_force` (sums of magnitudes over pairs) [N], `energy` [J], `detections`.", keys: &[] },
+    FnDoc { section: "Contact", name: "s.contact_force", signature: "s.contact_force(body) -> [fx, fy, fz]", summary: "Total contact force on a body in the last step [N].", keys: &[] },
     FnDoc { section: "Loads and constraints", name: "sim.gravity", signature: "sim.gravity([gx, gy, gz])", summary: "Gravitational acceleration [m/s²] on every node.", keys: &[] },
     FnDoc { section: "Loads and constraints", name: "sim.fix", signature: "sim.fix(nodes [, \"xyz\"])", summary: "Fix all (or the listed) displacement components of the nodes.", keys: &[] },
     FnDoc { section: "Loads and constraints", name: "sim.prescribe_velocity", signature: "sim.prescribe_velocity(nodes, [vx, vy, vz] | #{ … })",

@@ -30,6 +30,7 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
     register_queries(engine);
     register_hooks(engine, ctx);
     super::bindings_joints::register(engine);
+    super::bindings_contact::register(engine);
 }
 
 fn register_types(engine: &mut Engine) {
@@ -365,6 +366,7 @@ fn register_simulation(engine: &mut Engine, ctx: Rc<ScriptContext>) {
             steps_in_runs: 0,
             on_joint_broken: None,
             events_dispatched: 0,
+            on_new_contact_pair: None,
         })));
         c.sims.borrow_mut().push(handle.clone());
         Ok(handle)

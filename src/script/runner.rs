@@ -108,6 +108,7 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
             }
             call_hooks(nc, s)?;
             dispatch_break_events(nc, s)?;
+            dispatch_contact_events(nc, s)?;
             let step = step + 1;
             for m in &monitors {
                 let every = m.0.borrow().every;
@@ -191,6 +192,25 @@ fn call_hooks(nc: &NativeCallContext, s: &SimHandle) -> RhaiResult<()> {
         if let Some(f) = due {
             let _: Dynamic = f.call_within_context(nc, (s.clone(),))?;
         }
+    }
+    Ok(())
+}
+
+fn dispatch_contact_events(nc: &NativeCallContext, s: &SimHandle) -> RhaiResult<()> {
+    let (f, events) = {
+        let mut st = s.0.borrow_mut();
+        let Some(f) = st.on_new_contact_pair.clone() else {
+            return Ok(());
+        };
+        let ev = std::mem::take(&mut st.sim.contact.events);
+        let maps: Vec<rhai::Map> = ev
+            .iter()
+            .map(|e| super::bindings_contact::event_map(&st.sim, e))
+            .collect();
+        (f, maps)
+    };
+    for m in events {
+        let _: Dynamic = f.call_within_context(nc, (s.clone(), m))?;
     }
     Ok(())
 }

@@ -40,6 +40,8 @@ pub struct SimState {
     pub on_joint_broken: Option<FnPtr>,
     /// Break events already handed to the callback.
     pub events_dispatched: usize,
+    /// `sim.on_new_contact_pair(|s, pair| …)`.
+    pub on_new_contact_pair: Option<FnPtr>,
 }
 
 /// A joint law from `joint_law(..)`; penalties default to 10 × the Young's modulus of the

@@ -1,0 +1,149 @@
+//! Script bindings of stages 4–5: contact laws, detection options, contact queries and the
+//! new-contact-pair event.
+
+use super::api::keys_of;
+use super::opts::{err, vec3_to_array, Opts, RhaiResult};
+use super::types::{BodyHandle, MaterialValue, SimHandle};
+use crate::contact_interaction::ContactRule;
+use crate::math::Vec3;
+use rhai::{Array, Dynamic, Engine, FnPtr, Map};
+
+pub fn register(engine: &mut Engine) {
+    engine.register_fn(
+        "contact_law",
+        |s: &mut SimHandle, law: &str, m: Map| -> RhaiResult<()> {
+            if law != "potential" {
+                return err(format!(
+                    "contact_law(): unknown law \"{law}\"; the allowed laws are \"potential\" (Munjiza's potential contact force with Coulomb friction)"
+                ));
+            }
+            let o = Opts::new("contact_law", m, keys_of("sim.contact_law"))?;
+            let friction = o.float("friction")?.unwrap_or(0.0);
+            if !(friction >= 0.0) {
+                return err(format!("contact_law(): 'friction' must be ≥ 0, got {friction}"));
+            }
+            let damping = o.float("damping")?.unwrap_or(0.0);
+            if !(0.0..=1.0).contains(&damping) {
+                return err(format!(
+                    "contact_law(): 'damping' is a ratio of critical damping in [0, 1], got {damping}"
+                ));
+            }
+            let mut st = s.0.borrow_mut();
+            if st.sim.step > 0 {
+                return err("contact_law(): contact must be set before the first step");
+            }
+            let materials = match o.get("between") {
+                None => None,
+                Some(d) => {
+                    let Some(a) = d.clone().try_cast::<Array>() else {
+                        return err("contact_law(): 'between' must be [material_a, material_b]");
+                    };
+                    if a.len() != 2 {
+                        return err(format!(
+                            "contact_law(): 'between' must hold 2 materials, got {}",
+                            a.len()
+                        ));
+                    }
+                    let mut ids = [0u32; 2];
+                    for (k, x) in a.into_iter().enumerate() {
+                        let Some(mv) = x.clone().try_cast::<MaterialValue>() else {
+                            return err(format!(
+                                "contact_law(): 'between' must hold materials from material(..), got {}",
+                                x.type_name()
+                            ));
+                        };
+                        ids[k] = match st.material_ids.get(&mv.uid) {
+                            Some(&id) => id,
+                            None => {
+                                let id = st.sim.add_material(mv.material.clone());
+                                st.material_ids.insert(mv.uid, id);
+                                id
+                            }
+                        };
+                    }
+                    Some((ids[0], ids[1]))
+                }
+            };
+            st.sim.contact.rules.push(ContactRule {
+                materials,
+                penalty: o.positive("penalty")?,
+                tangential_penalty: o.positive("tangential_penalty")?,
+                friction,
+                damping,
+            });
+            st.sim.invalidate();
+            Ok(())
+        },
+    );
+    engine.register_fn(
+        "contact_detection",
+        |s: &mut SimHandle, m: Map| -> RhaiResult<()> {
+            let o = Opts::new("contact_detection", m, keys_of("sim.contact_detection"))?;
+            let mut st = s.0.borrow_mut();
+            if let Some(skin) = o.positive("skin")? {
+                st.sim.contact.skin = Some(skin);
+            }
+            st.sim.invalidate();
+            Ok(())
+        },
+    );
+    engine.register_fn("on_new_contact_pair", |s: &mut SimHandle, f: FnPtr| {
+        let mut st = s.0.borrow_mut();
+        st.on_new_contact_pair = Some(f);
+        st.sim.contact.record_events = true;
+    });
+    engine.register_fn("contact", |s: &mut SimHandle| -> Map {
+        let st = s.0.borrow();
+        let c = &st.sim.contact;
+        let mut m = Map::new();
+        m.insert("pairs".into(), (c.pairs.len() as i64).into());
+        m.insert("active".into(), (c.last.active as i64).into());
+        m.insert("surface_elements".into(), (c.surface.len() as i64).into());
+        m.insert("normal_force".into(), c.last.normal_force.into());
+        m.insert("friction_force".into(), c.last.friction_force.into());
+        m.insert("energy".into(), c.last.energy.into());
+        m.insert("detections".into(), (c.detector.detections as i64).into());
+        m
+    });
+    engine.register_fn(
+        "contact_force",
+        |s: &mut SimHandle, b: BodyHandle| -> Array {
+            let st = s.0.borrow();
+            let sim = &st.sim;
+            let f: Vec3 = if sim.contact.node_force.len() == sim.nodes.len() {
+                sim.bodies[b.id]
+                    .nodes
+                    .clone()
+                    .map(|n| sim.contact.node_force[n])
+                    .sum()
+            } else {
+                Vec3::zeros()
+            };
+            vec3_to_array(f)
+        },
+    );
+}
+
+/// The map a script's `on_new_contact_pair` callback receives.
+pub fn event_map(
+    sim: &crate::pipeline::Simulation,
+    e: &crate::contact_interaction::ContactEvent,
+) -> Map {
+    let mut m = Map::new();
+    m.insert("time".into(), e.time.into());
+    m.insert("point".into(), Dynamic::from_array(vec3_to_array(e.point)));
+    let bodies: Array = e
+        .tets
+        .iter()
+        .map(|&t| {
+            sim.bodies[sim.tets.body[t as usize] as usize]
+                .name
+                .clone()
+                .into()
+        })
+        .collect();
+    m.insert("bodies".into(), bodies.into());
+    let tets: Array = e.tets.iter().map(|&t| (t as i64).into()).collect();
+    m.insert("elements".into(), tets.into());
+    m
+}
