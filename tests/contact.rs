@@ -309,3 +309,121 @@ fn stack_of_blocks_settles_and_stays_at_rest() {
     assert!(max_ke < 1e-4 * released, "max KE {max_ke:.3e} J");
     assert!((-on_base.z - weight).abs() < 0.01 * weight);
 }
+
+/// A fully jointed block (0.1 m cube, 3³ cells, Munjiza joints with f_t = 0.3 MPa) hits a
+/// fixed plate at 5 m/s and breaks into dozens of fragments. Contact acts between fragments
+/// and on the plate; broken joints hand their faces to contact once these have separated.
+/// Checked: the total energy balance (kinetic + strain + joint + contact + fracture +
+/// friction = initial) within 2 % of the impact energy, the block really fragments, and
+/// the deepest penetration of any pair stays below 5 % of an element height (documented in
+/// docs/theory/contact.md: ≈ 0.6 % of h per m/s of impact speed at p = 10E).
+#[test]
+fn jointed_block_fractures_on_impact_without_interpenetration() {
+    use fdem::joints::law::{Calibration, Cohesive, Softening};
+    use fdem::joints::JointLaw;
+    let (rho, e) = (2500.0, 1.0e8);
+    let mat = material(Formulation::StVenantKirchhoff, rho, e, 0.2);
+    let mut sim = Simulation::new();
+    let m = sim.add_material(mat);
+    let plate = box_mesh(Vec3::new(-0.1, -0.1, -0.05), Vec3::new(0.2, 0.2, 0.0), [6, 6, 1]);
+    let mut block = box_mesh(Vec3::zeros(), Vec3::repeat(0.1), [3, 3, 3]);
+    block.translate(Vec3::new(0.0, 0.0, 0.002));
+    sim.add_body("plate", &plate, m, Layout::Continuous).unwrap();
+    let b = sim.add_body("block", &block, m, Layout::Jointed).unwrap();
+    let law = sim.joints.add_law(JointLaw::Cohesive(Cohesive {
+        softening: Softening::Munjiza,
+        calibration: Calibration::Exact,
+        tensile_strength: 0.3e6,
+        cohesion: 0.6e6,
+        tan_friction: 0.6,
+        g_i: 2.0,
+        g_ii: 8.0,
+        normal_penalty: 10.0 * e,
+        tangential_penalty: 10.0 * e,
+        residual_friction: 0.5,
+    }));
+    let body = sim.bodies[b].clone();
+    let (tn, x0) = (sim.tets.nodes.clone(), sim.nodes.x0.clone());
+    let joints = sim.joints.insert_in_body(&body, &tn, &x0, law, |_| true).unwrap();
+    let plate_nodes: Vec<u32> = sim.bodies[0].nodes.clone().map(|n| n as u32).collect();
+    sim.loads.prescribed.push(fdem::loads::PrescribedVelocity {
+        nodes: plate_nodes,
+        components: [(); 3].map(|_| Some(fdem::loads::TimeFunction::Constant(0.0))),
+    });
+    sim.contact.rules.push(ContactRule {
+        friction: 0.3,
+        ..Default::default()
+    });
+    set_velocity(&mut sim, b, Vec3::new(0.0, 0.0, -5.0));
+    sim.prepare().unwrap();
+    let ke0 = sim.kinetic_energy_now();
+    let mut max_ratio: Real = 0.0;
+    while sim.time < 3e-3 {
+        sim.step().unwrap();
+        max_ratio = max_ratio.max(sim.contact.last.max_overlap_ratio);
+    }
+    sim.sample_next = true;
+    sim.step().unwrap();
+    let en = sim.energy;
+    let (frag, _, _) =
+        fdem::fracture::fragment_sizes(&sim.tets, &sim.materials, &sim.joints, sim.nodes.len());
+    let fragments = frag.iter().max().unwrap() + 1;
+    println!(
+        "{joints} joints, {} broken, {fragments} fragments (with the plate); energy: initial KE {ke0:.3} J, KE {:.3}, strain {:.3}, joint {:.3}, contact {:.4}, fracture {:.3}, friction {:.3}, balance error {:.3e} J ({:.2} %); deepest penetration {:.4} h; dt {:.3e}",
+        sim.break_events.len(),
+        en.kinetic,
+        en.strain,
+        en.joint,
+        en.contact,
+        en.fracture,
+        en.friction,
+        en.balance_error(),
+        100.0 * en.balance_error() / ke0,
+        max_ratio,
+        sim.dt
+    );
+    assert!(fragments >= 10, "the block should break up");
+    assert!(en.balance_error().abs() < 0.02 * ke0);
+    assert!(max_ratio < 0.05, "penetration {max_ratio:.4} h");
+}
+
+mod detection {
+    use fdem::contact_detection::{brute_force_pairs, nbs_pairs, Aabb, NbsWorkspace};
+    use fdem::math::{Real, Vec3};
+    use proptest::prelude::*;
+
+    /// Boxes from (centre, size) with a spread of sizes, densities and, optionally, a second
+    /// cluster very far away.
+    fn boxes(raw: &[(f64, f64, f64, f64)], spread: Real, far: bool) -> Vec<Aabb> {
+        raw.iter()
+            .enumerate()
+            .map(|(i, &(x, y, z, s))| {
+                let mut c = Vec3::new(x, y, z) * spread;
+                if far && i % 2 == 1 {
+                    c.x += 1.0e7;
+                }
+                let h = Vec3::new(s, 0.5 * s + 0.01, 0.8 * s);
+                Aabb { lo: c - h, hi: c + h }
+            })
+            .collect()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// The NBS pair set equals brute force on random configurations: mixed sizes (factor
+        /// 100), sparse and dense packings, bodies 1e7 m apart.
+        #[test]
+        fn nbs_equals_brute_force(
+            raw in prop::collection::vec((0.0..1.0f64, 0.0..1.0f64, 0.0..1.0f64, 0.001..0.1f64), 2..400),
+            spread in prop::sample::select(vec![0.5, 2.0, 20.0]),
+            far in any::<bool>(),
+        ) {
+            let b = boxes(&raw, spread, far);
+            let mut ws = NbsWorkspace::default();
+            let mut out = Vec::new();
+            nbs_pairs(&b, &mut ws, &|_, _| true, &mut out);
+            out.sort_unstable();
+            prop_assert_eq!(out, brute_force_pairs(&b, |_, _| true));
+        }
+    }
+}

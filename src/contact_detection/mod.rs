@@ -454,7 +454,17 @@ pub fn update_pairs(
         if shared == 0 {
             return true;
         }
-        shared == 3 && broken.binary_search(&[a.min(b), a.max(b)]).is_ok()
+        shared == 3
+            && broken
+                .binary_search_by_key(&[a.min(b), a.max(b)], |x| x.0)
+                .is_ok()
+    };
+    // Shared reference positions of two tets (0 for strangers).
+    let shared_of = |a: u32, b: u32| {
+        let (na, nb) = (tn[a as usize], tn[b as usize]);
+        na.iter()
+            .filter(|p| nb.iter().any(|q| x0[*q as usize] == x0[**p as usize]))
+            .count()
     };
     let old_pairs = std::mem::take(&mut contact.pairs);
     let old_state = std::mem::take(&mut contact.state);
@@ -473,15 +483,27 @@ pub fn update_pairs(
         while k < old_pairs.len() && old_pairs[k][0] < p[0] {
             k += 1;
         }
-        let mut s = crate::contact_interaction::PairState::default();
+        let mut s = None;
         let mut q = k;
         while q < old_pairs.len() && old_pairs[q][0] == p[0] {
             if old_pairs[q][1] == p[1] {
-                s = old_state[q];
+                s = Some(old_state[q]);
                 break;
             }
             q += 1;
         }
+        // A new pair of former neighbours starts unarmed (see PairState::armed).
+        let s = s.unwrap_or_else(|| {
+            let (a, b) = (surface[p[0] as usize], surface[p[1] as usize]);
+            let mut s = crate::contact_interaction::PairState::default();
+            if shared_of(a, b) > 0 {
+                s.armed = false;
+                if let Ok(i) = broken.binary_search_by_key(&[a.min(b), a.max(b)], |x| x.0) {
+                    s.joint = broken[i].1;
+                }
+            }
+            s
+        });
         state.push(s);
     }
     debug_assert_eq!(old_surface_len, contact.surface.len());
@@ -519,13 +541,13 @@ fn refresh_surface(
     for j in 0..joints.len() {
         let [a, b] = joints.tets[j];
         if joints.broken[j] {
-            broken.push([a.min(b), a.max(b)]);
+            broken.push(([a.min(b), a.max(b)], j as u32));
         } else {
             free[a as usize] -= 1;
             free[b as usize] -= 1;
         }
     }
-    broken.sort_unstable();
+    broken.sort_unstable_by_key(|x| x.0);
     let surface: Vec<u32> = (0..tets.len() as u32)
         .filter(|&e| free[e as usize] > 0)
         .collect();

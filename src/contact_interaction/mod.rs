@@ -68,11 +68,30 @@ pub struct ContactEvent {
 }
 
 /// History of one candidate pair.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PairState {
     /// Tangential friction force on the contactor [N].
     pub spring: Vec3,
     pub touching: bool,
+    /// The pair exerts forces only once armed. Pairs of elements that were neighbours in the
+    /// reference configuration (they may overlap from the deformation they underwent while
+    /// connected) are armed when they first do not overlap, so contact never releases energy
+    /// stored in an overlap it did not make.
+    pub armed: bool,
+    /// The broken joint between the two elements (u32::MAX if none): it keeps acting until
+    /// the pair is armed, then hands its faces over to contact.
+    pub joint: u32,
+}
+
+impl Default for PairState {
+    fn default() -> Self {
+        PairState {
+            spring: Vec3::zeros(),
+            touching: false,
+            armed: true,
+            joint: u32::MAX,
+        }
+    }
 }
 
 /// Per-step totals of stage 5.
@@ -88,6 +107,12 @@ pub struct ContactSums {
     pub normal_force: Real,
     /// Σ |friction force| [N].
     pub friction_force: Real,
+    /// Largest penetration depth over touching pairs [m] (see `PairForces::depth`).
+    pub max_overlap: Real,
+    /// Largest d/h (h the smaller height of the pair's two elements) [-].
+    pub max_overlap_ratio: Real,
+    /// Largest mean pressure |F_n|/A over touching pairs [Pa].
+    pub max_pressure: Real,
 }
 
 /// Output of one touching pair.
@@ -117,8 +142,8 @@ pub struct Contact {
     pub surface_nodes: Vec<u32>,
     /// Fragment of each tet at the last detection.
     pub fragment: Vec<u32>,
-    /// Tet pairs (lower id first) across a broken joint, sorted.
-    pub broken_faces: Vec<[u32; 2]>,
+    /// Tet pairs (lower id first) across a broken joint, sorted, with the joint id.
+    pub broken_faces: Vec<([u32; 2], u32)>,
     /// Candidate pairs (indices into `surface`), from stage 4.
     pub pairs: Vec<[u32; 2]>,
     pub state: Vec<PairState>,
@@ -142,6 +167,9 @@ pub struct Contact {
     pub last: ContactSums,
     /// Mass ρV₀ of every tet [kg] (for the normal damping).
     pub tet_mass: Vec<Real>,
+    /// Broken joints whose faces contact took over in the last step (stage 2 drops them).
+    pub handover: Vec<u32>,
+    chunk_handover: Vec<Vec<u32>>,
 }
 
 const CHUNK: usize = 1024;
@@ -239,6 +267,7 @@ pub fn add_contact_forces(
         touched,
         tet_pressure,
         touched_tets,
+        chunk_handover,
         record_events,
         events,
         ..
@@ -260,6 +289,7 @@ pub fn add_contact_forces(
     let n_chunks = pairs.len().div_ceil(CHUNK);
     chunk_out.resize_with(n_chunks, Vec::new);
     chunk_sums.resize(n_chunks, ContactSums::default());
+    chunk_handover.resize_with(n_chunks, Vec::new);
     let props = &contact.props;
     let tet_mass = &contact.tet_mass;
     let n_mat = contact.n_materials;
@@ -270,9 +300,11 @@ pub fn add_contact_forces(
         .par_chunks_mut(CHUNK)
         .zip(chunk_out.par_iter_mut())
         .zip(chunk_sums.par_iter_mut())
+        .zip(chunk_handover.par_iter_mut())
         .enumerate()
-        .for_each(|(ci, ((st, out), sums))| {
+        .for_each(|(ci, (((st, out), sums), handover))| {
             out.clear();
+            handover.clear();
             *sums = ContactSums::default();
             for (k, ps) in st.iter_mut().enumerate() {
                 let pi = ci * CHUNK + k;
@@ -292,11 +324,24 @@ pub fn add_contact_forces(
                     continue;
                 }
                 let r = tet_tet(gc, gt, pr.penalty);
+                if !ps.armed {
+                    if !r.touching {
+                        ps.armed = true;
+                        if ps.joint != u32::MAX {
+                            handover.push(ps.joint);
+                        }
+                    }
+                    continue;
+                }
                 if !r.touching {
                     ps.touching = false;
                     ps.spring = Vec3::zeros();
                     continue;
                 }
+                sums.max_overlap = sums.max_overlap.max(r.depth);
+                sums.max_overlap_ratio = sums
+                    .max_overlap_ratio
+                    .max(r.depth * inv_h[a as usize].max(inv_h[b as usize]));
                 let mut f = [Vec3::zeros(); 8];
                 f[..4].copy_from_slice(&r.fc);
                 f[4..].copy_from_slice(&r.ft);
@@ -364,6 +409,7 @@ pub fn add_contact_forces(
                 sums.energy += energy;
                 sums.active += 1;
                 sums.normal_force += fn_mag;
+                sums.max_pressure = sums.max_pressure.max(fn_mag / r.area);
                 if !ps.touching && *record_events {
                     // Reported in pair order below.
                     ps.touching = true;
@@ -408,6 +454,9 @@ pub fn add_contact_forces(
         total.active += s.active;
         total.normal_force += s.normal_force;
         total.friction_force += s.friction_force;
+        total.max_overlap = total.max_overlap.max(s.max_overlap);
+        total.max_overlap_ratio = total.max_overlap_ratio.max(s.max_overlap_ratio);
+        total.max_pressure = total.max_pressure.max(s.max_pressure);
         for po in out {
             let pi = (po.pair & !NEW_FLAG) as usize;
             let [a, b] = pairs[pi];
@@ -436,6 +485,9 @@ pub fn add_contact_forces(
                 });
             }
         }
+    }
+    for h in chunk_handover.iter() {
+        contact.handover.extend_from_slice(h);
     }
     contact.last = total;
     total

@@ -113,6 +113,9 @@ pub struct PairForces {
     pub point: Vec3,
     /// False when the elements do not overlap.
     pub touching: bool,
+    /// Penetration depth [m]: the largest distance, over the vertices of the clipped facets,
+    /// from a point of one element to the nearest face of the other.
+    pub depth: Real,
 }
 
 #[derive(Clone, Copy)]
@@ -180,6 +183,7 @@ struct Acc {
     e_t: Real,
     area: Real,
     moment: Vec3,
+    depth: Real,
 }
 
 /// Contact forces of contactor `c` and target `t` with penalty `p` [Pa].
@@ -201,6 +205,7 @@ pub fn tet_tet(c: &TetGeom, t: &TetGeom, p: Real) -> PairForces {
         e_t: 0.0,
         area: 0.0,
         moment: Vec3::zeros(),
+        depth: 0.0,
     };
     for k in 0..4 {
         faces_inside(c, t, k, &bt, Side::Contactor, &mut acc);
@@ -216,6 +221,7 @@ pub fn tet_tet(c: &TetGeom, t: &TetGeom, p: Real) -> PairForces {
     out.energy = p * (acc.e_c + acc.e_t);
     out.area = 0.5 * acc.area;
     out.point = acc.moment / acc.area;
+    out.depth = acc.depth;
     out.touching = true;
     out
 }
@@ -313,6 +319,10 @@ fn integrate_piece(
     for i in 0..poly.n {
         let bo = other.bary(&poly.v[i]);
         phi[i] = 4.0 * bo[m];
+        let d = (0..4)
+            .map(|k| bo[k] / other.g[k].norm())
+            .fold(Real::INFINITY, Real::min);
+        acc.depth = acc.depth.max(d);
         n_oth[i] = bo;
         n_own[i] = own.bary(&poly.v[i]);
     }

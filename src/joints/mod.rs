@@ -152,9 +152,9 @@ pub struct Joints {
     pub state: Vec<[PointState; 3]>,
     /// Set by stage 3 when every point is fully damaged.
     pub broken: Vec<bool>,
-    /// Broken joints carry no force (contact has taken over their faces). Without contact a
-    /// broken joint keeps resisting penetration and rubbing with its own law.
-    pub broken_inert: bool,
+    /// A broken joint whose faces contact has taken over carries no force. Until then (and
+    /// always without contact) it keeps resisting penetration and rubbing with its own law.
+    pub handed_over: Vec<bool>,
     pub laws: Vec<JointLaw>,
     consts: Vec<CohesiveConsts>,
     /// Blocks of joints by colour: blocks of one colour share no node.
@@ -486,14 +486,14 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
         size,
         state,
         broken,
-        broken_inert,
+        handed_over,
         laws,
         consts,
         color_blocks,
         partials,
         ..
     } = joints;
-    let skip_broken = *broken_inert;
+    let handed_over = &*handed_over;
     let x = &nodes.x;
     let fp = SyncPtr(nodes.f.as_mut_ptr());
     let sp = StatePtr(state.as_mut_ptr());
@@ -501,7 +501,7 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
     let run_block = |range: &std::ops::Range<usize>| {
         let mut s = JointSums::default();
         for j in range.clone() {
-            if skip_broken && broken[j] {
+            if broken[j] && handed_over.get(j).copied().unwrap_or(false) {
                 continue;
             }
             // SAFETY: blocks are disjoint ranges of joints, so each state is

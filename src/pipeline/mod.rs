@@ -454,7 +454,6 @@ impl Simulation {
             self.contact.tet_mass = (0..self.tets.len())
                 .map(|e| self.materials[self.tets.material[e] as usize].density * self.tets.vol0[e])
                 .collect();
-            self.joints.broken_inert = true;
             self.contact.surface_stale = true;
         }
         let info = self.stable_time_step()?;
@@ -621,6 +620,12 @@ impl Simulation {
                 self.dt_prev,
                 self.time,
             );
+            for j in self.contact.handover.drain(..) {
+                if self.joints.handed_over.len() != self.joints.len() {
+                    self.joints.handed_over.resize(self.joints.len(), false);
+                }
+                self.joints.handed_over[j as usize] = true;
+            }
             self.contact_energy = cs.energy;
             self.contact_dissipated = cs.dissipated;
             self.timers.seconds[Stage::ContactInteraction as usize] += t.elapsed().as_secs_f64();
