@@ -48,9 +48,14 @@ enum Command {
     Doc,
     /// Run a standard benchmark and print its timings.
     Bench {
-        /// Benchmark case: elastic, joints (a fully jointed box: joints on every internal face).
+        /// Benchmark case: elastic; joints (a fully jointed box: joints on every internal
+        /// face); detection (NBS on --elements boxes, against sort-and-sweep and parry3d's
+        /// BVH); fragmented (a box cut into loose blocks settling under gravity, with contact).
         #[arg(long, default_value = "elastic")]
         case: String,
+        /// Number of surface elements of the detection case.
+        #[arg(long, default_value_t = 100_000)]
+        elements: usize,
         /// Approximate number of tetrahedra.
         #[arg(long, default_value_t = 200_000)]
         tets: usize,
@@ -159,6 +164,7 @@ pub fn main() {
         }
         Command::Bench {
             case,
+            elements,
             tets,
             steps,
             material,
@@ -168,7 +174,12 @@ pub fn main() {
             json,
         } => {
             set_threads(threads);
-            match bench(&case, tets, steps, &material, &law, &layout) {
+            let result = match case.as_str() {
+                "detection" => bench_detection(elements),
+                "fragmented" => bench_fragmented(tets, steps),
+                _ => bench(&case, tets, steps, &material, &law, &layout),
+            };
+            match result {
                 Ok(r) => {
                     if json {
                         println!("{}", r);
@@ -222,7 +233,9 @@ pub fn bench(
     layout: &str,
 ) -> Result<serde_json::Value, String> {
     if case != "elastic" && case != "joints" {
-        return Err(format!("bench: unknown case '{case}'; available: elastic, joints (contact and fragmentation cases come with those stages)"));
+        return Err(format!(
+            "bench: unknown case '{case}'; available: elastic, joints, detection, fragmented"
+        ));
     }
     let formulation = Formulation::from_name(material)
         .ok_or_else(|| format!("bench: unknown material law '{material}'"))?;
@@ -352,4 +365,166 @@ pub fn bench_model(tets: usize, formulation: Formulation, layout: Layout) -> Sim
         sim.nodes.v[i] = 0.1 * Vec3::new((tau * p.y).sin(), (tau * p.z).sin(), (tau * p.x).sin());
     }
     sim
+}
+
+/// Detection benchmark: `n` boxes on a jittered lattice (spacing 1, half-sizes 0.3–0.6, so
+/// each overlaps a few neighbours, as surface elements of packed fragments do). Times NBS
+/// (median of 5), sort-and-sweep and parry3d-f64's BVH (build + self-traversal) on the same
+/// boxes, checks they find the same number of pairs, and reports NBS memory.
+pub fn bench_detection(n: usize) -> Result<serde_json::Value, String> {
+    use crate::contact_detection::{nbs_pairs, sweep_pairs, Aabb, NbsWorkspace};
+    if n < 2 {
+        return Err("bench: --elements must be at least 2".into());
+    }
+    let side = (n as f64).cbrt().ceil() as usize;
+    let mut seed = 0x2545_f491_4f6c_dd1du64;
+    let mut rnd = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let boxes: Vec<Aabb> = (0..n)
+        .map(|i| {
+            let (x, y, z) = (i % side, (i / side) % side, i / (side * side));
+            let c = Vec3::new(x as f64, y as f64, z as f64)
+                + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 0.5;
+            let h = Vec3::new(0.3 + 0.3 * rnd(), 0.3 + 0.3 * rnd(), 0.3 + 0.3 * rnd());
+            Aabb {
+                lo: c - h,
+                hi: c + h,
+            }
+        })
+        .collect();
+    let mut ws = NbsWorkspace::default();
+    let mut pairs = Vec::new();
+    let mut times = Vec::new();
+    for _ in 0..5 {
+        let t = Instant::now();
+        nbs_pairs(&boxes, &mut ws, &|_, _| true, &mut pairs);
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    times.sort_by(|a, b| a.total_cmp(b));
+    let nbs_ms = times[2];
+    let bytes = ws.bytes() + boxes.len() * std::mem::size_of::<Aabb>() + pairs.capacity() * 8;
+    // Sort and sweep degrades badly on a 3D cloud (its 1D sweep finds ~N^(2/3) boxes per
+    // box): run it up to 2e5 boxes only.
+    let (sweep, sweep_ms) = if n <= 200_000 {
+        let t = Instant::now();
+        let s = sweep_pairs(&boxes);
+        (Some(s.len()), Some(t.elapsed().as_secs_f64() * 1e3))
+    } else {
+        (None, None)
+    };
+    // parry3d-f64's BVH: build from the same boxes, then traverse the tree against itself.
+    use parry3d_f64::bounding_volume::Aabb as PAabb;
+    use parry3d_f64::math::Vector as PV;
+    use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy, BvhWorkspace};
+    let t = Instant::now();
+    let leaves: Vec<PAabb> = boxes
+        .iter()
+        .map(|b| {
+            PAabb::new(
+                PV::new(b.lo.x, b.lo.y, b.lo.z),
+                PV::new(b.hi.x, b.hi.y, b.hi.z),
+            )
+        })
+        .collect();
+    let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
+    let mut bws = BvhWorkspace::default();
+    let mut bvh_pairs = 0usize;
+    bvh.traverse_bvtt_single_tree::<false>(&mut bws, &mut |_, _| bvh_pairs += 1);
+    let bvh_ms = t.elapsed().as_secs_f64() * 1e3;
+    if sweep.is_some_and(|s| s != pairs.len()) || bvh_pairs != pairs.len() {
+        return Err(format!(
+            "bench: pair counts differ: NBS {}, sweep {sweep:?}, BVH {bvh_pairs}",
+            pairs.len()
+        ));
+    }
+    Ok(serde_json::json!({
+        "case": "detection",
+        "elements": n,
+        "pairs": pairs.len(),
+        "threads": rayon::current_num_threads(),
+        "ms": nbs_ms,
+        "bytes": bytes,
+        "sweep_ms": sweep_ms,
+        "bvh_ms": bvh_ms,
+    }))
+}
+
+/// Fragmented benchmark: a box cut into loose cubic blocks (3×3×2 cells, 108 tets each,
+/// continuous), stacked on a fixed base plate, settling under gravity with contact (μ = 0.5,
+/// ζ = 0.2). `tets` sets the number of blocks (≈ tets/108, at least 1000 for the default).
+pub fn bench_fragmented(tets: usize, steps: u64) -> Result<serde_json::Value, String> {
+    let blocks_per_side = ((tets as f64 / 108.0).cbrt().round() as usize).max(1);
+    let size = 0.1;
+    let t = Instant::now();
+    let mut sim = Simulation::new();
+    let m = sim.add_material(
+        Material::new(Formulation::StVenantKirchhoff, 2500.0, 1e9, 0.25, 0.0).unwrap(),
+    );
+    let extent = size * blocks_per_side as f64;
+    let plate = box_mesh(
+        Vec3::new(-size, -size, -size),
+        Vec3::new(extent + size, extent + size, 0.0),
+        [blocks_per_side + 2, blocks_per_side + 2, 1],
+    );
+    sim.add_body("base", &plate, m, Layout::Continuous)?;
+    let block = box_mesh(Vec3::zeros(), Vec3::repeat(size), [3, 3, 2]);
+    for k in 0..blocks_per_side {
+        for j in 0..blocks_per_side {
+            for i in 0..blocks_per_side {
+                let mut b = block.clone();
+                b.translate(Vec3::new(i as f64, j as f64, k as f64) * size);
+                sim.add_body(&format!("block_{i}_{j}_{k}"), &b, m, Layout::Continuous)?;
+            }
+        }
+    }
+    let base: Vec<u32> = sim.bodies[0].nodes.clone().map(|n| n as u32).collect();
+    sim.loads.prescribed.push(crate::loads::PrescribedVelocity {
+        nodes: base,
+        components: [(); 3].map(|_| Some(crate::loads::TimeFunction::Constant(0.0))),
+    });
+    sim.loads.gravity = Vec3::new(0.0, 0.0, -9.81);
+    sim.contact
+        .rules
+        .push(crate::contact_interaction::ContactRule {
+            friction: 0.5,
+            damping: 0.2,
+            ..Default::default()
+        });
+    let setup = t.elapsed().as_secs_f64();
+    sim.prepare().map_err(|e| e.to_string())?;
+    sim.step().map_err(|e| e.to_string())?;
+    sim.timers = Default::default();
+    let t = Instant::now();
+    for _ in 0..steps {
+        sim.step().map_err(|e| e.to_string())?;
+    }
+    let seconds = t.elapsed().as_secs_f64();
+    let mut stages = serde_json::Map::new();
+    for s in Stage::ALL {
+        stages.insert(s.name().into(), sim.timers.get(s).into());
+    }
+    let contact =
+        sim.timers.get(Stage::ContactDetection) + sim.timers.get(Stage::ContactInteraction);
+    let n = sim.tets.len();
+    Ok(serde_json::json!({
+        "case": "fragmented",
+        "tets": n,
+        "blocks": sim.bodies.len() - 1,
+        "surface_elements": sim.contact.surface.len(),
+        "candidate_pairs": sim.contact.pairs.len(),
+        "touching_pairs": sim.contact.last.active,
+        "detections": sim.contact.detector.detections,
+        "steps": steps,
+        "threads": rayon::current_num_threads(),
+        "seconds": seconds,
+        "setup_seconds": setup,
+        "tet_steps_per_s": n as f64 * steps as f64 / seconds,
+        "contact_over_elements": contact / sim.timers.get(Stage::Elements).max(1e-12),
+        "contact_bytes": sim.contact.bytes(),
+        "stages": stages,
+    }))
 }

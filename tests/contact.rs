@@ -325,10 +325,15 @@ fn jointed_block_fractures_on_impact_without_interpenetration() {
     let mat = material(Formulation::StVenantKirchhoff, rho, e, 0.2);
     let mut sim = Simulation::new();
     let m = sim.add_material(mat);
-    let plate = box_mesh(Vec3::new(-0.1, -0.1, -0.05), Vec3::new(0.2, 0.2, 0.0), [6, 6, 1]);
+    let plate = box_mesh(
+        Vec3::new(-0.1, -0.1, -0.05),
+        Vec3::new(0.2, 0.2, 0.0),
+        [6, 6, 1],
+    );
     let mut block = box_mesh(Vec3::zeros(), Vec3::repeat(0.1), [3, 3, 3]);
     block.translate(Vec3::new(0.0, 0.0, 0.002));
-    sim.add_body("plate", &plate, m, Layout::Continuous).unwrap();
+    sim.add_body("plate", &plate, m, Layout::Continuous)
+        .unwrap();
     let b = sim.add_body("block", &block, m, Layout::Jointed).unwrap();
     let law = sim.joints.add_law(JointLaw::Cohesive(Cohesive {
         softening: Softening::Munjiza,
@@ -344,7 +349,10 @@ fn jointed_block_fractures_on_impact_without_interpenetration() {
     }));
     let body = sim.bodies[b].clone();
     let (tn, x0) = (sim.tets.nodes.clone(), sim.nodes.x0.clone());
-    let joints = sim.joints.insert_in_body(&body, &tn, &x0, law, |_| true).unwrap();
+    let joints = sim
+        .joints
+        .insert_in_body(&body, &tn, &x0, law, |_| true)
+        .unwrap();
     let plate_nodes: Vec<u32> = sim.bodies[0].nodes.clone().map(|n| n as u32).collect();
     sim.loads.prescribed.push(fdem::loads::PrescribedVelocity {
         nodes: plate_nodes,
@@ -403,7 +411,10 @@ mod detection {
                     c.x += 1.0e7;
                 }
                 let h = Vec3::new(s, 0.5 * s + 0.01, 0.8 * s);
-                Aabb { lo: c - h, hi: c + h }
+                Aabb {
+                    lo: c - h,
+                    hi: c + h,
+                }
             })
             .collect()
     }

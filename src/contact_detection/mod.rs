@@ -315,89 +315,15 @@ impl Detector {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn random_boxes(n: usize, seed: u64, spread: Real, sizes: &[Real]) -> Vec<Aabb> {
-        let mut s = seed;
-        let mut r = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as Real / (1u64 << 53) as Real
-        };
-        (0..n)
-            .map(|i| {
-                let c = Vec3::new(r(), r(), r()) * spread;
-                let h = sizes[i % sizes.len()] * (0.5 + r());
-                Aabb {
-                    lo: c - Vec3::repeat(h * 0.5),
-                    hi: c + Vec3::new(h, h * r(), h * 0.7) * 0.5,
-                }
-            })
-            .collect()
-    }
-
-    fn sorted(mut v: Vec<[u32; 2]>) -> Vec<[u32; 2]> {
-        v.sort_unstable();
-        v
-    }
-
-    #[test]
-    fn nbs_equals_brute_force_and_sweep() {
-        let mut ws = NbsWorkspace::default();
-        let mut out = Vec::new();
-        for (seed, spread, sizes) in [
-            (1u64, 10.0, vec![1.0]),
-            (2, 3.0, vec![1.0]),                  // dense
-            (3, 100.0, vec![1.0]),                // sparse
-            (4, 10.0, vec![0.1, 0.5, 2.0, 0.05]), // mixed sizes
-        ] {
-            let boxes = random_boxes(1500, seed, spread, &sizes);
-            let brute = brute_force_pairs(&boxes, |_, _| true);
-            nbs_pairs(&boxes, &mut ws, &|_, _| true, &mut out);
-            assert_eq!(sorted(out.clone()), brute, "seed {seed}");
-            assert_eq!(sweep_pairs(&boxes), brute, "seed {seed}");
-            assert!(!brute.is_empty());
-        }
-    }
-
-    /// Two clusters 1e6 cell sizes apart: same pairs, and the buffers do not grow with the
-    /// distance.
-    #[test]
-    fn far_apart_costs_no_memory() {
-        let near = random_boxes(2000, 9, 10.0, &[1.0]);
-        let mut far = near.clone();
-        for b in far.iter_mut().skip(1000) {
-            b.lo.x += 1.0e6;
-            b.hi.x += 1.0e6;
-        }
-        let mut ws = NbsWorkspace::default();
-        let mut out = Vec::new();
-        nbs_pairs(&near, &mut ws, &|_, _| true, &mut out);
-        let bytes_near = ws.bytes();
-        let mut ws2 = NbsWorkspace::default();
-        nbs_pairs(&far, &mut ws2, &|_, _| true, &mut out);
-        assert_eq!(sorted(out.clone()), brute_force_pairs(&far, |_, _| true));
-        assert!(
-            ws2.bytes() <= bytes_near + bytes_near / 4,
-            "{} vs {}",
-            ws2.bytes(),
-            bytes_near
-        );
-    }
-}
-
 /// Stage 4: refresh the surface lists when the topology changed, and re-detect the candidate
 /// pairs when a node moved more than skin/2 since the last detection. Friction history is
 /// carried over for pairs that remain candidates. Returns true when it detected.
 ///
 /// Pairs are excluded while their tets are connected: in the same fragment and touching in
 /// the reference configuration (a shared reference node position: neighbours in one mesh,
-/// or glued faces of two bodies), unless they are the two sides of a broken joint. So
-/// intact material never contacts itself, cracks and separate fragments do, and a far part
-/// of one flexible body may contact another part of it.
+/// or glued faces of two bodies), unless they are the two sides of a broken joint; and a
+/// continuous body does not contact itself. So intact material never contacts itself,
+/// cracks and separate fragments do, and distant parts of one jointed body may.
 pub fn update_pairs(
     contact: &mut crate::contact_interaction::Contact,
     nodes: &crate::pipeline::Nodes,
@@ -439,10 +365,45 @@ pub fn update_pairs(
     );
     let (surface, fragment, broken) = (&contact.surface, &contact.fragment, &contact.broken_faces);
     let x0 = &nodes.x0;
+    let continuous: Vec<bool> = bodies
+        .iter()
+        .map(|b| b.layout == crate::pipeline::Layout::Continuous)
+        .collect();
+    let tet_body = &tets.body;
+    let skin = contact.detector.skin;
+    // Narrow the candidates: a face plane of one tet with the whole other tet more than a
+    // skin outside it separates them until the next detection (each moves < skin/2).
+    let near = |a: u32, b: u32| {
+        let pa = tn[a as usize].map(|n| x[n as usize]);
+        let pb = tn[b as usize].map(|n| x[n as usize]);
+        for (p, q) in [(&pa, &pb), (&pb, &pa)] {
+            let inward = crate::math::tet_volume(&p[0], &p[1], &p[2], &p[3]) >= 0.0;
+            for f in crate::mesh::TET_FACES {
+                let nrm = (p[f[1]] - p[f[0]]).cross(&(p[f[2]] - p[f[0]]));
+                let len = nrm.norm();
+                if len == 0.0 {
+                    continue;
+                }
+                let nrm = if inward { nrm / len } else { -nrm / len };
+                if q.iter().all(|v| (v - p[f[0]]).dot(&nrm) > skin) {
+                    return false;
+                }
+            }
+        }
+        true
+    };
     let keep = |i: u32, j: u32| {
         let (a, b) = (surface[i as usize], surface[j as usize]);
+        if !near(a, b) {
+            return false;
+        }
         if fragment[a as usize] != fragment[b as usize] {
             return true;
+        }
+        // A continuous body does not contact itself.
+        let body = tet_body[a as usize];
+        if body == tet_body[b as usize] && continuous[body as usize] {
+            return false;
         }
         let (na, nb) = (tn[a as usize], tn[b as usize]);
         let mut shared = 0;
@@ -586,4 +547,78 @@ fn refresh_surface(
     contact.broken_faces = broken;
     contact.surface_stale = false;
     contact.detector.stale = true;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn random_boxes(n: usize, seed: u64, spread: Real, sizes: &[Real]) -> Vec<Aabb> {
+        let mut s = seed;
+        let mut r = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as Real / (1u64 << 53) as Real
+        };
+        (0..n)
+            .map(|i| {
+                let c = Vec3::new(r(), r(), r()) * spread;
+                let h = sizes[i % sizes.len()] * (0.5 + r());
+                Aabb {
+                    lo: c - Vec3::repeat(h * 0.5),
+                    hi: c + Vec3::new(h, h * r(), h * 0.7) * 0.5,
+                }
+            })
+            .collect()
+    }
+
+    fn sorted(mut v: Vec<[u32; 2]>) -> Vec<[u32; 2]> {
+        v.sort_unstable();
+        v
+    }
+
+    #[test]
+    fn nbs_equals_brute_force_and_sweep() {
+        let mut ws = NbsWorkspace::default();
+        let mut out = Vec::new();
+        for (seed, spread, sizes) in [
+            (1u64, 10.0, vec![1.0]),
+            (2, 3.0, vec![1.0]),                  // dense
+            (3, 100.0, vec![1.0]),                // sparse
+            (4, 10.0, vec![0.1, 0.5, 2.0, 0.05]), // mixed sizes
+        ] {
+            let boxes = random_boxes(1500, seed, spread, &sizes);
+            let brute = brute_force_pairs(&boxes, |_, _| true);
+            nbs_pairs(&boxes, &mut ws, &|_, _| true, &mut out);
+            assert_eq!(sorted(out.clone()), brute, "seed {seed}");
+            assert_eq!(sweep_pairs(&boxes), brute, "seed {seed}");
+            assert!(!brute.is_empty());
+        }
+    }
+
+    /// Two clusters 1e6 cell sizes apart: same pairs, and the buffers do not grow with the
+    /// distance.
+    #[test]
+    fn far_apart_costs_no_memory() {
+        let near = random_boxes(2000, 9, 10.0, &[1.0]);
+        let mut far = near.clone();
+        for b in far.iter_mut().skip(1000) {
+            b.lo.x += 1.0e6;
+            b.hi.x += 1.0e6;
+        }
+        let mut ws = NbsWorkspace::default();
+        let mut out = Vec::new();
+        nbs_pairs(&near, &mut ws, &|_, _| true, &mut out);
+        let bytes_near = ws.bytes();
+        let mut ws2 = NbsWorkspace::default();
+        nbs_pairs(&far, &mut ws2, &|_, _| true, &mut out);
+        assert_eq!(sorted(out.clone()), brute_force_pairs(&far, |_, _| true));
+        assert!(
+            ws2.bytes() <= bytes_near + bytes_near / 4,
+            "{} vs {}",
+            ws2.bytes(),
+            bytes_near
+        );
+    }
 }

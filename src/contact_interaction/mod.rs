@@ -151,6 +151,8 @@ pub struct Contact {
     pub surface_stale: bool,
     pub boxes: Vec<Aabb>,
     geom: Vec<Option<TetGeom>>,
+    /// Current (uninflated) boxes of the surface tets: the cheap first test of every pair.
+    current_boxes: Vec<Aabb>,
     inv_h: Vec<Real>,
     chunk_out: Vec<Vec<PairOut>>,
     chunk_sums: Vec<ContactSums>,
@@ -260,6 +262,7 @@ pub fn add_contact_forces(
         pairs,
         state,
         geom,
+        current_boxes,
         inv_h,
         chunk_out,
         chunk_sums,
@@ -281,6 +284,12 @@ pub fn add_contact_forces(
             .par_iter()
             .map(|&e| TetGeom::new(tet_nodes[e as usize].map(|n| x[n as usize]))),
     );
+    current_boxes.clear();
+    current_boxes.par_extend(
+        surface
+            .par_iter()
+            .map(|&e| Aabb::of_points(&tet_nodes[e as usize].map(|n| x[n as usize]))),
+    );
     inv_h.clear();
     inv_h.par_extend(geom.par_iter().map(|g| {
         g.as_ref()
@@ -293,7 +302,7 @@ pub fn add_contact_forces(
     let props = &contact.props;
     let tet_mass = &contact.tet_mass;
     let n_mat = contact.n_materials;
-    let (geom, inv_h) = (&*geom, &*inv_h);
+    let (geom, inv_h, boxes) = (&*geom, &*inv_h, &*current_boxes);
     let pairs_ref = &*pairs;
     let surface_ref = &*surface;
     state
@@ -309,6 +318,18 @@ pub fn add_contact_forces(
             for (k, ps) in st.iter_mut().enumerate() {
                 let pi = ci * CHUNK + k;
                 let [a, b] = pairs_ref[pi];
+                // Cheap rejection on current boxes.
+                if !boxes[a as usize].overlaps(&boxes[b as usize]) {
+                    ps.touching = false;
+                    ps.spring = Vec3::zeros();
+                    if !ps.armed {
+                        ps.armed = true;
+                        if ps.joint != u32::MAX {
+                            handover.push(ps.joint);
+                        }
+                    }
+                    continue;
+                }
                 let (Some(gc), Some(gt)) = (&geom[a as usize], &geom[b as usize]) else {
                     ps.touching = false;
                     ps.spring = Vec3::zeros();
@@ -317,12 +338,6 @@ pub fn add_contact_forces(
                 let (ea, eb) = (surface_ref[a as usize], surface_ref[b as usize]);
                 let pr = props[tet_material[ea as usize] as usize * n_mat
                     + tet_material[eb as usize] as usize];
-                // Cheap rejection on current boxes.
-                if !Aabb::of_points(&gc.x).overlaps(&Aabb::of_points(&gt.x)) {
-                    ps.touching = false;
-                    ps.spring = Vec3::zeros();
-                    continue;
-                }
                 let r = tet_tet(gc, gt, pr.penalty);
                 if !ps.armed {
                     if !r.touching {

@@ -37,6 +37,9 @@
 //! are robust: barycentric values within 1e-9 of a plane are snapped onto it, so both sides
 //! of a coincident face pair see the same polygon and their large cone terms cancel.
 
+// Index loops over the 4 nodes / faces mirror the equations; iterators would obscure them.
+#![allow(clippy::needless_range_loop)]
+
 use crate::math::{Real, Vec3};
 use crate::mesh::TET_FACES;
 

@@ -19,7 +19,7 @@ pub fn register(engine: &mut Engine) {
             }
             let o = Opts::new("contact_law", m, keys_of("sim.contact_law"))?;
             let friction = o.float("friction")?.unwrap_or(0.0);
-            if !(friction >= 0.0) {
+            if friction.is_nan() || friction < 0.0 {
                 return err(format!("contact_law(): 'friction' must be ≥ 0, got {friction}"));
             }
             let damping = o.float("damping")?.unwrap_or(0.0);
