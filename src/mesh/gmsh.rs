@@ -130,6 +130,85 @@ pub fn parse_msh(bytes: &[u8], label: &str) -> Result<Imported, GmshError> {
     raw.build(&r)
 }
 
+/// Whether the `gmsh` executable can be run.
+pub fn gmsh_installed() -> bool {
+    std::process::Command::new("gmsh")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// The message given when a `.geo` file needs gmsh and it is missing.
+pub const GMSH_MISSING: &str =
+    "gmsh is not installed; install it (Debian: apt-get install gmsh) or give a .msh file";
+
+/// Mesh a `.geo` file with the `gmsh` executable (`gmsh -3 -format msh41 -bin`, run in the
+/// file's directory so that files it merges are found) and import the result. `size` is the
+/// largest element size (`-clmax`).
+pub fn mesh_geo(geo: &Path, size: Option<Real>) -> Result<Imported, String> {
+    static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    if !geo.is_file() {
+        return Err(format!("{}: no such file", geo.display()));
+    }
+    if !gmsh_installed() {
+        return Err(format!("{}: {GMSH_MISSING}", geo.display()));
+    }
+    let tmp = std::env::temp_dir().join(format!(
+        "fdem-gmsh-{}-{}.msh",
+        std::process::id(),
+        COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+    ));
+    let dir = geo.parent().filter(|d| !d.as_os_str().is_empty());
+    let name = geo.file_name().map(Path::new).unwrap_or(geo);
+    let mut cmd = std::process::Command::new("gmsh");
+    cmd.args(["-3", "-format", "msh41", "-bin", "-o"])
+        .arg(&tmp)
+        .arg(if dir.is_some() { name } else { geo });
+    if let Some(d) = dir {
+        cmd.current_dir(d);
+    }
+    if let Some(h) = size {
+        cmd.arg("-clmax").arg(format!("{h:e}"));
+    }
+    let out = cmd
+        .output()
+        .map_err(|e| format!("{}: cannot run gmsh: {e}", geo.display()))?;
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let errors: Vec<&str> = text.lines().filter(|l| l.contains("Error")).collect();
+    if !out.status.success() || !errors.is_empty() || !tmp.is_file() {
+        let _ = std::fs::remove_file(&tmp);
+        let shown = if errors.is_empty() {
+            text.lines()
+                .rev()
+                .take(5)
+                .collect::<Vec<_>>()
+                .into_iter()
+                .rev()
+                .collect::<Vec<_>>()
+                .join("\n")
+        } else {
+            errors.join("\n")
+        };
+        return Err(format!(
+            "{}: gmsh failed to mesh the file ({}):\n{shown}",
+            geo.display(),
+            out.status
+        ));
+    }
+    let r = read_msh(&tmp)
+        .map(|mut m| {
+            m.format = format!("meshed by gmsh, {}", m.format);
+            m
+        })
+        .map_err(|e| format!("{}: meshed by gmsh, but: {e}", geo.display()));
+    let _ = std::fs::remove_file(&tmp);
+    r
+}
+
 // ─── Low-level reading ──────────────────────────────────────────────────────────
 
 struct Reader<'a> {
@@ -427,6 +506,15 @@ impl<'a> Reader<'a> {
                 ));
             };
             let name = name.to_string();
+            if self.binary {
+                // Binary data starts right after the header line's newline.
+                if self.b.get(self.pos) == Some(&b'\r') {
+                    self.pos += 1;
+                }
+                if self.b.get(self.pos) == Some(&b'\n') {
+                    self.pos += 1;
+                }
+            }
             let once = |seen: bool, r: &Self| -> R<()> {
                 if seen {
                     Err(r.err_at(at, format!("section ${name} appears twice")))
