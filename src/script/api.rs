@@ -160,7 +160,7 @@ pub const GMSH_KEYS: &[Key] = &[key(
     "float",
     "m",
     "the .geo file's own sizes",
-    "Largest element size (gmsh -clmax); .geo files only.",
+    "Largest element size (gmsh -clmax); .geo files only. Point sizes in the .geo file and gmsh's own defaults can make elements smaller.",
 )];
 pub const MIRROR_KEYS: &[Key] = &[
     key(
