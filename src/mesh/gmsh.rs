@@ -954,22 +954,16 @@ impl Raw {
                 elements.entry(group_name(g)).or_default().insert(t as u32);
             }
         }
-        // Tet faces by sorted node triple.
-        let mut face_map: HashMap<[u32; 3], Vec<(u32, u8)>> = HashMap::new();
+        // Tet faces by sorted node triple (sorted, searched by bisection).
         let needs_faces = self
             .elements
             .iter()
             .any(|e| e.kind != 4 && e.groups.iter().any(|g| g.0 == 2));
-        if needs_faces {
-            face_map.reserve(mesh.tets.len() * 2);
-            for (t, nodes) in mesh.tets.iter().enumerate() {
-                for (l, f) in TET_FACES.iter().enumerate() {
-                    let mut k = [nodes[f[0]], nodes[f[1]], nodes[f[2]]];
-                    k.sort_unstable();
-                    face_map.entry(k).or_default().push((t as u32, l as u8));
-                }
-            }
-        }
+        let all_faces = if needs_faces {
+            super::checks::sorted_faces(&mesh, &[])
+        } else {
+            Vec::new()
+        };
         for e in self
             .elements
             .iter()
@@ -1000,7 +994,13 @@ impl Raw {
                 }
                 let mut k = [ids[0], ids[1], ids[2]];
                 k.sort_unstable();
-                let Some(owners) = face_map.get(&k) else {
+                let lo = all_faces.partition_point(|f| f.0 < k);
+                let owners: Vec<(u32, u8)> = all_faces[lo..]
+                    .iter()
+                    .take_while(|f| f.0 == k)
+                    .map(|f| (f.1, f.2))
+                    .collect();
+                if owners.is_empty() {
                     let c = (mesh.nodes[ids[0] as usize]
                         + mesh.nodes[ids[1] as usize]
                         + mesh.nodes[ids[2] as usize])
@@ -1013,7 +1013,7 @@ impl Raw {
                             names[0], c.x, c.y, c.z
                         ),
                     ));
-                };
+                }
                 // On the boundary the face has one tetrahedron. On an internal surface, take
                 // the tetrahedron whose outward normal agrees with the triangle's orientation.
                 let chosen = if owners.len() == 1 {
