@@ -46,7 +46,7 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
             let o = Opts::new("mirror", o, keys_of("mesh.mirror"))?;
             let point = o.req_vec3("point")?;
             let normal = o.req_vec3("normal")?;
-            if !(normal.norm() > 0.0) {
+            if normal.norm() == 0.0 || !normal.iter().all(|c| c.is_finite()) {
                 return err("mirror(): normal must not be zero");
             }
             Rc::make_mut(&mut m.0).mirror(point, normal);
