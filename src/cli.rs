@@ -38,11 +38,16 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
-    /// Parse a script, build its model up to the first run() and validate it (nothing is stepped).
+    /// Parse a script, build its model up to the first run() and validate it (nothing is
+    /// stepped); or, with --mesh, validate a mesh file alone and print its summary.
     Check {
-        script: PathBuf,
+        #[arg(required_unless_present = "mesh", conflicts_with = "mesh")]
+        script: Option<PathBuf>,
         #[arg(long = "set", value_name = "NAME=VALUE")]
         set: Vec<String>,
+        /// A mesh file to check (.msh; .geo when gmsh is installed).
+        #[arg(long, value_name = "FILE")]
+        mesh: Option<PathBuf>,
     },
     /// Print the script API reference (Markdown).
     Doc,
@@ -115,7 +120,28 @@ pub fn main() {
                 }
             }
         }
-        Command::Check { script, set } => match parse_sets(&set) {
+        Command::Check {
+            mesh: Some(mesh), ..
+        } => match check_mesh_file(&mesh) {
+            Ok(report) => {
+                print!("{report}");
+                0
+            }
+            Err(report) => {
+                print!("{report}");
+                1
+            }
+        },
+        Command::Check {
+            script: None,
+            mesh: None,
+            ..
+        } => fail("fdem check: give a script or --mesh FILE"),
+        Command::Check {
+            script: Some(script),
+            set,
+            ..
+        } => match parse_sets(&set) {
             Err(e) => fail(&e),
             Ok(overrides) => {
                 let options = RunOptions {
@@ -193,6 +219,88 @@ pub fn main() {
         }
     };
     std::process::exit(code);
+}
+
+/// `fdem check --mesh FILE`: import and check a mesh file; the summary (Ok) or the summary
+/// with the problems (Err), as printed.
+pub fn check_mesh_file(path: &std::path::Path) -> Result<String, String> {
+    use crate::mesh::{checks::fmt_point, gmsh};
+    use std::fmt::Write;
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_lowercase())
+        .unwrap_or_default();
+    let t = Instant::now();
+    let imported = match ext.as_str() {
+        "msh" => gmsh::read_msh(path).map_err(|e| format!("error: {e}\n"))?,
+        "geo" => gmsh::mesh_geo(path, None).map_err(|e| format!("error: {e}\n"))?,
+        _ => {
+            return Err(format!(
+                "error: {}: expected a .msh or .geo file\n",
+                path.display()
+            ))
+        }
+    };
+    let seconds = t.elapsed().as_secs_f64();
+    let m = &imported.mesh;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "mesh {} ({}, read in {seconds:.3} s)",
+        path.display(),
+        imported.format
+    );
+    let _ = writeln!(out, "  nodes         {}", m.nodes.len());
+    let _ = writeln!(out, "  tetrahedra    {}", m.tets.len());
+    let _ = writeln!(out, "  volume        {:.9e} m³", m.volume());
+    let (lo, hi) = m.bounds();
+    let _ = writeln!(
+        out,
+        "  bounding box  {} – {}",
+        fmt_point(&lo),
+        fmt_point(&hi)
+    );
+    let summary = m.sets.summary();
+    if summary.is_empty() {
+        let _ = writeln!(out, "  groups        none");
+    } else {
+        let _ = writeln!(out, "  groups");
+        let w = summary.iter().map(|(n, _, _)| n.len()).max().unwrap_or(0);
+        for (name, kind, size) in &summary {
+            let _ = writeln!(out, "    {name:<w$}  {kind:<8} {size}");
+        }
+    }
+    if let Some(q) = m.quality() {
+        let _ = writeln!(
+            out,
+            "  quality       min dihedral angle {:.2}° (tet {}), max {:.2}°; worst aspect ratio {:.3} (tet {} at {}), mean {:.3}",
+            q.min_dihedral_deg,
+            q.worst_dihedral_tet,
+            q.max_dihedral_deg,
+            q.max_aspect_ratio,
+            q.worst_aspect_tet,
+            fmt_point(&m.tet_centroid(q.worst_aspect_tet)),
+            q.mean_aspect_ratio
+        );
+    }
+    for w in &imported.warnings {
+        let _ = writeln!(out, "  warning: {w}");
+    }
+    let problems = m.problems();
+    if problems.is_empty() {
+        let _ = writeln!(out, "ok: no problems found");
+        Ok(out)
+    } else {
+        let _ = writeln!(out, "  problems      {}", problems.len());
+        for p in problems.iter().take(20) {
+            let _ = writeln!(out, "    error: {p}");
+        }
+        if problems.len() > 20 {
+            let _ = writeln!(out, "    … and {} more", problems.len() - 20);
+        }
+        let _ = writeln!(out, "error: the mesh has {} problem(s)", problems.len());
+        Err(out)
+    }
 }
 
 fn fail(msg: &str) -> i32 {

@@ -262,7 +262,9 @@ expect_within("stdlib joints", sim.insert_joints(#{ within: j3, law: std_law }),
 sim.fracture_criterion(#{ function: "gate", params: #{ limit: 1.0e-3 }, when: "always", every: 10 });
 let slab = sim.add_body("slab", box(#{ min: [0.0, 0.0, -0.5], max: [1.0, 0.5, 0.0] }).mesh(#{ divisions: [2, 1, 1] }), m);
 expect_within("glue", sim.insert_joints(#{ between: [slab, b], law: glue, gap_tolerance: 1.0e-6 }), 1, 100);
-let t = sim.add_body("t", tet_mesh(#{ nodes: [[0.0, 0.0, 9.0], [1.0, 0.0, 9.0], [0.0, 1.0, 9.0], [0.0, 0.0, 10.0]], tets: [[0, 1, 2, 3]] }), m);
+let t = sim.add_body("t", tet_mesh(#{ nodes: [[0.0, 0.0, 11.0], [1.0, 0.0, 11.0], [0.0, 1.0, 11.0], [0.0, 0.0, 12.0]], tets: [[0, 1, 2, 3]] }), m);
+let bricks = array(mesh.copy().mirror(#{ point: [0.0, 0.0, 20.0], normal: [0.0, 0.0, 1.0] }), #{ count: [2, 1, 1], spacing: [1.0, 0.0, 0.0] });
+let br = sim.add_body("brick", bricks[1], m);
 let c = b.copy("c");
 c.translate([0.0, 0.0, 2.0]);
 let faces = b.boundary(#{ normal: [1.0, 0.0, 0.0], tolerance: 1.0, within: half_space(#{ point: [0.9, 0.0, 0.0], normal: [1.0, 0.0, 0.0] }) });

@@ -5,11 +5,15 @@
 //! keeps them shared or gives every tetrahedron its own 4 nodes (node multiplicity, Munjiza's
 //! layout for fracture) is decided when the body is added to a simulation.
 
+pub mod checks;
 mod generators;
+pub mod gmsh;
+pub mod overlap;
 pub mod quality;
 mod region;
 mod topology;
 
+pub use checks::{MeshProblem, ProblemKind};
 pub use generators::{box_mesh, divisions_for};
 pub use quality::Quality;
 pub use region::Region;
@@ -218,5 +222,28 @@ impl Mesh {
         for p in &mut self.nodes {
             *p = center + r * (*p - center);
         }
+    }
+
+    /// Scale about `center` by factors along x, y, z (none zero). A negative product mirrors
+    /// the mesh; node order is then reversed so volumes stay positive (face sets follow).
+    pub fn scale(&mut self, factors: Vec3, center: Vec3) {
+        for p in &mut self.nodes {
+            *p = center + (*p - center).component_mul(&factors);
+        }
+        if factors.x * factors.y * factors.z < 0.0 {
+            let all: Vec<usize> = (0..self.tets.len()).collect();
+            self.flip_tets(&all);
+        }
+    }
+
+    /// Mirror across the plane through `point` with normal `normal` (not zero). Node order is
+    /// reversed so volumes stay positive; face sets name the mirrored faces.
+    pub fn mirror(&mut self, point: Vec3, normal: Vec3) {
+        let n = normal.normalize();
+        for p in &mut self.nodes {
+            *p -= 2.0 * (*p - point).dot(&n) * n;
+        }
+        let all: Vec<usize> = (0..self.tets.len()).collect();
+        self.flip_tets(&all);
     }
 }

@@ -301,7 +301,7 @@ impl Simulation {
         if material as usize >= self.materials.len() {
             return Err(format!("body '{name}': unknown material id {material}"));
         }
-        let problems = mesh.check();
+        let problems = mesh.problems();
         if !problems.is_empty() {
             let list: Vec<String> = problems.iter().take(5).map(|p| format!("  {p}")).collect();
             let more = if problems.len() > 5 {
@@ -310,7 +310,7 @@ impl Simulation {
                 String::new()
             };
             return Err(format!(
-                "body '{name}': invalid mesh, {} bad tetrahedra (tet ids are the mesh's):\n{}{more}",
+                "body '{name}': invalid mesh, {} problem(s) (tet and node ids are the mesh's):\n{}{more}",
                 problems.len(),
                 list.join("\n")
             ));
@@ -424,6 +424,59 @@ impl Simulation {
             1e-12
         } else {
             1e-9 * (hi - lo).norm().max(1e-3)
+        }
+    }
+
+    /// Bodies whose tetrahedra intersect at their reference placement (touching faces are
+    /// fine): an error naming both bodies, the first element pairs (body-local tet ids, as in
+    /// the bodies' meshes) and their places. Checked when the first run starts.
+    pub fn check_body_overlaps(&self) -> Result<(), SimError> {
+        if self.bodies.len() < 2 {
+            return Ok(());
+        }
+        let tol = self.length_tolerance();
+        let boxes: Vec<(Vec3, Vec3)> = self.bodies.iter().map(|b| b.mesh.bounds()).collect();
+        let mut found = Vec::new();
+        for i in 0..self.bodies.len() {
+            for j in i + 1..self.bodies.len() {
+                let ((al, ah), (bl, bh)) = (boxes[i], boxes[j]);
+                if (0..3).any(|k| ah[k] <= bl[k] + tol || bh[k] <= al[k] + tol) {
+                    continue;
+                }
+                let (a, b) = (&self.bodies[i], &self.bodies[j]);
+                let (n, pairs) = crate::mesh::overlap::overlapping_tets(&a.mesh, &b.mesh, tol, 3);
+                if n == 0 {
+                    continue;
+                }
+                let fp = crate::mesh::checks::fmt_point;
+                let list: Vec<String> = pairs
+                    .iter()
+                    .map(|&(ea, eb)| {
+                        format!(
+                            "  tet {ea} of '{}' (centroid {}) intersects tet {eb} of '{}' (centroid {})",
+                            a.name,
+                            fp(&a.mesh.tet_centroid(ea)),
+                            b.name,
+                            fp(&b.mesh.tet_centroid(eb))
+                        )
+                    })
+                    .collect();
+                found.push(format!(
+                    "bodies '{}' and '{}' overlap at the start: {n} pair(s) of intersecting tetrahedra{}\n{}",
+                    a.name,
+                    b.name,
+                    if n > pairs.len() { ", the first:" } else { ":" },
+                    list.join("\n")
+                ));
+            }
+        }
+        if found.is_empty() {
+            Ok(())
+        } else {
+            Err(SimError::Invalid(format!(
+                "{}\nmove the bodies apart (touching faces are fine; tet ids are the bodies' own)",
+                found.join("\n")
+            )))
         }
     }
 

@@ -156,6 +156,45 @@ pub const TET_MESH_KEYS: &[Key] = &[
         "Node ids of each tetrahedron, right-handed: (p1−p0)·((p2−p0)×(p3−p0)) > 0.",
     ),
 ];
+pub const GMSH_KEYS: &[Key] = &[key(
+    "size",
+    "float",
+    "m",
+    "the .geo file's own sizes",
+    "Largest element size (gmsh -clmax); .geo files only. Point sizes in the .geo file and gmsh's own defaults can make elements smaller.",
+)];
+pub const MIRROR_KEYS: &[Key] = &[
+    key(
+        "point",
+        "vec3",
+        "m",
+        "required",
+        "A point on the mirror plane.",
+    ),
+    key(
+        "normal",
+        "vec3",
+        "-",
+        "required",
+        "Normal of the mirror plane (not zero).",
+    ),
+];
+pub const ARRAY_KEYS: &[Key] = &[
+    key(
+        "count",
+        "array of 3 ints",
+        "",
+        "required",
+        "Copies along x, y, z (each ≥ 1).",
+    ),
+    key(
+        "spacing",
+        "vec3",
+        "m",
+        "required",
+        "Offset between neighbouring copies along x, y, z.",
+    ),
+];
 pub const ROTATE_KEYS: &[Key] = &[
     key(
         "axis",
@@ -334,14 +373,27 @@ pub const API: &[FnDoc] = &[
     FnDoc { section: "Geometry and meshes", name: "tet_mesh", signature: "tet_mesh(#{ … }) -> Mesh", summary: "A mesh from explicit nodes and tetrahedra.", keys: TET_MESH_KEYS },
     FnDoc { section: "Geometry and meshes", name: "mesh.translate", signature: "mesh.translate([dx, dy, dz]) -> Mesh", summary: "Move the mesh (in place; also returns it) [m].", keys: &[] },
     FnDoc { section: "Geometry and meshes", name: "mesh.rotate", signature: "mesh.rotate(#{ … }) -> Mesh", summary: "Rotate the mesh (in place; also returns it).", keys: ROTATE_KEYS },
+    FnDoc { section: "Geometry and meshes", name: "gmsh", signature: "gmsh(path [, #{ … }]) -> Mesh",
+        summary: "Import a Gmsh mesh: a `.msh` file (MSH 4.1 ASCII or binary, 2.2 ASCII) or a `.geo` file meshed by the `gmsh` executable (`gmsh -3`; it must be installed). `path` is relative to the script's directory. 4-node tetrahedra become the mesh; physical groups become named sets (volumes → element sets; surfaces → face sets and node sets; curves and points → node sets; unnamed groups are `physical_<tag>`). Nodes used by no tetrahedron are dropped and left-handed tetrahedra reordered, each with a warning; other 3D element types, surface triangles that are not tetrahedron faces, and mesh problems (degenerate, duplicate or folded tetrahedra, non-manifold faces) are errors naming the element and its place. See docs/meshing.md.", keys: GMSH_KEYS },
+    FnDoc { section: "Geometry and meshes", name: "mesh.sets", signature: "mesh.sets() -> array", summary: "Names of the mesh's sets (sorted). `body.sets()` gives those of a body.", keys: &[] },
+    FnDoc { section: "Geometry and meshes", name: "mesh.scale", signature: "mesh.scale(factor | [sx, sy, sz] [, center]) -> Mesh",
+        summary: "Scale about `center` (default the origin), in place; also returns the mesh. Factors must be non-zero; a negative product mirrors the mesh, and node order is then reversed so volumes stay positive. Sets are kept.", keys: &[] },
+    FnDoc { section: "Geometry and meshes", name: "mesh.mirror", signature: "mesh.mirror(#{ … }) -> Mesh",
+        summary: "Mirror across a plane, in place; also returns the mesh. Node order is reversed so volumes stay positive; sets (also face sets) name the mirrored elements, nodes and faces.", keys: MIRROR_KEYS },
+    FnDoc { section: "Geometry and meshes", name: "array", signature: "array(mesh, #{ … }) -> array of Mesh",
+        summary: "Copies of a mesh on a regular grid (the first at the mesh's own place, x varying fastest), each with the mesh's sets. Add them as separate bodies: `let m = array(brick, #{ count: [4, 1, 3], spacing: [0.2, 0.0, 0.1] }); for i in 0..m.len() { sim.add_body(\"brick_\" + i, m[i], rock); }`.", keys: ARRAY_KEYS },
     FnDoc { section: "Geometry and meshes", name: "mesh.copy", signature: "mesh.copy() -> Mesh", summary: "An independent copy. Properties: `n_nodes`, `n_tets`, `volume` [m³].", keys: &[] },
     // ── Bodies
     FnDoc { section: "Bodies and selections", name: "sim.add_body", signature: "sim.add_body(name, mesh, material [, #{ … }]) -> Body",
-        summary: "Place a mesh in the model. Inverted or degenerate tetrahedra are an error naming the element and its place. Properties: `name`, `n_tets`, `n_nodes`, `volume` [m³], `mass` [kg], `layout`.", keys: ADD_BODY_KEYS },
+        summary: "Place a mesh in the model. The mesh is checked: inverted, degenerate or duplicate tetrahedra, non-manifold faces, tetrahedra folding over a neighbour and nodes used by no tetrahedron are errors naming the element and its place. When the first run starts, bodies whose tetrahedra intersect are an error naming both bodies and the elements (touching is fine). Properties: `name`, `n_tets`, `n_nodes`, `volume` [m³], `mass` [kg], `layout`.", keys: ADD_BODY_KEYS },
     FnDoc { section: "Bodies and selections", name: "body.copy", signature: "body.copy(name) -> Body", summary: "Add a copy of the body (same mesh, material and layout, at its current reference placement).", keys: &[] },
     FnDoc { section: "Bodies and selections", name: "body.translate", signature: "body.translate([dx, dy, dz])", summary: "Move a body before the first step [m].", keys: &[] },
     FnDoc { section: "Bodies and selections", name: "body.rotate", signature: "body.rotate(#{ … })", summary: "Rotate a body before the first step.", keys: ROTATE_KEYS },
     FnDoc { section: "Bodies and selections", name: "body.nodes", signature: "body.nodes([shape]) -> Nodes", summary: "The body's nodes, or those inside a region (surface included, tolerance 1e-9 × model size).", keys: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.set", signature: "body.set(name) -> Faces | Elements | Nodes",
+        summary: "A named set of the body's mesh (from Gmsh physical groups) as a selection: a surface group gives its faces (`faces.nodes()` their nodes), a volume group its elements, a curve or point group its nodes. An unknown name is an error listing the body's sets.", keys: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.node_set", signature: "body.node_set(name), body.element_set(name), body.face_set(name)",
+        summary: "A named set of one kind, for names used by several kinds. `node_set` gives every copy of the set's nodes (in a jointed body each tetrahedron has its own), so `sim.fix(body.node_set(\"base\"))` holds every tetrahedron touching the base; a face set's `nodes()` holds only the nodes of its faces' own tetrahedra.", keys: &[] },
     FnDoc { section: "Bodies and selections", name: "sim.nodes", signature: "sim.nodes(shape) -> Nodes", summary: "Nodes of all bodies inside a region.", keys: &[] },
     FnDoc { section: "Bodies and selections", name: "body.elements", signature: "body.elements([shape]) -> Elements", summary: "The body's tetrahedra, or those whose centroid is inside a region.", keys: &[] },
     FnDoc { section: "Bodies and selections", name: "body.boundary", signature: "body.boundary([#{ … }]) -> Faces", summary: "Outer boundary faces of the body, optionally filtered. `faces.nodes()` gives their nodes, `faces.area` their area [m²].", keys: BOUNDARY_KEYS },

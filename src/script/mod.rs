@@ -6,6 +6,7 @@ pub mod api;
 mod bindings;
 mod bindings_contact;
 mod bindings_joints;
+mod bindings_mesh_io;
 pub mod opts;
 mod runner;
 pub mod types;
@@ -84,6 +85,7 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     engine.on_debug(|s, src, pos| eprintln!("{}:{}: {s}", src.unwrap_or("script"), pos));
     bindings::register(&mut engine, ctx.clone());
     bindings_joints::register_script_laws(&mut engine, ctx.clone());
+    bindings_mesh_io::register(&mut engine, ctx.clone());
     // stdlib modules are compiled by this engine (they may call host functions).
     let mut stdlib = StaticModuleResolver::new();
     for (name, src) in STDLIB {

@@ -29,6 +29,9 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
         let mut st = s.0.borrow_mut();
         st.sim.prepare().map_err(|e| format!("run(): {e}"))?;
         if st.runs == 0 {
+            st.sim
+                .check_body_overlaps()
+                .map_err(|e| format!("run(): {e}"))?;
             let sim = &st.sim;
             let with_joints: std::collections::HashSet<u32> = sim
                 .joints
