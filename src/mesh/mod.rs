@@ -6,8 +6,11 @@
 //! layout for fracture) is decided when the body is added to a simulation.
 
 mod generators;
+pub mod masonry;
 pub mod quality;
 mod region;
+pub mod solids;
+mod structured;
 mod topology;
 
 pub use generators::{box_mesh, divisions_for};
