@@ -552,3 +552,55 @@ fn bad_parameters_are_errors_naming_the_key_and_range() {
     let e = solids::cylinder(1.0, 1.0, 1e-4).unwrap_err();
     assert!(e.contains("too many"), "{e}");
 }
+
+#[test]
+fn script_generators_build_meshes_and_blocks_glued_by_joints() {
+    let text = r#"
+let sim = simulation(#{ name: "gen" });
+let stone = material("elastic/small_strain", #{ density: 2000.0, young: 1.0e9, poisson: 0.2 });
+let c = cylinder(#{ base: [0.0, 0.0, 0.0], axis: [1.0, 0.0, 0.0], radius: 0.5, length: 2.0 }).mesh(#{ size: 0.1 });
+expect_near("cylinder volume", c.volume, PI() * 0.25 * 2.0, 0.01);
+expect_within("cylinder min dihedral", c.quality().min_dihedral, 20.0, 90.0);
+let s = sphere(#{ center: [0.0, 0.0, 0.0], radius: 1.0 }).mesh(#{});
+expect_near("sphere volume", s.volume, 4.0 / 3.0 * PI(), 0.01);
+let t = hollow_cylinder(#{ inner_radius: 0.5, outer_radius: 1.0, length: 1.0, axis: [0.0, 1.0, 0.0] });
+expect_near("tube volume", t.volume, PI() * 0.75, 0.01);
+let d = disc(#{ radius: 0.05, thickness: 0.025 });
+expect_near("disc volume", d.volume, PI() * 0.05 * 0.05 * 0.025, 0.01);
+let b = notched_beam(#{ length: 0.5, height: 0.1, width: 0.05, notch_depth: 0.03, notch_width: 0.004 });
+expect_near("beam volume", b.volume, 0.5 * 0.1 * 0.05 - 0.03 * 0.004 * 0.05, 1.0e-9);
+let a = arch(#{ radius: 2.0, thickness: 0.3, depth: 0.5, voussoirs: 5, size: 0.1 });
+if a.len() != 5 || a.n_courses != 1 || !a.block(0).springer || a.block(2).springer { throw "arch blocks"; }
+let bodies = sim.add_blocks(a, stone, #{ prefix: "v" });
+if bodies[3].name != "v_3" { throw "names"; }
+let law = joint_law("tied", #{});
+let n = sim.insert_joints(#{ between: bodies, law: law });
+if n != 4 * 3 * 5 * 2 { throw `joints ${n}`; }
+"#;
+    let dir = std::env::temp_dir().join(format!("fdem-gen-script-{}", std::process::id()));
+    let path = dir.join("gen.rhai");
+    let report = fdem::script::run_source(
+        &path,
+        text,
+        fdem::script::RunOptions {
+            quiet: true,
+            out_dir: Some(dir.join("out")),
+            ..Default::default()
+        },
+    );
+    assert!(report.is_ok(), "{}", report.err().unwrap());
+    // Parameter errors name the function and the key.
+    let bad = "let w = wall(#{ courses: 2, bricks_per_course: 0, brick: [0.2, 0.1, 0.1] });";
+    let e = fdem::script::run_source(&path, bad, Default::default())
+        .err()
+        .unwrap();
+    assert!(
+        e.0.contains("wall(): key 'bricks_per_course' must be ≥ 1, got 0"),
+        "{e}"
+    );
+    let bad = "let m = half_space(#{ point: [0.0, 0.0, 0.0], normal: [0.0, 0.0, 1.0] }).mesh(#{ size: 0.1 });";
+    let e = fdem::script::run_source(&path, bad, Default::default())
+        .err()
+        .unwrap();
+    assert!(e.0.contains("selection region only"), "{e}");
+}

@@ -4,6 +4,7 @@
 
 pub mod api;
 mod bindings;
+mod bindings_generators;
 mod bindings_joints;
 pub mod opts;
 mod runner;
