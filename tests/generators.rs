@@ -306,7 +306,8 @@ fn notched_beam_sets_resolve_the_notch_and_the_three_point_bending_lines() {
 fn volume_converges_at_second_order() {
     // Sizes chosen so that halving h exactly doubles the cells on each curve.
     let q = PI / 2.0; // quarter circle of unit radius
-    let pairs: [(&str, Box<dyn Fn(Real) -> Real>, Real); 4] = [
+    type VolumeAt = Box<dyn Fn(Real) -> Real>;
+    let pairs: [(&str, VolumeAt, Real); 4] = [
         (
             "cylinder",
             Box::new(|h| solids::cylinder(1.0, 1.0, h).unwrap().volume()),

@@ -272,7 +272,7 @@ pub struct Dome {
 /// spans equal steps of polar angle; each block is a spherical-shell patch meshed as a
 /// structured (θ, φ) grid extruded through the thickness (prisms cut into 3 tetrahedra). All
 /// blocks share one φ grid (an even number of cells per block, so the half-block offset of
-/// odd courses falls on it); the θ cells of each course are sized by the geometric mean of
+/// odd courses falls on it; sized where sin θ is the geometric mean of its extremes); the θ cells of each course are sized by the geometric mean of
 /// `h` and the local φ cell width, so blocks near the crown are not too flat.
 ///
 /// Sets of each block (faces + nodes): `intrados` (r = R), `extrados` (r = R + t),
@@ -302,9 +302,12 @@ pub fn dome(d: &Dome, h: Real) -> Result<Assembly, String> {
     let (a0, a1) = (d.oculus.to_radians(), d.base.to_radians());
     let nb = d.blocks_per_course;
     let dphi = 2.0 * PI / nb as Real;
-    // φ cells per block (even), sized at the mid polar angle.
-    let mid = 0.5 * (a0 + a1);
-    let m = 2 * cells(rm * mid.sin() * dphi / 2.0, h, 1);
+    // φ cells per block (even), sized where sin θ is the geometric mean of its extremes over
+    // the dome, so the φ cells are as much too narrow at the crown as too wide at the base.
+    let (s0, s1) = (a0.sin(), a1.sin());
+    let s_max = if a1 >= PI / 2.0 { 1.0 } else { s0.max(s1) };
+    let s_ref = (s0.min(s1) * s_max).sqrt();
+    let m = 2 * ((rm * s_ref * dphi / (2.0 * h)).ceil() as usize).max(1);
     let nphi = nb * m; // φ cells around the whole dome
     let nr = cells(d.thickness, h, 1);
     let tol = 1e-9 * r1;

@@ -216,8 +216,9 @@ pub struct NotchedBeam {
 }
 
 /// A notched beam on `[0, length] × [0, width] × [0, height]`, notch at x = length/2 from the
-/// bottom, meshed at target edge length `h` (refined towards the notch down to the notch
-/// width, growing by ≤ 35 % per cell). The mid-span line x = length/2 and the support lines
+/// bottom, meshed at target edge length `h` (refined towards the notch down to half the notch
+/// width, growing by ≤ 35 % per cell). `h` may not exceed 2.5 × notch_width (the notch cells
+/// would be slivers: minimum dihedral angle 26.6° at h = notch_width, 11.3° at 2.5 ×). The mid-span line x = length/2 and the support lines
 /// x = length/2 ± span/2 are grid lines.
 ///
 /// Sets: faces + nodes `top`, `bottom`, `notch` (its two walls and tip), `left_end` (x = 0),
@@ -252,6 +253,12 @@ pub fn notched_beam(b: &NotchedBeam, h: Real) -> Result<Mesh, String> {
         return Err(format!(
             "'notch_width' must be smaller than span = {}, got {}",
             b.span, b.notch_width
+        ));
+    }
+    if h > 2.5 * b.notch_width * (1.0 + 1e-9) {
+        return Err(format!(
+            "'size' = {h} is above 2.5 × notch_width = {}: the cells at the notch (half its width across, 'size' along y and z) would be slivers (minimum dihedral angle below 10°); use size ≤ 2.5 × notch_width",
+            2.5 * b.notch_width
         ));
     }
     let xc = 0.5 * b.length;

@@ -199,7 +199,7 @@ pub const NOTCHED_BEAM_KEYS: &[Key] = &[
     key("notch_width", "float", "m", "required", "Width of the notch along x, smaller than `span`."),
     key("span", "float", "m", "0.8 × length", "Distance between the supports (centred), at most `length`."),
     key("origin", "vec3", "m", "[0, 0, 0]", "Corner of the beam: it occupies origin + [0, length] × [0, width] × [0, height]."),
-    key("size", "float", "m", "height/10", "Target edge length; cells shrink towards the notch down to half its width (growing ≤ 35 % per cell)."),
+    key("size", "float", "m", "min(height/10, 2.5 × notch_width)", "Target edge length, at most 2.5 × notch_width (thinner notch cells would be slivers); cells shrink towards the notch down to half its width (growing ≤ 35 % per cell)."),
 ];
 pub const ARCH_KEYS: &[Key] = &[
     key("radius", "float", "m", "required", "Intrados radius R."),

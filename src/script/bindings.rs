@@ -222,29 +222,30 @@ fn register_geometry(engine: &mut Engine) {
         let Region::Box { min, max } = s.0 else {
             return super::bindings_generators::mesh_region(&s.0, &o);
         };
-        let divisions =
-            match (o.positive("size")?, o.get("divisions")) {
-                (Some(_), Some(_)) => {
-                    return err("mesh(): give either 'size' or 'divisions', not both")
-                }
-                (Some(h), None) => divisions_for(max - min, h),
-                (None, Some(d)) => {
-                    let a = d.read_lock::<Array>().map(|a| {
-                        a.iter()
-                            .map(|v| v.as_int().unwrap_or(0))
-                            .collect::<Vec<_>>()
-                    });
-                    match a.as_deref() {
-                        Some([x, y, z]) if *x > 0 && *y > 0 && *z > 0 => {
-                            [*x as usize, *y as usize, *z as usize]
-                        }
-                        _ => return err(format!(
+        let divisions = match (o.positive("size")?, o.get("divisions")) {
+            (Some(_), Some(_)) => {
+                return err("mesh(): give either 'size' or 'divisions', not both")
+            }
+            (Some(h), None) => divisions_for(max - min, h),
+            (None, Some(d)) => {
+                let a = d.read_lock::<Array>().map(|a| {
+                    a.iter()
+                        .map(|v| v.as_int().unwrap_or(0))
+                        .collect::<Vec<_>>()
+                });
+                match a.as_deref() {
+                    Some([x, y, z]) if *x > 0 && *y > 0 && *z > 0 => {
+                        [*x as usize, *y as usize, *z as usize]
+                    }
+                    _ => {
+                        return err(format!(
                             "mesh(): 'divisions' must be 3 positive integers [nx, ny, nz], got {d}"
-                        )),
+                        ))
                     }
                 }
-                (None, None) => return err("mesh(): missing required key 'size' (or 'divisions')"),
-            };
+            }
+            (None, None) => return err("mesh(): missing required key 'size' (or 'divisions')"),
+        };
         let cells = divisions.iter().product::<usize>();
         if cells > 50_000_000 {
             return err(format!(

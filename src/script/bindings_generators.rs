@@ -206,7 +206,9 @@ fn notched_beam(m: Map) -> RhaiResult<MeshValue> {
         notch_width: req_positive(&o, "notch_width")?,
         span: o.positive("span")?.unwrap_or(0.8 * length),
     };
-    let h = o.positive("size")?.unwrap_or(height / 10.0);
+    let h = o
+        .positive("size")?
+        .unwrap_or((height / 10.0).min(2.5 * b.notch_width));
     let mut mesh = gen("notched_beam", solids::notched_beam(&b, h))?;
     mesh.translate(o.vec3("origin")?.unwrap_or_default());
     Ok(MeshValue(Rc::new(mesh)))
