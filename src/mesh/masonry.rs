@@ -44,19 +44,34 @@ impl Assembly {
     pub fn n_tets(&self) -> usize {
         self.blocks.iter().map(|b| b.mesh.tets.len()).sum()
     }
-    /// Quality over all blocks (worst of each measure).
+    /// Quality over all blocks: worst of each measure, mean aspect ratio over all tets; the
+    /// worst tets are numbered through the blocks in order (block 0's tets first).
     pub fn quality(&self) -> Option<super::Quality> {
-        self.blocks
-            .iter()
-            .filter_map(|b| b.mesh.quality())
-            .reduce(|a, b| super::Quality {
-                min_dihedral_deg: a.min_dihedral_deg.min(b.min_dihedral_deg),
-                max_dihedral_deg: a.max_dihedral_deg.max(b.max_dihedral_deg),
-                max_aspect_ratio: a.max_aspect_ratio.max(b.max_aspect_ratio),
-                mean_aspect_ratio: 0.5 * (a.mean_aspect_ratio + b.mean_aspect_ratio),
-                worst_dihedral_tet: a.worst_dihedral_tet,
-                worst_aspect_tet: a.worst_aspect_tet,
-            })
+        let mut out: Option<super::Quality> = None;
+        let (mut offset, mut sum_ar) = (0usize, 0.0);
+        for b in &self.blocks {
+            let Some(q) = b.mesh.quality() else { continue };
+            sum_ar += q.mean_aspect_ratio * b.mesh.tets.len() as Real;
+            let o = out.get_or_insert(super::Quality {
+                worst_dihedral_tet: offset + q.worst_dihedral_tet,
+                worst_aspect_tet: offset + q.worst_aspect_tet,
+                ..q
+            });
+            if q.min_dihedral_deg < o.min_dihedral_deg {
+                o.min_dihedral_deg = q.min_dihedral_deg;
+                o.worst_dihedral_tet = offset + q.worst_dihedral_tet;
+            }
+            if q.max_aspect_ratio > o.max_aspect_ratio {
+                o.max_aspect_ratio = q.max_aspect_ratio;
+                o.worst_aspect_tet = offset + q.worst_aspect_tet;
+            }
+            o.max_dihedral_deg = o.max_dihedral_deg.max(q.max_dihedral_deg);
+            offset += b.mesh.tets.len();
+        }
+        if let Some(o) = out.as_mut() {
+            o.mean_aspect_ratio = sum_ar / offset.max(1) as Real;
+        }
+        out
     }
 }
 
@@ -398,6 +413,19 @@ mod tests {
         assert_eq!(a.blocks.len(), 9);
         assert!(a.blocks.iter().all(|b| b.mesh.check().is_empty()));
         assert_eq!(a.blocks.iter().filter(|b| b.springer).count(), 2);
+        // Assembly quality: the worst over blocks; the worst tet numbered through the blocks.
+        let q = a.quality().unwrap();
+        let per: Vec<_> = a.blocks.iter().map(|b| b.mesh.quality().unwrap()).collect();
+        let min = per
+            .iter()
+            .map(|q| q.min_dihedral_deg)
+            .fold(Real::MAX, Real::min);
+        assert_eq!(q.min_dihedral_deg, min);
+        let nt = a.blocks[0].mesh.tets.len();
+        let (blk, local) = (q.worst_dihedral_tet / nt, q.worst_dihedral_tet % nt);
+        assert_eq!(per[blk].min_dihedral_deg, min);
+        assert_eq!(per[blk].worst_dihedral_tet, local);
+        assert!(q.mean_aspect_ratio >= 1.0 && q.mean_aspect_ratio <= q.max_aspect_ratio);
     }
 
     #[test]
