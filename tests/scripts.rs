@@ -273,6 +273,17 @@ let cyl = cylinder(#{ base: [0.0, 0.0, 0.0], axis: [1.0, 0.0, 0.0], radius: 1.0,
 sim.fix(b.nodes(cyl));
 sim.prescribe_velocity(c.nodes(s), #{ x: 0.0, y: table([[0.0, 0.0], [1.0, 1.0]]), z: 0.0 });
 sim.traction(faces, [0.0, 0.0, -1.0]);
+let g1 = disc(#{ radius: 0.1, thickness: 0.05, center: [5.0, 5.0, 5.0], axis: [0.0, 0.0, 1.0], size: 0.05 });
+let g2 = hollow_cylinder(#{ inner_radius: 0.1, outer_radius: 0.2, length: 0.1, base: [5.0, 5.0, 5.0], axis: [0.0, 1.0, 0.0], size: 0.05 });
+let g3 = notched_beam(#{ length: 1.0, height: 0.2, width: 0.1, notch_depth: 0.05, notch_width: 0.05, span: 0.8, origin: [5.0, 5.0, 5.0], size: 0.1 });
+let g4 = arch(#{ radius: 1.0, thickness: 0.2, depth: 0.2, voussoirs: 3, span_angle: 180.0, center: [5.0, 5.0, 5.0], size: 0.2 });
+let g5 = wall(#{ courses: 2, bricks_per_course: 2, brick: [0.2, 0.1, 0.1], head_gap: 0.0, bed_gap: 0.0, origin: [5.0, 5.0, 5.0], size: 0.1 });
+let g6 = dome(#{ radius: 1.0, thickness: 0.2, courses: 2, blocks_per_course: 4, oculus: 20.0, base: 90.0, center: [5.0, 5.0, 5.0], size: 0.2 });
+let voussoirs = sim.add_blocks(g4, m, #{ layout: "continuous", prefix: "voussoir" });
+sim.contact_law("potential", #{ penalty: 1e7, tangential_penalty: 1e7, friction: 0.5, damping: 0.1 });
+sim.contact_law("potential", #{ between: [m, m], friction: 0.3 });
+sim.contact_detection(#{ skin: 0.01 });
+sim.on_new_contact_pair(|s, pair| ());
 sim.integrator("central_difference", #{ safety: 0.5, dt: 1e-5 });
 sim.damping(#{ mass_proportional: 1.0 });
 sim.every(#{ steps: 2 }, |s| s.write_vtk());

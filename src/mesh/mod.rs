@@ -8,9 +8,12 @@
 pub mod checks;
 mod generators;
 pub mod gmsh;
+pub mod masonry;
 pub mod overlap;
 pub mod quality;
 mod region;
+pub mod solids;
+mod structured;
 mod topology;
 
 pub use checks::{MeshProblem, ProblemKind};

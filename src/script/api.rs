@@ -47,6 +47,7 @@ pub const SECTIONS: &[(&str, &str)] = &[
     ("Simulation", "The model: create it, set integration options, run it in stages."),
     ("Materials", "Elastic laws of the tetrahedra (stage 1). Equations in docs/theory/elements.md."),
     ("Geometry and meshes", "Shapes (also used as selection regions), meshing, transformations."),
+    ("Generators", "Meshes of solids with curved faces and of test specimens, and masonry assemblies (one mesh per block). Every generated mesh carries named face, node and element sets; measured quality and volume errors are in docs/generators.md."),
     ("Bodies and selections", "Bodies are meshes placed in the simulation; selections are node, face and element sets."),
     ("Joints and fracture", "Stages 2–3: cohesive joints between the tetrahedra of jointed bodies; joints break, bodies fragment. Equations in docs/theory/joints.md."),
     ("Contact", "Stages 4–5: surface elements (outer faces and broken joints) touch, slide and collide through Munjiza's potential contact force with Coulomb friction. Equations in docs/theory/contact.md."),
@@ -130,7 +131,7 @@ pub const MESH_KEYS: &[Key] = &[
         "float",
         "m",
         "required unless divisions",
-        "Target edge length: each side gets round(L/size) ≥ 1 cells, each cell 6 tetrahedra.",
+        "Target edge length. Boxes: each side gets round(L/size) ≥ 1 cells, each cell 6 tetrahedra. Cylinders: default radius/5; spheres: default radius/8.",
     ),
     key(
         "divisions",
@@ -138,6 +139,111 @@ pub const MESH_KEYS: &[Key] = &[
         "",
         "-",
         "Cells along x, y, z instead of `size`.",
+    ),
+];
+pub const DISC_KEYS: &[Key] = &[
+    key("radius", "float", "m", "required", "Radius."),
+    key(
+        "thickness",
+        "float",
+        "m",
+        "required",
+        "Thickness along the axis.",
+    ),
+    key(
+        "center",
+        "vec3",
+        "m",
+        "[0, 0, 0]",
+        "Centre of the disc (mid-thickness).",
+    ),
+    key("axis", "vec3", "-", "[0, 0, 1]", "Axis direction."),
+    key(
+        "size",
+        "float",
+        "m",
+        "radius/5",
+        "Target edge length (32 segments around the circle at the default).",
+    ),
+];
+pub const HOLLOW_CYLINDER_KEYS: &[Key] = &[
+    key("inner_radius", "float", "m", "required", "Inner radius."),
+    key(
+        "outer_radius",
+        "float",
+        "m",
+        "required",
+        "Outer radius (> inner_radius).",
+    ),
+    key(
+        "length",
+        "float",
+        "m",
+        "required",
+        "Length along the axis from `base`.",
+    ),
+    key("base", "vec3", "m", "[0, 0, 0]", "Centre of the base."),
+    key("axis", "vec3", "-", "[0, 0, 1]", "Axis direction."),
+    key(
+        "size",
+        "float",
+        "m",
+        "min((outer − inner)/3, π(inner + outer)/32)",
+        "Target edge length (at least 12 cells around).",
+    ),
+];
+pub const NOTCHED_BEAM_KEYS: &[Key] = &[
+    key("length", "float", "m", "required", "Length along x."),
+    key("height", "float", "m", "required", "Height along z."),
+    key("width", "float", "m", "required", "Width along y."),
+    key("notch_depth", "float", "m", "required", "Depth of the mid-span notch from the bottom face, in (0, height)."),
+    key("notch_width", "float", "m", "required", "Width of the notch along x, smaller than `span`."),
+    key("span", "float", "m", "0.8 × length", "Distance between the supports (centred), at most `length`."),
+    key("origin", "vec3", "m", "[0, 0, 0]", "Corner of the beam: it occupies origin + [0, length] × [0, width] × [0, height]."),
+    key("size", "float", "m", "min(height/10, 2.5 × notch_width)", "Target edge length, at most 2.5 × notch_width (thinner notch cells would be slivers); cells shrink towards the notch down to half its width (growing ≤ 35 % per cell)."),
+];
+pub const ARCH_KEYS: &[Key] = &[
+    key("radius", "float", "m", "required", "Intrados radius R."),
+    key("thickness", "float", "m", "required", "Radial thickness t."),
+    key("depth", "float", "m", "required", "Out-of-plane width (along y, centred on y = 0)."),
+    key("voussoirs", "int", "", "required", "Number of voussoirs, ≥ 3."),
+    key("span_angle", "float", "°", "180", "Angle subtended: 180 for a semicircular arch, less for a segmental one; in (0, 360)."),
+    key("center", "vec3", "m", "[0, 0, 0]", "Centre of the intrados circle (the arch stands in the x–z plane, symmetric about the vertical through it)."),
+    key("size", "float", "m", "thickness/3", "Target edge length."),
+];
+pub const WALL_KEYS: &[Key] = &[
+    key("courses", "int", "", "required", "Number of courses (≥ 1), stacked along z."),
+    key("bricks_per_course", "int", "", "required", "Full bricks in even courses (≥ 1); odd courses have a half brick at each end and one full brick fewer."),
+    key("brick", "vec3", "m", "required", "Brick [length (x), height (z), width (y)]."),
+    key("head_gap", "float", "m", "0", "Gap between bricks of a course; 0: coincident faces (for mortar joints with `between`)."),
+    key("bed_gap", "float", "m", "0", "Gap between courses."),
+    key("origin", "vec3", "m", "[0, 0, 0]", "Lower corner of the wall."),
+    key("size", "float", "m", "min(brick)/2", "Target edge length."),
+];
+pub const DOME_KEYS: &[Key] = &[
+    key("radius", "float", "m", "required", "Intrados radius R."),
+    key("thickness", "float", "m", "required", "Radial thickness t."),
+    key("courses", "int", "", "required", "Number of courses (≥ 1), equal steps of polar angle from `base` up to `oculus`."),
+    key("blocks_per_course", "int", "", "required", "Blocks in every course, ≥ 3; odd courses are offset by half a block (running bond)."),
+    key("oculus", "float", "°", "10", "Polar half-angle of the opening at the crown, in (0, base). A closed crown (keystone) is not generated."),
+    key("base", "float", "°", "90", "Polar angle of the base (90: hemisphere), in (oculus, 180)."),
+    key("center", "vec3", "m", "[0, 0, 0]", "Centre of the sphere; the pole is on +z."),
+    key("size", "float", "m", "thickness/2", "Target edge length."),
+];
+pub const ADD_BLOCKS_KEYS: &[Key] = &[
+    key(
+        "layout",
+        "string",
+        "",
+        "\"continuous\"",
+        "Layout of every block, as in `sim.add_body`.",
+    ),
+    key(
+        "prefix",
+        "string",
+        "",
+        "\"block\"",
+        "Bodies are named `<prefix>_0`, `<prefix>_1`, … in block order.",
     ),
 ];
 pub const TET_MESH_KEYS: &[Key] = &[
@@ -369,7 +475,7 @@ pub const API: &[FnDoc] = &[
     FnDoc { section: "Geometry and meshes", name: "cylinder", signature: "cylinder(#{ … }) -> Shape", summary: "Finite cylinder (region).", keys: CYLINDER_KEYS },
     FnDoc { section: "Geometry and meshes", name: "half_space", signature: "half_space(#{ … }) -> Shape", summary: "Half-space (region).", keys: HALF_SPACE_KEYS },
     FnDoc { section: "Geometry and meshes", name: "shape.mesh", signature: "shape.mesh(#{ … }) -> Mesh",
-        summary: "Mesh a shape into tetrahedra. Boxes: structured, 6 Kuhn tetrahedra per cell (conforming). Other shapes are regions only in this version.", keys: MESH_KEYS },
+        summary: "Mesh a shape into tetrahedra. Boxes: structured, 6 Kuhn tetrahedra per cell (conforming). Cylinders: an O-grid cross-section (square core, four blocks mapped onto the circle) extruded along the axis, prisms cut into 3 tetrahedra; sets `bottom`, `top`, `side`. Spheres: a cube grid mapped onto the ball, 6 tetrahedra per cell; set `surface`. Curved faces have their nodes on the surface (volume error O(size²)). Half-spaces are regions only.", keys: MESH_KEYS },
     FnDoc { section: "Geometry and meshes", name: "tet_mesh", signature: "tet_mesh(#{ … }) -> Mesh", summary: "A mesh from explicit nodes and tetrahedra.", keys: TET_MESH_KEYS },
     FnDoc { section: "Geometry and meshes", name: "mesh.translate", signature: "mesh.translate([dx, dy, dz]) -> Mesh", summary: "Move the mesh (in place; also returns it) [m].", keys: &[] },
     FnDoc { section: "Geometry and meshes", name: "mesh.rotate", signature: "mesh.rotate(#{ … }) -> Mesh", summary: "Rotate the mesh (in place; also returns it).", keys: ROTATE_KEYS },
@@ -383,6 +489,25 @@ pub const API: &[FnDoc] = &[
     FnDoc { section: "Geometry and meshes", name: "array", signature: "array(mesh, #{ … }) -> array of Mesh",
         summary: "Copies of a mesh on a regular grid (the first at the mesh's own place, x varying fastest), each with the mesh's sets. Add them as separate bodies: `let m = array(brick, #{ count: [4, 1, 3], spacing: [0.2, 0.0, 0.1] }); for i in 0..m.len() { sim.add_body(\"brick_\" + i, m[i], rock); }`.", keys: ARRAY_KEYS },
     FnDoc { section: "Geometry and meshes", name: "mesh.copy", signature: "mesh.copy() -> Mesh", summary: "An independent copy. Properties: `n_nodes`, `n_tets`, `volume` [m³].", keys: &[] },
+    // ── Generators
+    FnDoc { section: "Generators", name: "disc", signature: "disc(#{ … }) -> Mesh",
+        summary: "A disc (short cylinder) centred on `center`: the mesh of `cylinder(..).mesh(..)`. Sets `bottom`, `top` (the faces at −axis and +axis), `side`, element set `all`.", keys: DISC_KEYS },
+    FnDoc { section: "Generators", name: "hollow_cylinder", signature: "hollow_cylinder(#{ … }) -> Mesh",
+        summary: "A tube: a periodic annular (r, θ) grid extruded along the axis, prisms cut into 3 tetrahedra. Sets `inner`, `outer`, `bottom`, `top`.", keys: HOLLOW_CYLINDER_KEYS },
+    FnDoc { section: "Generators", name: "notched_beam", signature: "notched_beam(#{ … }) -> Mesh",
+        summary: "The three-point-bending specimen: a beam with a notch from the bottom at mid-span, structured boxes (6 Kuhn tetrahedra each, mirrored about mid-span) refined towards the notch. Face + node sets `top`, `bottom`, `notch`, `left_end`, `right_end`, `front`, `back`; node sets `load_line` (top, mid-span), `support_left`, `support_right`, `supports` (bottom, at ±span/2).", keys: NOTCHED_BEAM_KEYS },
+    FnDoc { section: "Generators", name: "arch", signature: "arch(#{ … }) -> Assembly",
+        summary: "Voussoirs of a circular arch, each a structured (r, θ, y) grid of prisms cut into tetrahedra. Block 0 is the springer at +x, the last block the springer at −x; with the default centre a semicircular arch springs from z = 0. Sets per block: `intrados`, `extrados`, `joint_right` (towards +x), `joint_left`, `front`, `back`, and `springing` on the springers. Neighbouring voussoirs share their joint faces exactly.", keys: ARCH_KEYS },
+    FnDoc { section: "Generators", name: "wall", signature: "wall(#{ … }) -> Assembly",
+        summary: "Bricks in running bond with straight ends (half bricks at the ends of odd courses), each brick a Kuhn box mesh. Sets per brick: `top`, `bottom`, `left`, `right`, `front`, `back`. Bricks of course 0 are springers. With zero gaps neighbouring bricks share faces triangle for triangle.", keys: WALL_KEYS },
+    FnDoc { section: "Generators", name: "dome", signature: "dome(#{ … }) -> Assembly",
+        summary: "Voussoir blocks of a spherical dome with an oculus, in courses from the base (course 0, springers) to the crown, running bond. Each block is a spherical-shell patch meshed structured in (θ, φ, r). Sets per block: `intrados`, `extrados`, `bed_lower`, `bed_upper`, `head_left` (smaller longitude), `head_right`, and `base` on course 0. Neighbouring blocks share faces exactly.", keys: DOME_KEYS },
+    FnDoc { section: "Generators", name: "assembly.block", signature: "assembly.block(i) -> #{ index, course, springer, mesh }",
+        summary: "Block i of an assembly: its index in its course, its course, whether it rests on a support, and its mesh (also `assembly.mesh(i)`). Properties: `n_blocks` (also `len()`), `n_courses`, `n_tets`, `volume` [m³], `kind`; `assembly.quality()` as `mesh.quality()`.", keys: &[] },
+    FnDoc { section: "Generators", name: "sim.add_blocks", signature: "sim.add_blocks(assembly, material [, #{ … }]) -> Array of Body",
+        summary: "Add every block of an assembly as a body, in block order (body i is `assembly.block(i)`). Glue them with `sim.insert_joints(#{ between: bodies, law })`.", keys: ADD_BLOCKS_KEYS },
+    FnDoc { section: "Generators", name: "mesh.quality", signature: "mesh.quality() -> #{ min_dihedral, max_dihedral, max_aspect_ratio, mean_aspect_ratio }",
+        summary: "Element quality: smallest and largest dihedral angle [°] and aspect ratio (longest edge over inradius, 1 for the regular tetrahedron).", keys: &[] },
     // ── Bodies
     FnDoc { section: "Bodies and selections", name: "sim.add_body", signature: "sim.add_body(name, mesh, material [, #{ … }]) -> Body",
         summary: "Place a mesh in the model. The mesh is checked: inverted, degenerate or duplicate tetrahedra, non-manifold faces, tetrahedra folding over a neighbour and nodes used by no tetrahedron are errors naming the element and its place. When the first run starts, bodies whose tetrahedra intersect are an error naming both bodies and the elements (touching is fine). Properties: `name`, `n_tets`, `n_nodes`, `volume` [m³], `mass` [kg], `layout`.", keys: ADD_BODY_KEYS },

@@ -31,6 +31,7 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
     register_hooks(engine, ctx);
     super::bindings_joints::register(engine);
     super::bindings_contact::register(engine);
+    super::bindings_generators::register(engine);
 }
 
 fn register_types(engine: &mut Engine) {
@@ -220,26 +221,38 @@ fn register_geometry(engine: &mut Engine) {
     engine.register_fn("mesh", |s: &mut Shape, m: Map| -> RhaiResult<MeshValue> {
         let o = Opts::new("mesh", m, keys_of("shape.mesh"))?;
         let Region::Box { min, max } = s.0 else {
-            return err(format!(
-                "mesh(): a {} can only be used as a selection region in this version; box is the meshable shape (generators for cylinders, spheres and masonry are planned)",
-                s.0.kind()
-            ));
+            return super::bindings_generators::mesh_region(&s.0, &o);
         };
         let divisions = match (o.positive("size")?, o.get("divisions")) {
-            (Some(_), Some(_)) => return err("mesh(): give either 'size' or 'divisions', not both"),
+            (Some(_), Some(_)) => {
+                return err("mesh(): give either 'size' or 'divisions', not both")
+            }
             (Some(h), None) => divisions_for(max - min, h),
             (None, Some(d)) => {
-                let a = d.read_lock::<Array>().map(|a| a.iter().map(|v| v.as_int().unwrap_or(0)).collect::<Vec<_>>());
+                let a = d.read_lock::<Array>().map(|a| {
+                    a.iter()
+                        .map(|v| v.as_int().unwrap_or(0))
+                        .collect::<Vec<_>>()
+                });
                 match a.as_deref() {
-                    Some([x, y, z]) if *x > 0 && *y > 0 && *z > 0 => [*x as usize, *y as usize, *z as usize],
-                    _ => return err(format!("mesh(): 'divisions' must be 3 positive integers [nx, ny, nz], got {d}")),
+                    Some([x, y, z]) if *x > 0 && *y > 0 && *z > 0 => {
+                        [*x as usize, *y as usize, *z as usize]
+                    }
+                    _ => {
+                        return err(format!(
+                            "mesh(): 'divisions' must be 3 positive integers [nx, ny, nz], got {d}"
+                        ))
+                    }
                 }
             }
             (None, None) => return err("mesh(): missing required key 'size' (or 'divisions')"),
         };
         let cells = divisions.iter().product::<usize>();
         if cells > 50_000_000 {
-            return err(format!("mesh(): {cells} cells ({} tets) is too many; use a larger size", 6 * cells));
+            return err(format!(
+                "mesh(): {cells} cells ({} tets) is too many; use a larger size",
+                6 * cells
+            ));
         }
         Ok(MeshValue(Rc::new(box_mesh(min, max, divisions))))
     });

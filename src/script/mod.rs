@@ -5,6 +5,7 @@
 pub mod api;
 mod bindings;
 mod bindings_contact;
+mod bindings_generators;
 mod bindings_joints;
 mod bindings_mesh_io;
 pub mod opts;
