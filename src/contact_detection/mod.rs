@@ -66,24 +66,29 @@ impl Aabb {
     }
 }
 
-const EMPTY: u32 = u32::MAX;
 const CHUNK: usize = 2048;
+
+/// One slot of the cell hash table: a cell's integer coordinates and its run of elements in
+/// the cell-sorted arrays (`count == 0`: free slot). One cache line answers a lookup.
+#[derive(Clone, Copy, Debug, Default)]
+struct Slot {
+    c: [i64; 3],
+    start: u32,
+    count: u32,
+}
 
 /// Reusable NBS buffers (no allocation per detection once warmed up).
 #[derive(Clone, Debug, Default)]
 pub struct NbsWorkspace {
     /// Integer cell of each element.
     cell_xyz: Vec<[i64; 3]>,
-    /// Hash slot → cell id (EMPTY when free).
-    slots: Vec<u32>,
-    /// Per cell: integer coordinates, then start/count in `sorted`.
-    cells: Vec<[i64; 3]>,
-    start: Vec<u32>,
-    count: Vec<u32>,
-    /// Cell id of each element.
-    cell_of: Vec<u32>,
-    /// Elements grouped by cell, in index order within each cell.
+    /// Open-addressing table of occupied cells.
+    slots: Vec<Slot>,
+    /// Slot of each element.
+    slot_of: Vec<u32>,
+    /// Elements grouped by cell (index order within a cell), and their boxes in that order.
     sorted: Vec<u32>,
+    sorted_boxes: Vec<Aabb>,
     fill: Vec<u32>,
     chunk_pairs: Vec<Vec<[u32; 2]>>,
 }
@@ -93,10 +98,9 @@ impl NbsWorkspace {
     pub fn bytes(&self) -> usize {
         use std::mem::size_of;
         self.cell_xyz.capacity() * size_of::<[i64; 3]>()
-            + self.slots.capacity() * 4
-            + self.cells.capacity() * size_of::<[i64; 3]>()
-            + (self.start.capacity() + self.count.capacity() + self.cell_of.capacity()) * 4
-            + (self.sorted.capacity() + self.fill.capacity()) * 4
+            + self.slots.capacity() * size_of::<Slot>()
+            + (self.slot_of.capacity() + self.sorted.capacity() + self.fill.capacity()) * 4
+            + self.sorted_boxes.capacity() * size_of::<Aabb>()
             + self
                 .chunk_pairs
                 .iter()
@@ -113,15 +117,18 @@ fn hash(c: &[i64; 3], mask: usize) -> usize {
     ((h ^ (h >> 29)) as usize) & mask
 }
 
-/// Cell id of integer coordinates `c`, or EMPTY.
+/// The slot of integer cell `c`, or None when no element lies in it.
 #[inline(always)]
-fn lookup(slots: &[u32], cells: &[[i64; 3]], c: &[i64; 3]) -> u32 {
+fn lookup(slots: &[Slot], c: &[i64; 3]) -> Option<Slot> {
     let mask = slots.len() - 1;
     let mut h = hash(c, mask);
     loop {
-        let id = slots[h];
-        if id == EMPTY || cells[id as usize] == *c {
-            return id;
+        let s = slots[h];
+        if s.count == 0 {
+            return None;
+        }
+        if s.c == *c {
+            return Some(s);
         }
         h = (h + 1) & mask;
     }
@@ -156,60 +163,61 @@ pub fn nbs_pairs(
         let c = (b.centre() - origin) * inv;
         [c.x.floor() as i64, c.y.floor() as i64, c.z.floor() as i64]
     }));
-    // Occupied cells (sequential hash insertion, in element order: deterministic ids).
+    // Occupied cells: count the elements of each (consecutive elements are often in the
+    // same cell, so the last slot is remembered).
     let cap = (2 * n).next_power_of_two();
     ws.slots.clear();
-    ws.slots.resize(cap, EMPTY);
-    ws.cells.clear();
-    ws.count.clear();
-    ws.cell_of.clear();
+    ws.slots.resize(cap, Slot::default());
+    ws.slot_of.clear();
     let mask = cap - 1;
+    let mut last: Option<([i64; 3], usize)> = None;
     for c in &ws.cell_xyz {
-        let mut h = hash(c, mask);
-        let id = loop {
-            let id = ws.slots[h];
-            if id == EMPTY {
-                let id = ws.cells.len() as u32;
-                ws.slots[h] = id;
-                ws.cells.push(*c);
-                ws.count.push(0);
-                break id;
+        let h = match last {
+            Some((lc, lh)) if lc == *c => lh,
+            _ => {
+                let mut h = hash(c, mask);
+                loop {
+                    let s = &mut ws.slots[h];
+                    if s.count == 0 {
+                        s.c = *c;
+                        break;
+                    }
+                    if s.c == *c {
+                        break;
+                    }
+                    h = (h + 1) & mask;
+                }
+                last = Some((*c, h));
+                h
             }
-            if ws.cells[id as usize] == *c {
-                break id;
-            }
-            h = (h + 1) & mask;
         };
-        ws.count[id as usize] += 1;
-        ws.cell_of.push(id);
+        ws.slots[h].count += 1;
+        ws.slot_of.push(h as u32);
     }
-    // Counting sort of elements by cell.
-    ws.start.clear();
+    // Runs of the cells in the sorted arrays (prefix sum over the table), then a counting
+    // sort of the elements (index order within each cell).
     let mut acc = 0u32;
-    for &c in &ws.count {
-        ws.start.push(acc);
-        acc += c;
+    for s in ws.slots.iter_mut() {
+        s.start = acc;
+        acc += s.count;
     }
     ws.fill.clear();
-    ws.fill.extend_from_slice(&ws.start);
+    ws.fill.extend(ws.slots.iter().map(|s| s.start));
     ws.sorted.clear();
     ws.sorted.resize(n, 0);
-    for (e, &c) in ws.cell_of.iter().enumerate() {
-        let k = &mut ws.fill[c as usize];
+    for (e, &h) in ws.slot_of.iter().enumerate() {
+        let k = &mut ws.fill[h as usize];
         ws.sorted[*k as usize] = e as u32;
         *k += 1;
     }
+    ws.sorted_boxes.clear();
+    ws.sorted_boxes
+        .par_extend(ws.sorted.par_iter().map(|&e| boxes[e as usize]));
     // Search the 27 cells around each element's cell for higher-indexed overlapping boxes.
     let n_chunks = n.div_ceil(CHUNK);
     ws.chunk_pairs.resize_with(n_chunks, Vec::new);
-    let (slots, cells, start, count, sorted, cell_xyz) = (
-        &ws.slots,
-        &ws.cells,
-        &ws.start,
-        &ws.count,
-        &ws.sorted,
-        &ws.cell_xyz,
-    );
+    let (slots, sorted, sorted_boxes, cell_xyz) =
+        (&ws.slots, &ws.sorted, &ws.sorted_boxes, &ws.cell_xyz);
     ws.chunk_pairs
         .par_iter_mut()
         .enumerate()
@@ -221,16 +229,12 @@ pub fn nbs_pairs(
                 for dz in -1..=1 {
                     for dy in -1..=1 {
                         for dx in -1..=1 {
-                            let id = lookup(slots, cells, &[c[0] + dx, c[1] + dy, c[2] + dz]);
-                            if id == EMPTY {
+                            let Some(s) = lookup(slots, &[c[0] + dx, c[1] + dy, c[2] + dz]) else {
                                 continue;
-                            }
-                            let s = start[id as usize] as usize;
-                            for &f in &sorted[s..s + count[id as usize] as usize] {
-                                if f as usize > e
-                                    && be.overlaps(&boxes[f as usize])
-                                    && keep(e as u32, f)
-                                {
+                            };
+                            let run = s.start as usize..(s.start + s.count) as usize;
+                            for (&f, bf) in sorted[run.clone()].iter().zip(&sorted_boxes[run]) {
+                                if f as usize > e && be.overlaps(bf) && keep(e as u32, f) {
                                     pairs.push([e as u32, f]);
                                 }
                             }
