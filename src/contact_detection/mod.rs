@@ -91,6 +91,8 @@ pub struct NbsWorkspace {
     sorted_boxes: Vec<Aabb>,
     fill: Vec<u32>,
     chunk_pairs: Vec<Vec<[u32; 2]>>,
+    /// Pairs per first element (counting sort of the output by first index).
+    first_count: Vec<u32>,
 }
 
 impl NbsWorkspace {
@@ -99,7 +101,11 @@ impl NbsWorkspace {
         use std::mem::size_of;
         self.cell_xyz.capacity() * size_of::<[i64; 3]>()
             + self.slots.capacity() * size_of::<Slot>()
-            + (self.slot_of.capacity() + self.sorted.capacity() + self.fill.capacity()) * 4
+            + (self.slot_of.capacity()
+                + self.sorted.capacity()
+                + self.fill.capacity()
+                + self.first_count.capacity())
+                * 4
             + self.sorted_boxes.capacity() * size_of::<Aabb>()
             + self
                 .chunk_pairs
@@ -109,12 +115,14 @@ impl NbsWorkspace {
     }
 }
 
+/// Slot of a cell: linear in x, so cells adjacent along x sit in adjacent slots and the 27
+/// cells around a cell fall in 9 runs of 3 slots (9 cache lines, shared by the next cell).
 #[inline(always)]
 fn hash(c: &[i64; 3], mask: usize) -> usize {
-    let h = (c[0] as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-        ^ (c[1] as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
-        ^ (c[2] as u64).wrapping_mul(0x1656_67B1_9E37_79F9);
-    ((h ^ (h >> 29)) as usize) & mask
+    let h = (c[0] as u64)
+        .wrapping_add((c[1] as u64).wrapping_mul(0x9E37_79B1))
+        .wrapping_add((c[2] as u64).wrapping_mul(0x85EB_CA77_C2B2_AE3D));
+    (h as usize) & mask
 }
 
 /// The slot of integer cell `c`, or None when no element lies in it.
@@ -213,7 +221,9 @@ pub fn nbs_pairs(
     ws.sorted_boxes.clear();
     ws.sorted_boxes
         .par_extend(ws.sorted.par_iter().map(|&e| boxes[e as usize]));
-    // Search the 27 cells around each element's cell for higher-indexed overlapping boxes.
+    // Search the 27 cells around each element's cell for higher-indexed overlapping boxes,
+    // visiting the elements cell by cell (neighbouring elements share their lookups' cache
+    // lines).
     let n_chunks = n.div_ceil(CHUNK);
     ws.chunk_pairs.resize_with(n_chunks, Vec::new);
     let (slots, sorted, sorted_boxes, cell_xyz) =
@@ -223,9 +233,10 @@ pub fn nbs_pairs(
         .enumerate()
         .for_each(|(ci, pairs)| {
             pairs.clear();
-            for e in ci * CHUNK..((ci + 1) * CHUNK).min(n) {
+            for k in ci * CHUNK..((ci + 1) * CHUNK).min(n) {
+                let e = sorted[k] as usize;
                 let c = cell_xyz[e];
-                let be = &boxes[e];
+                let be = &sorted_boxes[k];
                 for dz in -1..=1 {
                     for dy in -1..=1 {
                         for dx in -1..=1 {
@@ -243,8 +254,21 @@ pub fn nbs_pairs(
                 }
             }
         });
-    for p in &ws.chunk_pairs {
-        out.extend_from_slice(p);
+    // Order the pairs by their first element (a counting sort: linear, deterministic).
+    ws.first_count.clear();
+    ws.first_count.resize(n + 1, 0);
+    for p in ws.chunk_pairs.iter().flatten() {
+        ws.first_count[p[0] as usize + 1] += 1;
+    }
+    for i in 0..n {
+        ws.first_count[i + 1] += ws.first_count[i];
+    }
+    let total = ws.first_count[n] as usize;
+    out.resize(total, [0, 0]);
+    for p in ws.chunk_pairs.iter().flatten() {
+        let k = &mut ws.first_count[p[0] as usize];
+        out[*k as usize] = *p;
+        *k += 1;
     }
 }
 
