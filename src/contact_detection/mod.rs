@@ -392,6 +392,7 @@ pub fn update_pairs(
             .map(|&e| Aabb::of_points(&tn[e as usize].map(|n| x[n as usize])).inflate(half)),
     );
     let (surface, fragment, broken) = (&contact.surface, &contact.fragment, &contact.broken_faces);
+    let fragment0 = &contact.fragment0;
     let x0 = &nodes.x0;
     let continuous: Vec<bool> = bodies
         .iter()
@@ -485,7 +486,7 @@ pub fn update_pairs(
         let s = s.unwrap_or_else(|| {
             let (a, b) = (surface[p[0] as usize], surface[p[1] as usize]);
             let mut s = crate::contact_interaction::PairState::default();
-            if shared_of(a, b) > 0 {
+            if fragment0[a as usize] == fragment0[b as usize] && shared_of(a, b) > 0 {
                 s.armed = false;
                 if let Ok(i) = broken.binary_search_by_key(&[a.min(b), a.max(b)], |x| x.0) {
                     s.joint = broken[i].1;
@@ -572,6 +573,9 @@ fn refresh_surface(
     sn.dedup();
     contact.surface_nodes = sn;
     contact.fragment = crate::fracture::fragments(&tets.nodes, joints, nodes.len());
+    if contact.fragment0.len() != tets.len() {
+        contact.fragment0 = contact.fragment.clone();
+    }
     contact.broken_faces = broken;
     contact.surface_stale = false;
     contact.detector.stale = true;

@@ -11,14 +11,16 @@
 //! stored force on the current tangent plane, keeping its magnitude), then returned to the
 //! Coulomb cone |f_t| ≤ μ|F_n| (sliding). The work μ|F_n|·(|f_trial| − μ|F_n|)/k_t of each
 //! slip is dissipated and ½|f_t|²/k_t is stored. The spring stiffness follows the normal one
-//! for a thin overlap, k_t = 4·p_t·A·(1/h_c + 1/h_t), with A the contact area and h the
-//! smallest height of each element: static friction holds with an elastic offset |f_t|/k_t,
+//! of one face node for a thin overlap, k_t = (4/3)·p_t·A·(1/h_c + 1/h_t), with A the contact
+//! area and h the smallest height of each element (the spring acts at one point, so one node
+//! may carry all of it): static friction holds with an elastic offset |f_t|/k_t,
 //! kinetic friction slides at μ|F_n|. Storing the force rather than the spring extension
 //! keeps the force continuous when A (hence k_t) changes.
 //!
 //! **Normal damping** (optional, ratio ζ): a dashpot on the normal relative velocity at x_p,
-//! f_d = −2ζ·√(k_n·m*)·(v_rel·n)·n with k_n = 4·p·A·(1/h_c + 1/h_t) and m* the reduced mass
-//! of the two tetrahedra, never pulling harder than the contact pushes. Its work is
+//! f_d = −2ζ·√(k·m*)·(v_rel·n)·n with k = (4/3)·p·A·(1/h_c + 1/h_t) and m* the reduced mass
+//! of one node of each tetrahedron (ζ is the damping ratio of one face node on its contact
+//! spring), never pulling harder than the contact pushes. Its work is
 //! dissipated (booked with friction).
 //!
 //! **Determinism**: pairs are evaluated in parallel and their forces added to the nodes in
@@ -81,6 +83,22 @@ pub struct PairState {
     /// The broken joint between the two elements (u32::MAX if none): it keeps acting until
     /// the pair is armed, then hands its faces over to contact.
     pub joint: u32,
+    /// Friction + damping force on the contactor in the last step [N], and the energy then
+    /// stored in the friction spring [J] (for the dissipation account).
+    pub f_prev: Vec3,
+    pub e_prev: Real,
+}
+
+impl PairState {
+    /// The pair stopped touching: its friction spring is released (booked as dissipated).
+    #[inline]
+    fn release(&mut self, sums: &mut ContactSums) {
+        sums.dissipated += self.e_prev;
+        self.e_prev = 0.0;
+        self.f_prev = Vec3::zeros();
+        self.spring = Vec3::zeros();
+        self.touching = false;
+    }
 }
 
 impl Default for PairState {
@@ -90,6 +108,8 @@ impl Default for PairState {
             touching: false,
             armed: true,
             joint: u32::MAX,
+            f_prev: Vec3::zeros(),
+            e_prev: 0.0,
         }
     }
 }
@@ -142,6 +162,9 @@ pub struct Contact {
     pub surface_nodes: Vec<u32>,
     /// Fragment of each tet at the last detection.
     pub fragment: Vec<u32>,
+    /// Fragment of each tet when contact started: only tets that were once connected can
+    /// carry an overlap contact did not make (see [`PairState::armed`]).
+    pub fragment0: Vec<u32>,
     /// Tet pairs (lower id first) across a broken joint, sorted, with the joint id.
     pub broken_faces: Vec<([u32; 2], u32)>,
     /// Candidate pairs (indices into `surface`), from stage 4.
@@ -320,8 +343,7 @@ pub fn add_contact_forces(
                 let [a, b] = pairs_ref[pi];
                 // Cheap rejection on current boxes.
                 if !boxes[a as usize].overlaps(&boxes[b as usize]) {
-                    ps.touching = false;
-                    ps.spring = Vec3::zeros();
+                    ps.release(sums);
                     if !ps.armed {
                         ps.armed = true;
                         if ps.joint != u32::MAX {
@@ -331,8 +353,7 @@ pub fn add_contact_forces(
                     continue;
                 }
                 let (Some(gc), Some(gt)) = (&geom[a as usize], &geom[b as usize]) else {
-                    ps.touching = false;
-                    ps.spring = Vec3::zeros();
+                    ps.release(sums);
                     continue;
                 };
                 let (ea, eb) = (surface_ref[a as usize], surface_ref[b as usize]);
@@ -340,17 +361,21 @@ pub fn add_contact_forces(
                     + tet_material[eb as usize] as usize];
                 let r = tet_tet(gc, gt, pr.penalty);
                 if !ps.armed {
-                    if !r.touching {
+                    // Armed once there is no overlap energy to release (exactly touching
+                    // faces, e.g. blocks that start face to face, arm at once).
+                    let scale = pr.penalty * gc.volume.abs().min(gt.volume.abs());
+                    if !r.touching || r.energy <= 1e-12 * scale {
                         ps.armed = true;
                         if ps.joint != u32::MAX {
                             handover.push(ps.joint);
                         }
                     }
-                    continue;
+                    if !ps.armed {
+                        continue;
+                    }
                 }
                 if !r.touching {
-                    ps.touching = false;
-                    ps.spring = Vec3::zeros();
+                    ps.release(sums);
                     continue;
                 }
                 sums.max_overlap = sums.max_overlap.max(r.depth);
@@ -372,24 +397,28 @@ pub fn add_contact_forces(
                     for i in 0..4 {
                         dv += v[na[i] as usize] * nc[i] - v[nb[i] as usize] * nt[i];
                     }
-                    let stiff = 4.0 * r.area * (inv_h[a as usize] + inv_h[b as usize]);
+                    // k_n/3 per unit penalty: the thin-overlap stiffness of one face node. The
+                    // friction spring and the dashpot act at one point, so one node can feel
+                    // all of them; sized per node they stay within the critical time step.
+                    let stiff = 4.0 / 3.0 * r.area * (inv_h[a as usize] + inv_h[b as usize]);
                     let mut fx = Vec3::zeros();
                     // Normal dashpot first: Coulomb acts on the whole normal force.
                     let mut normal = fn_mag;
                     if pr.damping > 0.0 {
                         let kn = pr.penalty * stiff;
                         let (mc, mt) = (tet_mass[ea as usize], tet_mass[eb as usize]);
-                        let m_red = mc * mt / (mc + mt);
+                        // Reduced mass of one node of each tet.
+                        let m_red = 0.25 * mc * mt / (mc + mt);
                         let c = 2.0 * pr.damping * (kn * m_red).sqrt();
                         let vn = n.dot(&dv);
                         // Never pull harder than the contact pushes.
                         let fd = (-c * vn).max(-fn_mag);
-                        sums.dissipated += -fd * vn * dt_prev;
                         fx += n * fd;
                         normal += fd;
                     }
+                    let du = dv * dt_prev;
+                    let mut e_spring = 0.0;
                     if pr.friction > 0.0 {
-                        let du = dv * dt_prev;
                         let du_t = du - n * n.dot(&du);
                         let kt = pr.tangential_penalty * stiff;
                         // Keep the stored force's magnitude on the new tangent plane.
@@ -404,22 +433,29 @@ pub fn add_contact_forces(
                         let limit = pr.friction * normal;
                         let mag = ft.norm();
                         if mag > limit {
-                            sums.dissipated += limit * (mag - limit) / kt;
                             ft *= limit / mag;
                         }
                         ps.spring = ft;
-                        energy += 0.5 * ft.norm_squared() / kt;
+                        e_spring = 0.5 * ft.norm_squared() / kt;
+                        energy += e_spring;
                         sums.friction_force += ft.norm();
                         fx += ft;
                     } else {
                         ps.spring = Vec3::zeros();
                     }
+                    // Dissipated = −(work of these forces) − (change of the spring energy), the
+                    // work in the central difference's trapezoid form ½(f_{n−1} + f_n)·Δu_n.
+                    sums.dissipated += -0.5 * (ps.f_prev + fx).dot(&du) - (e_spring - ps.e_prev);
+                    ps.f_prev = fx;
+                    ps.e_prev = e_spring;
                     for i in 0..4 {
                         f[i] += fx * nc[i];
                         f[4 + i] -= fx * nt[i];
                     }
                 } else {
-                    ps.spring = Vec3::zeros();
+                    let was = ps.touching;
+                    ps.release(sums);
+                    ps.touching = was;
                 }
                 sums.energy += energy;
                 sums.active += 1;
