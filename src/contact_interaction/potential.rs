@@ -45,8 +45,8 @@ use crate::mesh::TET_FACES;
 
 /// Barycentric values this close to 0 count as on the plane.
 const SNAP: Real = 1e-9;
-/// Polygon capacity: a triangle clipped by 4 + 3 planes has at most 10 vertices.
-const MAX_POLY: usize = 12;
+/// Polygon capacity: a triangle clipped by 4 + 3 planes has at most 3 + 7 = 10 vertices.
+const MAX_POLY: usize = 10;
 
 /// Geometry of one tetrahedron prepared for contact: barycentric gradients, centroid and
 /// outward face normals.
@@ -60,6 +60,8 @@ pub struct TetGeom {
     pub normal: [Vec3; 4],
     /// Signed volume [m³].
     pub volume: Real,
+    /// Height over each face, 1/|∇λ_k| [m].
+    pub height: [Real; 4],
 }
 
 impl TetGeom {
@@ -83,6 +85,7 @@ impl TetGeom {
         });
         Some(TetGeom {
             x,
+            height: g.map(|gk| 1.0 / gk.norm()),
             g,
             centroid: (x[0] + x[1] + x[2] + x[3]) * 0.25,
             normal,
@@ -121,52 +124,88 @@ pub struct PairForces {
     pub depth: Real,
 }
 
+/// A polygon vertex with its barycentric coordinates in the other element (`bo`) and in
+/// its own (`bs`): both are affine, so clipping interpolates them exactly and no vertex is
+/// ever re-projected.
 #[derive(Clone, Copy)]
+struct Vert {
+    x: Vec3,
+    bo: [Real; 4],
+    bs: [Real; 4],
+}
+
+impl Vert {
+    #[inline(always)]
+    fn lerp(&self, o: &Vert, t: Real) -> Vert {
+        let mut bo = [0.0; 4];
+        let mut bs = [0.0; 4];
+        for k in 0..4 {
+            bo[k] = self.bo[k] + (o.bo[k] - self.bo[k]) * t;
+            bs[k] = self.bs[k] + (o.bs[k] - self.bs[k]) * t;
+        }
+        Vert {
+            x: self.x + (o.x - self.x) * t,
+            bo,
+            bs,
+        }
+    }
+}
+
+/// A convex polygon of at most MAX_POLY vertices (uninitialised beyond `n`: no memset per
+/// clip).
 struct Poly {
-    v: [Vec3; MAX_POLY],
+    v: [std::mem::MaybeUninit<Vert>; MAX_POLY],
     n: usize,
 }
 
 impl Poly {
-    fn triangle(a: Vec3, b: Vec3, c: Vec3) -> Self {
-        let mut v = [Vec3::zeros(); MAX_POLY];
-        v[0] = a;
-        v[1] = b;
-        v[2] = c;
-        Poly { v, n: 3 }
+    #[inline(always)]
+    fn new() -> Self {
+        Poly {
+            v: [const { std::mem::MaybeUninit::uninit() }; MAX_POLY],
+            n: 0,
+        }
     }
 
-    /// Keep the part where `s(x) ≥ 0` (values within SNAP of 0 count as on the plane).
-    #[inline]
-    fn clip(&self, s: impl Fn(&Vec3) -> Real) -> Poly {
-        let mut out = Poly {
-            v: [Vec3::zeros(); MAX_POLY],
-            n: 0,
-        };
-        if self.n == 0 {
-            return out;
+    #[inline(always)]
+    fn get(&self, i: usize) -> &Vert {
+        debug_assert!(i < self.n);
+        // SAFETY: vertices 0..n are always written before n grows past them.
+        unsafe { self.v[i].assume_init_ref() }
+    }
+
+    #[inline(always)]
+    fn push(&mut self, v: Vert) {
+        if self.n < MAX_POLY {
+            self.v[self.n].write(v);
+            self.n += 1;
+        }
+    }
+
+    /// Write into `out` the part where `s(v) ≥ 0` (values within SNAP of 0 count as on the
+    /// plane).
+    #[inline(always)]
+    fn clip_into(&self, out: &mut Poly, s: impl Fn(&Vert) -> Real) {
+        out.n = 0;
+        let n = self.n;
+        if n == 0 {
+            return;
         }
         let mut sv = [0.0; MAX_POLY];
-        for i in 0..self.n {
-            let x = s(&self.v[i]);
+        for i in 0..n {
+            let x = s(self.get(i));
             sv[i] = if x.abs() <= SNAP { 0.0 } else { x };
         }
-        for i in 0..self.n {
-            let j = if i + 1 == self.n { 0 } else { i + 1 };
+        for i in 0..n {
+            let j = if i + 1 == n { 0 } else { i + 1 };
             let (a, b) = (sv[i], sv[j]);
-            if a >= 0.0 && out.n < MAX_POLY {
-                out.v[out.n] = self.v[i];
-                out.n += 1;
+            if a >= 0.0 {
+                out.push(*self.get(i));
             }
             if (a > 0.0 && b < 0.0) || (a < 0.0 && b > 0.0) {
-                let t = a / (a - b);
-                if out.n < MAX_POLY {
-                    out.v[out.n] = self.v[i] + (self.v[j] - self.v[i]) * t;
-                    out.n += 1;
-                }
+                out.push(self.get(i).lerp(self.get(j), a / (a - b)));
             }
         }
-        out
     }
 }
 
@@ -249,47 +288,60 @@ fn faces_inside(
             return;
         }
     }
-    let mut poly = Poly::triangle(own.x[f[0]], own.x[f[1]], own.x[f[2]]);
+    let mut a = Poly::new();
+    let mut b = Poly::new();
+    for &v in &f {
+        let mut bs = [0.0; 4];
+        bs[v] = 1.0;
+        a.push(Vert {
+            x: own.x[v],
+            bo: b_own_in_other[v],
+            bs,
+        });
+    }
+    // Clip by the other's four faces, ping-ponging between two buffers.
+    let (mut cur, mut next) = (&mut a, &mut b);
     for j in 0..4 {
         if f.iter().all(|&v| b_own_in_other[v][j] >= SNAP) {
             continue; // entirely inside this half-space
         }
-        poly = poly.clip(|x| other.bary(x)[j]);
-        if poly.n < 3 {
+        cur.clip_into(next, |v| v.bo[j]);
+        std::mem::swap(&mut cur, &mut next);
+        if cur.n < 3 {
             return;
         }
     }
+    let poly = cur;
     let n = own.normal[k];
     // Split by the other's regions R_m = {λ_m ≤ λ_j}.
-    let mut region = [0usize; MAX_POLY];
-    let mut same = true;
-    for i in 0..poly.n {
-        let b = other.bary(&poly.v[i]);
-        region[i] = argmin(&b);
-        if region[i] != region[0] {
-            same = false;
-        }
+    let r0 = argmin(&poly.get(0).bo);
+    if (1..poly.n).all(|i| argmin(&poly.get(i).bo) == r0) {
+        integrate_piece(own, other, poly, r0, n, side, acc);
+        return;
     }
-    if same {
-        integrate_piece(own, other, &poly, region[0], n, side, acc);
-    } else {
-        for m in 0..4 {
-            let mut piece = poly;
-            for j in 0..4 {
-                if j == m {
-                    continue;
-                }
-                piece = piece.clip(|x| {
-                    let b = other.bary(x);
-                    b[j] - b[m]
-                });
-                if piece.n < 3 {
-                    break;
-                }
+    let mut p1 = Poly::new();
+    let mut p2 = Poly::new();
+    for m in 0..4 {
+        let mut first = true;
+        let (mut cur, mut next) = (&mut p1, &mut p2);
+        for j in 0..4 {
+            if j == m {
+                continue;
             }
-            if piece.n >= 3 {
-                integrate_piece(own, other, &piece, m, n, side, acc);
+            let s = |v: &Vert| v.bo[j] - v.bo[m];
+            if first {
+                poly.clip_into(next, s);
+                first = false;
+            } else {
+                cur.clip_into(next, s);
             }
+            std::mem::swap(&mut cur, &mut next);
+            if cur.n < 3 {
+                break;
+            }
+        }
+        if cur.n >= 3 {
+            integrate_piece(own, other, cur, m, n, side, acc);
         }
     }
 }
@@ -319,15 +371,18 @@ fn integrate_piece(
     let mut phi = [0.0; MAX_POLY];
     let mut n_own = [[0.0; 4]; MAX_POLY];
     let mut n_oth = [[0.0; 4]; MAX_POLY];
+    let mut xs = [Vec3::zeros(); MAX_POLY];
     for i in 0..poly.n {
-        let bo = other.bary(&poly.v[i]);
+        let v = poly.get(i);
+        let bo = v.bo;
         phi[i] = 4.0 * bo[m];
         let d = (0..4)
-            .map(|k| bo[k] / other.g[k].norm())
+            .map(|k| bo[k] * other.height[k])
             .fold(Real::INFINITY, Real::min);
         acc.depth = acc.depth.max(d);
         n_oth[i] = bo;
-        n_own[i] = own.bary(&poly.v[i]);
+        n_own[i] = v.bs;
+        xs[i] = v.x;
     }
     let mut area = 0.0;
     let mut first = Vec3::zeros(); // ∫ x dA
@@ -336,15 +391,12 @@ fn integrate_piece(
     let mut i_phi = 0.0; // ∫ φ dA
     for tri in 1..poly.n - 1 {
         let (a, b, c) = (0, tri, tri + 1);
-        let at = 0.5
-            * (poly.v[b] - poly.v[a])
-                .cross(&(poly.v[c] - poly.v[a]))
-                .dot(&n);
+        let at = 0.5 * (xs[b] - xs[a]).cross(&(xs[c] - xs[a])).dot(&n);
         if at == 0.0 {
             continue;
         }
         area += at;
-        first += (poly.v[a] + poly.v[b] + poly.v[c]) * (at / 3.0);
+        first += (xs[a] + xs[b] + xs[c]) * (at / 3.0);
         let sphi = phi[a] + phi[b] + phi[c];
         i_phi += at * sphi / 3.0;
         // ∫ f g = A/12 · (Σ f_v g_v + Σf · Σg) for linear f, g on a triangle.
