@@ -165,8 +165,11 @@ pub fn break_joints(
                     for j in 0..joints.len() {
                         if !joints.broken[j] && c.says_break(joints, j, x, time) {
                             released += joints.stored_energy(j, x);
-                            for p in joints.state[j].iter_mut() {
+                            // Fully damaged now; the friction springs start unstretched.
+                            let (_, _, pts) = crate::joints::joint_kinematics(&joints.faces[j], x);
+                            for (p, (_, ds, dir)) in joints.state[j].iter_mut().zip(pts) {
                                 p.damage = 1.0;
+                                p.anchor = dir * ds;
                             }
                             record(joints, j, x, tet_body, time, events);
                         }

@@ -291,10 +291,65 @@ impl Cohesive {
                 t.energy += 0.5 * kt * (k.slip_vector - next).norm_squared();
             }
         } else {
+            // Broken and open: the friction spring follows the slip.
             s.anchor = k.slip_vector;
         }
         t.dissipated = dissipated;
         t
+    }
+
+    /// The undamaged pre-peak path of [`Self::evaluate_with`] for the three points of a joint
+    /// at once, without the stored energy: the traction vectors σ·n + τ (τ along the slip)
+    /// [Pa], or None when a point has D > 0 or passes its peak (then the general path runs;
+    /// nothing has been written). `dn` are the openings, `st` the tangential jump vectors.
+    /// Same equations as the general path, without dividing by the slip: τ·(s/|s|) =
+    /// s·f_s·(p_t/h)/(2f_s)·(2 − x_s).
+    #[inline(always)]
+    pub fn intact_tractions(
+        &self,
+        c: &CohesiveConsts,
+        inv_h: Real,
+        n: &Vec3,
+        dn: &[Real; 3],
+        st: &[Vec3; 3],
+        s: &mut [PointState; 3],
+    ) -> Option<[Vec3; 3]> {
+        if s.iter().any(|p| p.damage > 0.0) {
+            return None;
+        }
+        let (kn, kt) = (self.normal_penalty * inv_h, self.tangential_penalty * inv_h);
+        let mut out = [Vec3::zeros(); 3];
+        let mut ds = [0.0; 3];
+        for p in 0..3 {
+            let compression = if dn[p] < 0.0 { kn * dn[p] } else { 0.0 };
+            let (fs, half_inv_fs) = if compression < 0.0 {
+                let fs = self.shear_strength(compression);
+                (fs, 0.5 / fs)
+            } else {
+                (self.cohesion, c.half_inv_c)
+            };
+            let xn = dn[p].max(0.0) * kn * c.half_inv_ft;
+            ds[p] = st[p].norm();
+            let xs = ds[p] * kt * half_inv_fs;
+            if xn > 1.0 || xs > 1.0 {
+                return None;
+            }
+            let normal = if dn[p] > 0.0 {
+                self.tensile_strength * xn * (2.0 - xn)
+            } else {
+                compression
+            };
+            out[p] = n * normal + st[p] * (fs * kt * half_inv_fs * (2.0 - xs));
+        }
+        for p in 0..3 {
+            if dn[p] > s[p].max_opening {
+                s[p].max_opening = dn[p];
+            }
+            if ds[p] > s[p].max_slip {
+                s[p].max_slip = ds[p];
+            }
+        }
+        Some(out)
     }
 
     /// z(D) with the undamaged case exact and free.
@@ -351,6 +406,70 @@ mod tests {
     /// At fixed damage the traction derives from the stored energy: σ = ∂ψ/∂δn,
     /// τ = ∂ψ/∂δs (central differences, step 1e-3·δp: truncation ~1e-7 of the strength;
     /// tolerance 1e-6 of the strength).
+    /// The undamaged fast path gives the general path's traction vectors and history, to
+    /// rounding, for openings, closures and slips below the peaks (and declines above them).
+    #[test]
+    fn intact_fast_path_equals_the_general_path() {
+        let law = rock();
+        let c = law.consts();
+        let h = 0.01;
+        let n = Vec3::new(0.3, -0.2, 0.9).normalize();
+        let t1 = n.cross(&Vec3::x()).normalize();
+        let t2 = n.cross(&t1);
+        let dnp = law.peak_opening(h);
+        let mut seed = 7u64;
+        let mut r = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as Real / (1u64 << 53) as Real - 0.5
+        };
+        let (mut fast_cases, mut declined) = (0, 0);
+        for _ in 0..2000 {
+            let dn = [(); 3].map(|_| 2.4 * dnp * r());
+            let st = [(); 3].map(|_| (t1 * r() + t2 * r()) * 2.4 * dnp);
+            let mut s_fast = [PointState::default(); 3];
+            let mut s_gen = s_fast;
+            let fast = law.intact_tractions(&c, 1.0 / h, &n, &dn, &st, &mut s_fast);
+            let general: [Vec3; 3] = std::array::from_fn(|p| {
+                let ds = st[p].norm();
+                let dir = if ds > 0.0 { st[p] / ds } else { Vec3::zeros() };
+                let k = PointKinematics {
+                    opening: dn[p],
+                    slip: ds,
+                    slip_vector: st[p],
+                    normal: n,
+                    size: h,
+                };
+                let t = law.evaluate_with(&c, &k, 1.0 / h, &mut s_gen[p], false);
+                n * t.normal + dir * t.shear + t.friction
+            });
+            match fast {
+                Some(t) => {
+                    fast_cases += 1;
+                    for p in 0..3 {
+                        assert!((t[p] - general[p]).norm() <= 1e-12 * general[p].norm().max(1.0));
+                        assert_eq!(s_fast[p].damage, s_gen[p].damage);
+                        assert_eq!(s_fast[p].max_opening, s_gen[p].max_opening);
+                        assert!((s_fast[p].max_slip - s_gen[p].max_slip).abs() <= 1e-18);
+                        assert_eq!(s_fast[p].anchor, s_gen[p].anchor);
+                    }
+                }
+                None => {
+                    declined += 1;
+                    assert!(
+                        s_gen.iter().any(|p| p.damage > 0.0),
+                        "declined below the peak"
+                    );
+                }
+            }
+        }
+        assert!(
+            fast_cases > 100 && declined > 100,
+            "{fast_cases} fast, {declined} declined"
+        );
+    }
+
     #[test]
     fn traction_is_energy_derivative_at_fixed_damage() {
         let law = rock();

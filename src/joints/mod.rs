@@ -472,6 +472,34 @@ pub fn joint_kinematics(
     (n, 0.5 * len, pts)
 }
 
+/// Unit normal, mid-surface area, openings and tangential jump vectors of a joint (the
+/// kinematics of [`joint_kinematics`] without normalising the slip).
+#[inline(always)]
+fn joint_jumps(faces: &[[u32; 3]; 2], x: &[Vec3]) -> (Vec3, Real, [Real; 3], [Vec3; 3]) {
+    let a = faces[0].map(|n| x[n as usize]);
+    let b = faces[1].map(|n| x[n as usize]);
+    let m = [
+        (a[0] + b[0]) * 0.5,
+        (a[1] + b[1]) * 0.5,
+        (a[2] + b[2]) * 0.5,
+    ];
+    let nv = (m[1] - m[0]).cross(&(m[2] - m[0]));
+    let len = nv.norm();
+    let n = if len > 0.0 {
+        nv * (1.0 / len)
+    } else {
+        Vec3::zeros()
+    };
+    let mut dn = [0.0; 3];
+    let mut st = [Vec3::zeros(); 3];
+    for i in 0..3 {
+        let d = b[i] - a[i];
+        dn[i] = d.dot(&n);
+        st[i] = d - n * dn[i];
+    }
+    (n, 0.5 * len, dn, st)
+}
+
 /// Stage 2: add the joint forces of every intact or broken joint to `nodes.f`.
 ///
 /// Colour by colour (see [`Joints::prepare`]), blocks of joints add their nodal forces
@@ -507,9 +535,24 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
             // SAFETY: blocks are disjoint ranges of joints, so each state is
             // borrowed by one iteration only.
             let st = unsafe { &mut *sp.get().add(j) };
-            let (n, area, pts) = joint_kinematics(&faces[j], x);
             let (lw, cs) = (&laws[law[j] as usize], &consts[law[j] as usize]);
             let inv_h = 1.0 / size[j];
+            // Fast path: an undamaged cohesive joint below its peak (energy not requested).
+            if let (JointLaw::Cohesive(c), false) = (lw, want_energy) {
+                let (n, area, dn, tj) = joint_jumps(&faces[j], x);
+                if let Some(t) = c.intact_tractions(cs, inv_h, &n, &dn, &tj, st) {
+                    for p in 0..3 {
+                        let on_b = -t[p] * (area / 3.0);
+                        // SAFETY: as below.
+                        unsafe {
+                            *fp.get().add(faces[j][0][p] as usize) -= on_b;
+                            *fp.get().add(faces[j][1][p] as usize) += on_b;
+                        }
+                    }
+                    continue;
+                }
+            }
+            let (n, area, pts) = joint_kinematics(&faces[j], x);
             let was_failed = st.iter().all(|p| p.damage >= 1.0);
             for (p, (dn, ds, dir)) in pts.iter().enumerate() {
                 let k = PointKinematics {
