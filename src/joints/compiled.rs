@@ -178,17 +178,37 @@ impl CompiledLaw {
     /// NaN, which stops the run as unstable.
     #[inline]
     pub fn evaluate<const N: usize>(&self, inputs: &[f64]) -> [f64; N] {
-        let mut f = Frame {
-            v: [0.0; MAX_SLOTS],
-            out: [f64::NAN; MAX_OUTPUTS],
-        };
+        self.evaluate_in(&mut Frame::new(), inputs)
+    }
+
+    /// [`Self::evaluate`] in a frame the caller reuses across calls: every slot is written
+    /// (an input, or a `let` with its initialiser) before it is read, so the frame needs no
+    /// clearing between calls.
+    #[inline]
+    pub fn evaluate_in<const N: usize>(&self, f: &mut Frame, inputs: &[f64]) -> [f64; N] {
         f.v[..inputs.len()].copy_from_slice(inputs);
+        f.out = [f64::NAN; MAX_OUTPUTS];
         for s in &self.body {
-            if s(&mut f) {
+            if s(f) {
                 break;
             }
         }
         std::array::from_fn(|i| f.out[i])
+    }
+}
+
+impl Frame {
+    pub fn new() -> Self {
+        Frame {
+            v: [0.0; MAX_SLOTS],
+            out: [f64::NAN; MAX_OUTPUTS],
+        }
+    }
+}
+
+impl Default for Frame {
+    fn default() -> Self {
+        Self::new()
     }
 }
 

@@ -88,6 +88,27 @@ impl JointLaw {
         s: &mut PointState,
         want_energy: bool,
     ) -> PointTraction {
+        self.evaluate_in(
+            &mut compiled::Frame::new(),
+            consts,
+            k,
+            inv_h,
+            s,
+            want_energy,
+        )
+    }
+
+    /// [`Self::evaluate`] with a reusable frame for script laws.
+    #[inline]
+    pub fn evaluate_in(
+        &self,
+        frame: &mut compiled::Frame,
+        consts: &CohesiveConsts,
+        k: &PointKinematics,
+        inv_h: Real,
+        s: &mut PointState,
+        want_energy: bool,
+    ) -> PointTraction {
         match self {
             JointLaw::Cohesive(c) => c.evaluate_with(consts, k, inv_h, s, want_energy),
             JointLaw::Tied {
@@ -109,14 +130,17 @@ impl JointLaw {
                 // dissipation (the energy account then shows its work as a balance error).
                 s.max_opening = s.max_opening.max(k.opening);
                 s.max_slip = s.max_slip.max(k.slip);
-                let [normal, shear, damage] = law.evaluate(&[
-                    k.opening,
-                    k.slip,
-                    s.max_opening,
-                    s.max_slip,
-                    k.size,
-                    s.damage,
-                ]);
+                let [normal, shear, damage] = law.evaluate_in(
+                    frame,
+                    &[
+                        k.opening,
+                        k.slip,
+                        s.max_opening,
+                        s.max_slip,
+                        k.size,
+                        s.damage,
+                    ],
+                );
                 s.damage = s.damage.max(damage.min(1.0));
                 PointTraction {
                     normal,
@@ -528,6 +552,7 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
     let mut total = JointSums::default();
     let run_block = |range: &std::ops::Range<usize>| {
         let mut s = JointSums::default();
+        let mut frame = compiled::Frame::new();
         for j in range.clone() {
             if broken[j] && handed_over.get(j).copied().unwrap_or(false) {
                 continue;
@@ -562,7 +587,7 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
                     normal: n,
                     size: size[j],
                 };
-                let t = lw.evaluate(cs, &k, inv_h, &mut st[p], want_energy);
+                let t = lw.evaluate_in(&mut frame, cs, &k, inv_h, &mut st[p], want_energy);
                 let on_b = -(n * t.normal + dir * t.shear + t.friction) * (area / 3.0);
                 // SAFETY: blocks of one colour share no node, and a block runs on
                 // one thread, so no two concurrent writes alias; `f` outlives this.
