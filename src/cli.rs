@@ -425,19 +425,7 @@ pub fn bench(
         (sim, t.elapsed().as_secs_f64())
     };
     let mut sim = sim;
-    sim.prepare().map_err(|e| e.to_string())?;
-    // One warm-up step (page faults, thread pool start) is not timed.
-    sim.step().map_err(|e| e.to_string())?;
-    sim.timers = Default::default();
-    let t = Instant::now();
-    for _ in 0..steps {
-        sim.step().map_err(|e| e.to_string())?;
-    }
-    let seconds = t.elapsed().as_secs_f64();
-    let mut stages = serde_json::Map::new();
-    for s in Stage::ALL {
-        stages.insert(s.name().into(), sim.timers.get(s).into());
-    }
+    let (seconds, stages) = time_steps(&mut sim, steps)?;
     let n = sim.tets.len();
     Ok(serde_json::json!({
         "case": case,
@@ -603,18 +591,7 @@ pub fn bench_fragmented(tets: usize, steps: u64) -> Result<serde_json::Value, St
             ..Default::default()
         });
     let setup = t.elapsed().as_secs_f64();
-    sim.prepare().map_err(|e| e.to_string())?;
-    sim.step().map_err(|e| e.to_string())?;
-    sim.timers = Default::default();
-    let t = Instant::now();
-    for _ in 0..steps {
-        sim.step().map_err(|e| e.to_string())?;
-    }
-    let seconds = t.elapsed().as_secs_f64();
-    let mut stages = serde_json::Map::new();
-    for s in Stage::ALL {
-        stages.insert(s.name().into(), sim.timers.get(s).into());
-    }
+    let (seconds, stages) = time_steps(&mut sim, steps)?;
     let contact =
         sim.timers.get(Stage::ContactDetection) + sim.timers.get(Stage::ContactInteraction);
     let n = sim.tets.len();
@@ -635,4 +612,25 @@ pub fn bench_fragmented(tets: usize, steps: u64) -> Result<serde_json::Value, St
         "contact_bytes": sim.contact.bytes(),
         "stages": stages,
     }))
+}
+
+/// Prepare, take one untimed warm-up step (page faults, thread pool start), then time `steps`
+/// steps: (seconds, seconds per stage keyed by stage module name).
+fn time_steps(
+    sim: &mut Simulation,
+    steps: u64,
+) -> Result<(f64, serde_json::Map<String, serde_json::Value>), String> {
+    sim.prepare().map_err(|e| e.to_string())?;
+    sim.step().map_err(|e| e.to_string())?;
+    sim.timers = Default::default();
+    let t = Instant::now();
+    for _ in 0..steps {
+        sim.step().map_err(|e| e.to_string())?;
+    }
+    let seconds = t.elapsed().as_secs_f64();
+    let mut stages = serde_json::Map::new();
+    for s in Stage::ALL {
+        stages.insert(s.name().into(), sim.timers.get(s).into());
+    }
+    Ok((seconds, stages))
 }

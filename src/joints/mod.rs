@@ -475,25 +475,13 @@ pub fn joint_kinematics(
     faces: &[[u32; 3]; 2],
     x: &[Vec3],
 ) -> (Vec3, Real, [(Real, Real, Vec3); 3]) {
-    let a = faces[0].map(|n| x[n as usize]);
-    let b = faces[1].map(|n| x[n as usize]);
-    let m = [
-        (a[0] + b[0]) * 0.5,
-        (a[1] + b[1]) * 0.5,
-        (a[2] + b[2]) * 0.5,
-    ];
-    let nv = (m[1] - m[0]).cross(&(m[2] - m[0]));
-    let len = nv.norm();
-    let n = if len > 0.0 { nv / len } else { Vec3::zeros() };
+    let (n, area, dn, st) = joint_jumps(faces, x);
     let pts = std::array::from_fn(|i| {
-        let d = b[i] - a[i];
-        let dn = d.dot(&n);
-        let st = d - n * dn;
-        let ds = st.norm();
-        let dir = if ds > 0.0 { st / ds } else { Vec3::zeros() };
-        (dn, ds, dir)
+        let ds = st[i].norm();
+        let dir = if ds > 0.0 { st[i] / ds } else { Vec3::zeros() };
+        (dn[i], ds, dir)
     });
-    (n, 0.5 * len, pts)
+    (n, area, pts)
 }
 
 /// Unit normal, mid-surface area, openings and tangential jump vectors of a joint (the
