@@ -5,10 +5,10 @@
 //! the module list reads as the step ([`pipeline::Simulation::step`]):
 //!
 //! 1. [`elements`] — stress in every tetrahedron from its deformation; nodal internal forces.
-//! 2. joints — joint forces between tetrahedra (not built yet).
-//! 3. fracture — joints that break (not built yet).
-//! 4. contact detection — NBS search (not built yet).
-//! 5. contact interaction — potential contact forces (not built yet).
+//! 2. joints — joint forces between tetrahedra.
+//! 3. fracture — joints that break; fragments.
+//! 4. contact detection — NBS search.
+//! 5. contact interaction — potential contact forces with Coulomb friction.
 //! 6. [`loads`] — gravity, nodal forces, tractions, prescribed velocities.
 //! 7. [`integration`] — central difference, lumped mass, stable time step.
 //!

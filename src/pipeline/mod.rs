@@ -47,10 +47,6 @@ impl Stage {
             Stage::Integration => "integration",
         }
     }
-    /// Whether the stage exists in this build (all seven do).
-    pub fn is_built(self) -> bool {
-        true
-    }
 }
 
 /// Accumulated wall time per stage.

@@ -385,23 +385,14 @@ pub fn summary(
     let total = sim.timers.total();
     s.push_str("   stage                 time [s]    share\n");
     for stage in Stage::ALL {
-        if stage.is_built() {
-            let t = sim.timers.get(stage);
-            let share = if total > 0.0 { 100.0 * t / total } else { 0.0 };
-            s.push_str(&format!(
-                "   {:<20} {:>9.3} {:>7.1} %\n",
-                stage.name(),
-                t,
-                share
-            ));
-        } else {
-            s.push_str(&format!(
-                "   {:<20} {:>9} {:>9}   (not built yet)\n",
-                stage.name(),
-                "-",
-                "-"
-            ));
-        }
+        let t = sim.timers.get(stage);
+        let share = if total > 0.0 { 100.0 * t / total } else { 0.0 };
+        s.push_str(&format!(
+            "   {:<20} {:>9.3} {:>7.1} %\n",
+            stage.name(),
+            t,
+            share
+        ));
     }
     s.push_str(&format!("   {:<20} {:>9.3}\n", "total", total));
     let e = &sim.energy;
