@@ -171,6 +171,8 @@ pub struct Joints {
     pub law: Vec<u32>,
     /// Characteristic size h [m]: mean edge length of the face.
     pub size: Vec<Real>,
+    /// 1/h [1/m], filled by `prepare`.
+    inv_size: Vec<Real>,
     /// Reference area [m²].
     pub area0: Vec<Real>,
     pub state: Vec<[PointState; 3]>,
@@ -395,6 +397,7 @@ impl Joints {
     /// a fixed order, and each block touches a compact part of the node arrays.
     pub fn prepare(&mut self, n_nodes: usize) {
         self.consts = self.laws.iter().map(JointLaw::consts).collect();
+        self.inv_size = self.size.iter().map(|h| 1.0 / h).collect();
         if self.colored == self.faces.len() {
             return;
         }
@@ -524,6 +527,7 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
         faces,
         law,
         size,
+        inv_size,
         state,
         broken,
         handed_over,
@@ -549,7 +553,7 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
             // borrowed by one iteration only.
             let st = unsafe { &mut *sp.get().add(j) };
             let (lw, cs) = (&laws[law[j] as usize], &consts[law[j] as usize]);
-            let inv_h = 1.0 / size[j];
+            let inv_h = inv_size[j];
             // Fast path: an undamaged cohesive joint below its peak (energy not requested).
             if let (JointLaw::Cohesive(c), false) = (lw, want_energy) {
                 let (n, area, dn, tj) = joint_jumps(&faces[j], x);
