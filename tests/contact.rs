@@ -541,11 +541,7 @@ fn dry_stone_arch_stands_when_thick_and_collapses_when_thin() {
 #[test]
 fn contact_results_are_bit_identical_for_1_and_2_threads() {
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        common::on_threads(threads, || {
             let (mut sim, _) = impact_model();
             sim.settings.energy_every = 9;
             for _ in 0..600 {

@@ -278,11 +278,7 @@ fn results_are_bit_identical_for_1_and_2_threads() {
         sim
     }
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        common::on_threads(threads, || {
             let mut sim = model();
             for _ in 0..300 {
                 sim.step().unwrap();

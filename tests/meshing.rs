@@ -7,23 +7,15 @@
 //! They FAIL when gmsh is missing (CI installs it). Hand-written small files test malformed
 //! input: every error names its line (or byte) and the problem.
 
+mod common;
+
+use common::{fdem, run_script, temp_dir};
 use fdem::math::{Real, Vec3};
 use fdem::mesh::gmsh::{self, parse_msh, read_msh, Place};
 use fdem::mesh::{Mesh, ProblemKind, TET_FACES};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
-
-fn fdem() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_fdem"))
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fdem-meshing-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn require_gmsh() {
     assert!(
@@ -673,25 +665,6 @@ fn mirror_and_scale_keep_volumes_positive_and_sets_on_the_same_faces() {
 
 // ─── Scripts ────────────────────────────────────────────────────────────────────
 
-/// Run `fdem run` on a script in `dir`; (success, stdout, stderr).
-fn run_script(dir: &Path, name: &str, text: &str) -> (bool, String, String) {
-    let path = dir.join(format!("{name}.rhai"));
-    std::fs::write(&path, text).unwrap();
-    let out = fdem()
-        .arg("run")
-        .arg(&path)
-        .arg("--quiet")
-        .arg("--out")
-        .arg(dir.join("out"))
-        .output()
-        .unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
 #[test]
 fn script_meshes_a_geo_file_and_selects_its_groups() {
     require_gmsh();
@@ -715,7 +688,7 @@ sim.fix(b.node_set("outer"));
 sim.run(#{ steps: 2 });
 print(`fixed ${b.node_set("outer").len()} of ${b.n_nodes}`);
 "#;
-    let (ok, out, err) = run_script(&dir, "geo", text);
+    let (ok, out, err) = run_script(&dir, "geo", text, &[]);
     assert!(ok, "{out}\n{err}");
     assert!(
         out.contains("sets: [\"hole\", \"outer\", \"solid\"]"),
@@ -728,7 +701,7 @@ let rock = material("elastic/munjiza", #{ density: 2500.0, young: 1e9, poisson: 
 let b = sim.add_body("block", gmsh("box_hole.geo", #{ size: 0.3 }), rock);
 let top = b.set("top");
 "#;
-    let (ok, _, err) = run_script(&dir, "unknown", text);
+    let (ok, _, err) = run_script(&dir, "unknown", text, &[]);
     assert!(!ok);
     assert!(
         err.contains("unknown.rhai:4:")
@@ -740,7 +713,7 @@ let rock = material("elastic/munjiza", #{ density: 2500.0, young: 1e9, poisson: 
 let b = sim.add_body("block", gmsh("box_hole.geo", #{ size: 0.3 }), rock);
 let s = b.element_set("outer");
 "#;
-    let (ok, _, err) = run_script(&dir, "kind", text);
+    let (ok, _, err) = run_script(&dir, "kind", text, &[]);
     assert!(!ok);
     assert!(
         err.contains("element_set(): body 'block' has no element set named 'outer' ('outer' is a face set and a node set)"),
@@ -766,7 +739,7 @@ fn script_errors_for_bad_mesh_files_name_the_problem() {
         CUBE.replace("6 6 2 5 8\n", "6 6 5 2 8\n"),
     )
     .unwrap();
-    let (ok, _, err) = run_script(&dir, "fold", "let m = gmsh(\"fold.msh\");\n");
+    let (ok, _, err) = run_script(&dir, "fold", "let m = gmsh(\"fold.msh\");\n", &[]);
     assert!(!ok);
     assert!(
         err.contains("fold.rhai:1:9: error: gmsh():")
@@ -774,7 +747,7 @@ fn script_errors_for_bad_mesh_files_name_the_problem() {
             && err.contains("tets 0 and 1 fold over each other"),
         "{err}"
     );
-    let (ok, _, err) = run_script(&dir, "type", "let m = gmsh(\"type.msh\");\n");
+    let (ok, _, err) = run_script(&dir, "type", "let m = gmsh(\"type.msh\");\n", &[]);
     assert!(!ok);
     assert!(
         err.contains("type.msh:44: unknown element type 99"),
@@ -784,6 +757,7 @@ fn script_errors_for_bad_mesh_files_name_the_problem() {
         &dir,
         "flipped",
         "let m = gmsh(\"flipped.msh\");\nprint(`volume ${m.volume}`);\n",
+        &[],
     );
     assert!(ok, "{err}");
     assert!(
@@ -819,10 +793,10 @@ let b = sim.add_body("b", box(#{ min: [X0, 0.0, 0.0], max: [2.0, 1.0, 1.0] }).me
 sim.run(#{ steps: 1 });
 "#;
     // Touching: fine.
-    let (ok, out, err) = run_script(&dir, "touch", &base.replace("X0", "1.0"));
+    let (ok, out, err) = run_script(&dir, "touch", &base.replace("X0", "1.0"), &[]);
     assert!(ok, "{out}{err}");
     // Overlapping by 0.1.
-    let (ok, _, err) = run_script(&dir, "over", &base.replace("X0", "0.9"));
+    let (ok, _, err) = run_script(&dir, "over", &base.replace("X0", "0.9"), &[]);
     assert!(!ok);
     assert!(
         err.contains("over.rhai:5:")
@@ -859,7 +833,7 @@ for i in 0..bricks.len() {
 sim.run(#{ steps: 1 });
 expect_near("total", sim.n_tets, 30.0, 0.0);
 "#;
-    let (ok, out, err) = run_script(&dir, "arr", text);
+    let (ok, out, err) = run_script(&dir, "arr", text, &[]);
     assert!(ok, "{out}\n{err}");
 }
 

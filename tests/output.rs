@@ -1,15 +1,11 @@
 //! ParaView and CSV output, read back by independent readers: vtkio (Rust) for base64 frames,
 //! Python's meshio for raw frames (the default). Values must come back bit for bit.
 
+mod common;
+
+use common::temp_dir;
 use fdem::script::{run_source, RunOptions};
 use std::path::{Path, PathBuf};
-
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fdem-output-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 /// A small model with both layouts, stress and motion, run a few steps, with one frame
 /// written at the end (so the frame holds exactly the final state).

@@ -2,39 +2,14 @@
 //! runs in its quick mode (its self-checks are assertions), and bad input fails with
 //! file:line:col and a message that names the problem.
 
+mod common;
+
+use common::{fdem, run_script, temp_dir};
 use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn fdem() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_fdem"))
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fdem-test-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 /// Run `fdem run` on script text; returns (success, stdout, stderr).
 fn run_text(name: &str, text: &str, extra: &[&str]) -> (bool, String, String) {
-    let dir = temp_dir(name);
-    let path = dir.join(format!("{name}.rhai"));
-    std::fs::write(&path, text).unwrap();
-    let out = fdem()
-        .arg("run")
-        .arg(&path)
-        .arg("--quiet")
-        .arg("--out")
-        .arg(dir.join("out"))
-        .args(extra)
-        .output()
-        .unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    run_script(&temp_dir(name), name, text, extra)
 }
 
 #[test]

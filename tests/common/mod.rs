@@ -29,3 +29,55 @@ pub fn plane_x(sim: &Simulation, value: Real, outward: Real) -> Vec<u32> {
         None,
     )
 }
+
+/// The `fdem` binary of this build.
+pub fn fdem() -> std::process::Command {
+    std::process::Command::new(env!("CARGO_BIN_EXE_fdem"))
+}
+
+/// A fresh, empty directory for one test (named by test crate, process and `name`).
+pub fn temp_dir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!(
+        "fdem-{}-{}-{name}",
+        env!("CARGO_CRATE_NAME"),
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Write `text` as `dir/name.rhai` and `fdem run` it quietly with `extra` arguments;
+/// returns (success, stdout, stderr).
+pub fn run_script(
+    dir: &std::path::Path,
+    name: &str,
+    text: &str,
+    extra: &[&str],
+) -> (bool, String, String) {
+    let path = dir.join(format!("{name}.rhai"));
+    std::fs::write(&path, text).unwrap();
+    let out = fdem()
+        .arg("run")
+        .arg(&path)
+        .arg("--quiet")
+        .arg("--out")
+        .arg(dir.join("out"))
+        .args(extra)
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// Run `f` on a rayon pool of `threads` threads (determinism tests).
+pub fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
