@@ -595,8 +595,13 @@ pub fn bench_fragmented(tets: usize, steps: u64) -> Result<serde_json::Value, St
     let contact =
         sim.timers.get(Stage::ContactDetection) + sim.timers.get(Stage::ContactInteraction);
     let n = sim.tets.len();
+    let (kernel_pairs, kernel_ns) = sim
+        .contact
+        .kernel_ns_per_touching_pair(&sim.tets.material, 5);
     Ok(serde_json::json!({
         "case": "fragmented",
+        "kernel_pairs": kernel_pairs,
+        "kernel_ns_per_pair": kernel_ns,
         "tets": n,
         "blocks": sim.bodies.len() - 1,
         "surface_elements": sim.contact.surface.len(),

@@ -298,10 +298,8 @@ fn stack_of_blocks_settles_and_stays_at_rest() {
         .map(|(a, b)| (a - b).norm())
         .fold(0.0, Real::max);
     let released = sim.energy.gravity_work;
-    let on_base: Vec3 = base_nodes
-        .iter()
-        .map(|&n| sim.contact.node_force[n as usize])
-        .sum();
+    let node_force = sim.contact.node_forces(sim.nodes.len());
+    let on_base: Vec3 = base_nodes.iter().map(|&n| node_force[n as usize]).sum();
     println!(
         "drift {drift:.3e} m, max KE {max_ke:.3e} J (gravity work {released:.3e} J), contact force on the base {:.4} N vs weight {weight:.4} N, detections {}, dt {:.3e}",
         -on_base.z, sim.contact.detector.detections, sim.dt

@@ -31,7 +31,7 @@ pub mod potential;
 use crate::contact_detection::{Aabb, Detector};
 use crate::math::{Real, Vec3};
 use crate::pipeline::Nodes;
-use potential::{tet_tet, TetGeom};
+use potential::{overlapping_tet_tet, separating_axis, PairForces, TetGeom, OVERLAPPED};
 use rayon::prelude::*;
 
 /// Contact parameters of one pair of materials.
@@ -87,6 +87,9 @@ pub struct PairState {
     /// stored in the friction spring [J] (for the dissipation account).
     pub f_prev: Vec3,
     pub e_prev: Real,
+    /// The axis that last separated the pair (see [`potential::separating_axis`]), tried
+    /// first.
+    pub witness: u8,
 }
 
 impl PairState {
@@ -110,6 +113,7 @@ impl Default for PairState {
             joint: u32::MAX,
             f_prev: Vec3::zeros(),
             e_prev: 0.0,
+            witness: 0,
         }
     }
 }
@@ -139,6 +143,10 @@ pub struct ContactSums {
 #[derive(Clone, Copy, Debug)]
 struct PairOut {
     pair: u32,
+    /// Simulation ids of the contactor and the target.
+    tets: [u32; 2],
+    /// Their nodes (contactor's 4, then the target's) and the forces on them [N].
+    nodes: [u32; 8],
     f: [Vec3; 8],
     point: Vec3,
     /// Mean normal contact pressure |F_n|/A [Pa].
@@ -179,12 +187,6 @@ pub struct Contact {
     inv_h: Vec<Real>,
     chunk_out: Vec<Vec<PairOut>>,
     chunk_sums: Vec<ContactSums>,
-    /// Contact force on each node in the last step [N] (zero where none).
-    pub node_force: Vec<Vec3>,
-    touched: Vec<u32>,
-    /// Largest contact pressure on each tet in the last step [Pa] (zero where none).
-    pub tet_pressure: Vec<Real>,
-    touched_tets: Vec<u32>,
     /// Record `events` for new touching pairs.
     pub record_events: bool,
     pub events: Vec<ContactEvent>,
@@ -254,6 +256,79 @@ impl Contact {
             .fold(0.0, Real::max)
     }
 
+    /// Contact force on each of `n_nodes` nodes in the last step [N] (zero where none), summed
+    /// in pair order. Built on demand (output, queries): stage 5 only adds to `nodes.f`.
+    pub fn node_forces(&self, n_nodes: usize) -> Vec<Vec3> {
+        let mut f = vec![Vec3::zeros(); n_nodes];
+        for po in self.chunk_out.iter().flatten() {
+            for (k, &n) in po.nodes.iter().enumerate() {
+                if let Some(x) = f.get_mut(n as usize) {
+                    *x += po.f[k];
+                }
+            }
+        }
+        f
+    }
+
+    /// Total contact force in the last step on the nodes `range` (a body's nodes) [N].
+    pub fn force_on(&self, range: std::ops::Range<usize>) -> Vec3 {
+        let mut f = Vec3::zeros();
+        for po in self.chunk_out.iter().flatten() {
+            for (k, &n) in po.nodes.iter().enumerate() {
+                if range.contains(&(n as usize)) {
+                    f += po.f[k];
+                }
+            }
+        }
+        f
+    }
+
+    /// Largest mean contact pressure on each of `n_tets` tets in the last step [Pa] (zero
+    /// where none).
+    pub fn tet_pressures(&self, n_tets: usize) -> Vec<Real> {
+        let mut p: Vec<Real> = vec![0.0; n_tets];
+        for po in self.chunk_out.iter().flatten() {
+            for &e in &po.tets {
+                if let Some(x) = p.get_mut(e as usize) {
+                    *x = Real::max(*x, po.pressure);
+                }
+            }
+        }
+        p
+    }
+
+    /// Single-thread cost of the stage 5 kernel on the pairs that touched in the last step
+    /// (their geometry as of the last step), in ns per pair: the best of `repeats` passes,
+    /// so it is a stable figure on a noisy machine. (touching pairs, ns per pair)
+    pub fn kernel_ns_per_touching_pair(
+        &self,
+        tet_material: &[u32],
+        repeats: usize,
+    ) -> (usize, f64) {
+        let touching: Vec<(TetGeom, TetGeom, Real)> = self
+            .pairs
+            .iter()
+            .zip(&self.state)
+            .filter(|(_, s)| s.touching)
+            .filter_map(|(&[a, b], _)| {
+                let (ea, eb) = (self.surface[a as usize], self.surface[b as usize]);
+                let p = self.props_of(tet_material[ea as usize], tet_material[eb as usize]);
+                Some((self.geom[a as usize]?, self.geom[b as usize]?, p.penalty))
+            })
+            .collect();
+        let mut best = f64::INFINITY;
+        for _ in 0..repeats.max(1) {
+            let t = std::time::Instant::now();
+            let mut e = 0.0;
+            for (c, g, p) in &touching {
+                e += overlapping_tet_tet(c, g, *p).energy;
+            }
+            std::hint::black_box(e);
+            best = best.min(t.elapsed().as_secs_f64());
+        }
+        (touching.len(), best * 1e9 / touching.len().max(1) as f64)
+    }
+
     /// Bytes held by the contact buffers (capacity).
     pub fn bytes(&self) -> usize {
         use std::mem::size_of;
@@ -265,7 +340,11 @@ impl Contact {
             + self.surface.capacity() * 4
             + self.surface_nodes.capacity() * 4
             + self.detector.x_at_detection.capacity() * size_of::<Vec3>()
-            + self.node_force.capacity() * size_of::<Vec3>()
+            + self
+                .chunk_out
+                .iter()
+                .map(|c| c.capacity() * size_of::<PairOut>())
+                .sum::<usize>()
     }
 }
 
@@ -289,10 +368,6 @@ pub fn add_contact_forces(
         inv_h,
         chunk_out,
         chunk_sums,
-        node_force,
-        touched,
-        tet_pressure,
-        touched_tets,
         chunk_handover,
         record_events,
         events,
@@ -300,24 +375,27 @@ pub fn add_contact_forces(
     } = contact;
     let x = &nodes.x;
     let v = &nodes.v;
-    // Current geometry of the surface tets.
-    geom.clear();
-    geom.par_extend(
-        surface
-            .par_iter()
-            .map(|&e| TetGeom::new(tet_nodes[e as usize].map(|n| x[n as usize]))),
-    );
-    current_boxes.clear();
-    current_boxes.par_extend(
-        surface
-            .par_iter()
-            .map(|&e| Aabb::of_points(&tet_nodes[e as usize].map(|n| x[n as usize]))),
-    );
-    inv_h.clear();
-    inv_h.par_extend(geom.par_iter().map(|g| {
-        g.as_ref()
-            .map_or(0.0, |g| g.g.iter().map(|v| v.norm()).fold(0.0, Real::max))
-    }));
+    // Current geometry, box and 1/(smallest height) of the surface tets, in one pass.
+    let n_surface = surface.len();
+    geom.resize(n_surface, None);
+    current_boxes.resize(n_surface, Aabb::of_points(&[Vec3::zeros()]));
+    inv_h.resize(n_surface, 0.0);
+    geom.par_iter_mut()
+        .zip(current_boxes.par_iter_mut())
+        .zip(inv_h.par_iter_mut())
+        .zip(surface.par_iter())
+        .with_min_len(256)
+        .for_each(|(((g, bx), ih), &e)| {
+            let xs = tet_nodes[e as usize].map(|n| x[n as usize]);
+            *bx = Aabb::of_points(&xs);
+            *g = TetGeom::new(xs);
+            *ih = g.as_ref().map_or(0.0, |g| {
+                g.height
+                    .iter()
+                    .fold(Real::INFINITY, |a, &h| a.min(h))
+                    .recip()
+            });
+        });
     let n_chunks = pairs.len().div_ceil(CHUNK);
     chunk_out.resize_with(n_chunks, Vec::new);
     chunk_sums.resize(n_chunks, ContactSums::default());
@@ -359,7 +437,19 @@ pub fn add_contact_forces(
                 let (ea, eb) = (surface_ref[a as usize], surface_ref[b as usize]);
                 let pr = props[tet_material[ea as usize] as usize * n_mat
                     + tet_material[eb as usize] as usize];
-                let r = tet_tet(gc, gt, pr.penalty);
+                let r = match separating_axis(gc, gt, ps.witness) {
+                    Some(axis) => {
+                        ps.witness = axis;
+                        PairForces::default()
+                    }
+                    None => {
+                        let r = overlapping_tet_tet(gc, gt, pr.penalty);
+                        // Not overlapping after all (an edge–edge separation): search all
+                        // axes next step.
+                        ps.witness = if r.touching { OVERLAPPED } else { 0 };
+                        r
+                    }
+                };
                 if !ps.armed {
                     // Armed once there is no overlap energy to release (exactly touching
                     // faces, e.g. blocks that start face to face, arm at once).
@@ -466,6 +556,8 @@ pub fn add_contact_forces(
                     ps.touching = true;
                     out.push(PairOut {
                         pair: pi as u32 | NEW_FLAG,
+                        tets: [ea, eb],
+                        nodes: pair_nodes(tet_nodes, ea, eb),
                         f,
                         point: r.point,
                         pressure: fn_mag / r.area,
@@ -474,6 +566,8 @@ pub fn add_contact_forces(
                     ps.touching = true;
                     out.push(PairOut {
                         pair: pi as u32,
+                        tets: [ea, eb],
+                        nodes: pair_nodes(tet_nodes, ea, eb),
                         f,
                         point: r.point,
                         pressure: fn_mag / r.area,
@@ -481,23 +575,7 @@ pub fn add_contact_forces(
                 }
             }
         });
-    // Add to the nodes in pair order (deterministic), recording the contact force per node.
-    if node_force.len() != nodes.len() {
-        node_force.clear();
-        node_force.resize(nodes.len(), Vec3::zeros());
-    }
-    for &n in touched.iter() {
-        node_force[n as usize] = Vec3::zeros();
-    }
-    touched.clear();
-    if tet_pressure.len() != tet_nodes.len() {
-        tet_pressure.clear();
-        tet_pressure.resize(tet_nodes.len(), 0.0);
-    }
-    for &e in touched_tets.iter() {
-        tet_pressure[e as usize] = 0.0;
-    }
-    touched_tets.clear();
+    // Add to the nodes in pair order (deterministic).
     let mut total = ContactSums::default();
     for (out, s) in chunk_out.iter().zip(chunk_sums.iter()) {
         total.energy += s.energy;
@@ -509,29 +587,13 @@ pub fn add_contact_forces(
         total.max_overlap_ratio = total.max_overlap_ratio.max(s.max_overlap_ratio);
         total.max_pressure = total.max_pressure.max(s.max_pressure);
         for po in out {
-            let pi = (po.pair & !NEW_FLAG) as usize;
-            let [a, b] = pairs[pi];
-            let (ea, eb) = (surface[a as usize], surface[b as usize]);
-            for e in [ea, eb] {
-                if tet_pressure[e as usize] == 0.0 {
-                    touched_tets.push(e);
-                }
-                tet_pressure[e as usize] = tet_pressure[e as usize].max(po.pressure);
-            }
-            let ids = tet_nodes[ea as usize]
-                .into_iter()
-                .chain(tet_nodes[eb as usize]);
-            for (k, n) in ids.enumerate() {
-                nodes.f[n as usize] += po.f[k];
-                if node_force[n as usize] == Vec3::zeros() {
-                    touched.push(n);
-                }
-                node_force[n as usize] += po.f[k];
+            for k in 0..8 {
+                nodes.f[po.nodes[k] as usize] += po.f[k];
             }
             if po.pair & NEW_FLAG != 0 {
                 events.push(ContactEvent {
                     time,
-                    tets: [ea, eb],
+                    tets: po.tets,
                     point: po.point,
                 });
             }
@@ -542,6 +604,12 @@ pub fn add_contact_forces(
     }
     contact.last = total;
     total
+}
+
+#[inline(always)]
+fn pair_nodes(tet_nodes: &[[u32; 4]], ea: u32, eb: u32) -> [u32; 8] {
+    let (a, b) = (tet_nodes[ea as usize], tet_nodes[eb as usize]);
+    [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]]
 }
 
 /// Marks a pair that started touching in this step (top bit of the pair index).

@@ -116,18 +116,21 @@ pub fn encode_frame(
             data: DataArray::ScalarI32(&fragment),
         });
     }
-    let contact_on = sim.contact.is_enabled()
-        && sim.contact.node_force.len() == sim.nodes.len()
-        && sim.contact.tet_pressure.len() == sim.tets.len();
+    let contact_on = sim.contact.is_enabled();
+    let contact_pressure = if contact_on {
+        sim.contact.tet_pressures(sim.tets.len())
+    } else {
+        Vec::new()
+    };
     if contact_on {
         cell_data.push(Field {
             name: "contact_pressure",
-            data: DataArray::ScalarF64(&sim.contact.tet_pressure),
+            data: DataArray::ScalarF64(&contact_pressure),
         });
     }
     let contact_force: Vec<[f64; 3]> = if contact_on {
         sim.contact
-            .node_force
+            .node_forces(sim.nodes.len())
             .iter()
             .map(|f| [f.x, f.y, f.z])
             .collect()

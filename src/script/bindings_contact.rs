@@ -110,15 +110,7 @@ pub fn register(engine: &mut Engine) {
         |s: &mut SimHandle, b: BodyHandle| -> Array {
             let st = s.0.borrow();
             let sim = &st.sim;
-            let f: Vec3 = if sim.contact.node_force.len() == sim.nodes.len() {
-                sim.bodies[b.id]
-                    .nodes
-                    .clone()
-                    .map(|n| sim.contact.node_force[n])
-                    .sum()
-            } else {
-                Vec3::zeros()
-            };
+            let f: Vec3 = sim.contact.force_on(sim.bodies[b.id].nodes.clone());
             vec3_to_array(f)
         },
     );
