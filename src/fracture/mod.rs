@@ -167,9 +167,9 @@ pub fn break_joints(
                             released += joints.stored_energy(j, x);
                             // Fully damaged now; the friction springs start unstretched.
                             let (_, _, pts) = crate::joints::joint_kinematics(&joints.faces[j], x);
-                            for (p, (_, ds, dir)) in joints.state[j].iter_mut().zip(pts) {
-                                p.damage = 1.0;
-                                p.anchor = dir * ds;
+                            for (p, (_, ds, dir)) in pts.into_iter().enumerate() {
+                                joints.state[j][p].damage = 1.0;
+                                joints.anchor[j][p] = dir * ds;
                             }
                             record(joints, j, x, tet_body, time, events);
                         }

@@ -109,7 +109,41 @@ pub struct Cohesive {
     pub residual_friction: Real,
 }
 
-/// History of one integration point.
+/// The part of a point's history that every step reads: damage and the maxima. Joints store
+/// it apart from the friction anchor of broken joints, so the many undamaged joints stream
+/// 72 bytes of history per joint instead of 144.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PointHistory {
+    /// Damage D ∈ [0, 1] (never decreases).
+    pub damage: Real,
+    /// Largest opening and slip so far [m].
+    pub max_opening: Real,
+    pub max_slip: Real,
+}
+
+impl PointState {
+    /// A point's full state from its history and its friction anchor.
+    #[inline(always)]
+    pub fn from_parts(h: PointHistory, anchor: Vec3) -> Self {
+        PointState {
+            damage: h.damage,
+            max_opening: h.max_opening,
+            max_slip: h.max_slip,
+            anchor,
+        }
+    }
+
+    #[inline(always)]
+    pub fn history(&self) -> PointHistory {
+        PointHistory {
+            damage: self.damage,
+            max_opening: self.max_opening,
+            max_slip: self.max_slip,
+        }
+    }
+}
+
+/// History of one integration point (what a law reads and updates).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PointState {
     /// Damage D ∈ [0, 1] (never decreases).
@@ -312,7 +346,7 @@ impl Cohesive {
         n: &Vec3,
         dn: &[Real; 3],
         st: &[Vec3; 3],
-        s: &mut [PointState; 3],
+        s: &mut [PointHistory; 3],
     ) -> Option<[Vec3; 3]> {
         if s.iter().any(|p| p.damage > 0.0) {
             return None;
@@ -428,8 +462,8 @@ mod tests {
         for _ in 0..2000 {
             let dn = [(); 3].map(|_| 2.4 * dnp * r());
             let st = [(); 3].map(|_| (t1 * r() + t2 * r()) * 2.4 * dnp);
-            let mut s_fast = [PointState::default(); 3];
-            let mut s_gen = s_fast;
+            let mut s_fast = [PointHistory::default(); 3];
+            let mut s_gen = [PointState::default(); 3];
             let fast = law.intact_tractions(&c, 1.0 / h, &n, &dn, &st, &mut s_fast);
             let general: [Vec3; 3] = std::array::from_fn(|p| {
                 let ds = st[p].norm();
@@ -452,7 +486,7 @@ mod tests {
                         assert_eq!(s_fast[p].damage, s_gen[p].damage);
                         assert_eq!(s_fast[p].max_opening, s_gen[p].max_opening);
                         assert!((s_fast[p].max_slip - s_gen[p].max_slip).abs() <= 1e-18);
-                        assert_eq!(s_fast[p].anchor, s_gen[p].anchor);
+                        assert_eq!(s_gen[p].anchor, Vec3::zeros());
                     }
                 }
                 None => {

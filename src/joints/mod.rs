@@ -22,7 +22,7 @@ pub mod law;
 use crate::math::{Real, Vec3};
 use crate::mesh::TET_FACES;
 use crate::pipeline::state::{Body, Layout, Nodes};
-use law::{Cohesive, CohesiveConsts, PointKinematics, PointState, PointTraction};
+use law::{Cohesive, CohesiveConsts, PointHistory, PointKinematics, PointState, PointTraction};
 use rayon::prelude::*;
 use std::collections::HashMap;
 
@@ -175,7 +175,11 @@ pub struct Joints {
     inv_size: Vec<Real>,
     /// Reference area [m²].
     pub area0: Vec<Real>,
-    pub state: Vec<[PointState; 3]>,
+    /// Damage and maxima of the three integration points.
+    pub state: Vec<[PointHistory; 3]>,
+    /// Friction anchors of the three points (used once a joint is broken; see
+    /// [`PointState::anchor`]).
+    pub anchor: Vec<[Vec3; 3]>,
     /// Set by stage 3 when every point is fully damaged.
     pub broken: Vec<bool>,
     /// A broken joint whose faces contact has taken over carries no force. Until then (and
@@ -284,7 +288,8 @@ impl Joints {
             .push(((p[1] - p[0]).norm() + (p[2] - p[1]).norm() + (p[0] - p[2]).norm()) / 3.0);
         self.area0
             .push(0.5 * (p[1] - p[0]).cross(&(p[2] - p[0])).norm());
-        self.state.push([PointState::default(); 3]);
+        self.state.push([PointHistory::default(); 3]);
+        self.anchor.push([Vec3::zeros(); 3]);
         self.broken.push(false);
     }
 
@@ -436,7 +441,8 @@ impl Joints {
                 .copied()
                 .unwrap_or_default(),
         );
-        let mut st = self.state[j];
+        let mut st: [PointState; 3] =
+            std::array::from_fn(|p| PointState::from_parts(self.state[j][p], self.anchor[j][p]));
         pts.iter()
             .enumerate()
             .map(|(p, (dn, ds, dir))| {
@@ -529,6 +535,7 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
         size,
         inv_size,
         state,
+        anchor,
         broken,
         handed_over,
         laws,
@@ -541,6 +548,7 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
     let x = &nodes.x;
     let fp = SyncPtr(nodes.f.as_mut_ptr());
     let sp = StatePtr(state.as_mut_ptr());
+    let ap = AnchorPtr(anchor.as_mut_ptr());
     let mut total = JointSums::default();
     let run_block = |range: &std::ops::Range<usize>| {
         let mut s = JointSums::default();
@@ -571,6 +579,8 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
             }
             let (n, area, pts) = joint_kinematics(&faces[j], x);
             let was_failed = st.iter().all(|p| p.damage >= 1.0);
+            // SAFETY: as for the state.
+            let anchors = unsafe { &mut *ap.get().add(j) };
             for (p, (dn, ds, dir)) in pts.iter().enumerate() {
                 let k = PointKinematics {
                     opening: *dn,
@@ -579,7 +589,10 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
                     normal: n,
                     size: size[j],
                 };
-                let t = lw.evaluate_in(&mut frame, cs, &k, inv_h, &mut st[p], want_energy);
+                let mut ps = PointState::from_parts(st[p], anchors[p]);
+                let t = lw.evaluate_in(&mut frame, cs, &k, inv_h, &mut ps, want_energy);
+                st[p] = ps.history();
+                anchors[p] = ps.anchor;
                 let on_b = -(n * t.normal + dir * t.shear + t.friction) * (area / 3.0);
                 // SAFETY: blocks of one colour share no node, and a block runs on
                 // one thread, so no two concurrent writes alias; `f` outlives this.
@@ -615,12 +628,23 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
 }
 
 #[derive(Clone, Copy)]
-struct StatePtr(*mut [PointState; 3]);
+struct StatePtr(*mut [PointHistory; 3]);
 unsafe impl Send for StatePtr {}
 unsafe impl Sync for StatePtr {}
 impl StatePtr {
     #[inline(always)]
-    fn get(self) -> *mut [PointState; 3] {
+    fn get(self) -> *mut [PointHistory; 3] {
+        self.0
+    }
+}
+
+#[derive(Clone, Copy)]
+struct AnchorPtr(*mut [Vec3; 3]);
+unsafe impl Send for AnchorPtr {}
+unsafe impl Sync for AnchorPtr {}
+impl AnchorPtr {
+    #[inline(always)]
+    fn get(self) -> *mut [Vec3; 3] {
         self.0
     }
 }
