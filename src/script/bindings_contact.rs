@@ -70,6 +70,7 @@ pub fn register(engine: &mut Engine) {
                 tangential_penalty: o.positive("tangential_penalty")?,
                 friction,
                 damping,
+                friction_law: None,
             });
             st.sim.invalidate();
             Ok(())
