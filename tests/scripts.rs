@@ -257,6 +257,9 @@ let g6 = dome(#{ radius: 1.0, thickness: 0.2, courses: 2, blocks_per_course: 4, 
 let voussoirs = sim.add_blocks(g4, m, #{ layout: "continuous", prefix: "voussoir" });
 sim.contact_law("potential", #{ penalty: 1e7, tangential_penalty: 1e7, friction: 0.5, damping: 0.1 });
 sim.contact_law("potential", #{ between: [m, m], friction: 0.3 });
+fn mu(c, p) { p.mu0 + p.k * c.slip_rate }
+sim.contact_law("potential", #{ between: [m, m], friction: 0.3, friction_law: #{ function: "mu", params: #{ mu0: 0.3, k: 0.1 } } });
+sim.contact_law("potential", #{ between: [m, m], friction_law: #{ source: "stdlib/friction_laws", function: "slip_weakening", params: #{ mu_s: 0.6, mu_d: 0.3, d_c: 1e-3 } } });
 sim.contact_detection(#{ skin: 0.01 });
 sim.on_new_contact_pair(|s, pair| ());
 sim.integrator("central_difference", #{ safety: 0.5, dt: 1e-5 });
