@@ -5,11 +5,13 @@
 mod common;
 
 use common::material;
-use fdem::contact_interaction::ContactRule;
+use fdem::contact_interaction::{ContactRule, FRICTION_LAW};
+use fdem::joints::compiled::{compile_with, CompiledLaw};
 use fdem::material::Formulation;
 use fdem::math::{Real, Vec3};
 use fdem::mesh::box_mesh;
 use fdem::pipeline::{Layout, Simulation};
+use std::sync::Arc;
 
 fn body_momentum(sim: &Simulation, b: usize) -> (Vec3, Real) {
     let r = sim.bodies[b].nodes.clone();
@@ -149,11 +151,10 @@ fn bars_end_on_exchange_velocities() {
     );
 }
 
-/// A block (0.1 m cube, 2 cells) resting on a fixed base, gravity tilted by θ (the same as an
-/// incline of angle θ), contact damping ζ = 1 (the block is dropped onto its contact springs
-/// at t = 0 and would otherwise ring). Coulomb: below the friction angle it sticks; above,
-/// it slides with a = g(sinθ − μcosθ).
-fn incline(theta_deg: Real, mu: Real, t_end: Real) -> (Vec<(Real, Real, Real)>, Simulation) {
+/// A block (0.1 m × 0.1 m × `height`, cells of 0.05 m) resting on a fixed base, gravity
+/// tilted by θ (the same as an incline of angle θ), contact by `rule`, the block pushed down
+/// the slope at `v0`.
+fn incline_model(theta_deg: Real, height: Real, rule: ContactRule, v0: Real) -> Simulation {
     let mat = material(Formulation::StVenantKirchhoff, 2500.0, 1.0e8, 0.25);
     let mut sim = Simulation::new();
     let m = sim.add_material(mat);
@@ -162,7 +163,8 @@ fn incline(theta_deg: Real, mu: Real, t_end: Real) -> (Vec<(Real, Real, Real)>, 
         Vec3::new(1.0, 0.2, 0.0),
         [22, 6, 1],
     );
-    let block = box_mesh(Vec3::zeros(), Vec3::new(0.1, 0.1, 0.1), [2, 2, 2]);
+    let nz = (height / 0.05).round() as usize;
+    let block = box_mesh(Vec3::zeros(), Vec3::new(0.1, 0.1, height), [2, 2, nz]);
     sim.add_body("base", &base, m, Layout::Continuous).unwrap();
     sim.add_body("block", &block, m, Layout::Continuous)
         .unwrap();
@@ -173,16 +175,18 @@ fn incline(theta_deg: Real, mu: Real, t_end: Real) -> (Vec<(Real, Real, Real)>, 
     });
     let th = theta_deg.to_radians();
     sim.loads.gravity = Vec3::new(th.sin(), 0.0, -th.cos()) * 9.81;
-    sim.contact.rules.push(ContactRule {
-        friction: mu,
-        damping: 1.0,
-        ..Default::default()
-    });
+    sim.contact.rules.push(rule);
+    set_velocity(&mut sim, 1, Vec3::new(v0, 0.0, 0.0));
     sim.prepare().unwrap();
+    sim
+}
+
+/// Step to `t_end`; every step (t, mean x-displacement of the block, its x-velocity).
+fn run_incline(sim: &mut Simulation, t_end: Real) -> Vec<(Real, Real, Real)> {
     let mut hist = Vec::new();
     while sim.time < t_end {
         sim.step().unwrap();
-        let (p, mb) = body_momentum(&sim, 1);
+        let (p, mb) = body_momentum(sim, 1);
         let r = sim.bodies[1].nodes.clone();
         let x: Real = r
             .clone()
@@ -191,7 +195,36 @@ fn incline(theta_deg: Real, mu: Real, t_end: Real) -> (Vec<(Real, Real, Real)>, 
             / r.len() as Real;
         hist.push((sim.time, x, p.x / mb));
     }
-    (hist, sim)
+    hist
+}
+
+/// The incline with Coulomb friction μ and contact damping ζ = 1 (the block is dropped onto
+/// its contact springs at t = 0 and would otherwise ring). Coulomb: below the friction angle
+/// it sticks; above, it slides with a = g(sinθ − μcosθ).
+fn incline(theta_deg: Real, mu: Real, t_end: Real) -> (Vec<(Real, Real, Real)>, Simulation) {
+    let rule = ContactRule {
+        friction: mu,
+        damping: 1.0,
+        ..Default::default()
+    };
+    let mut sim = incline_model(theta_deg, 0.1, rule, 0.0);
+    (run_incline(&mut sim, t_end), sim)
+}
+
+/// Least-squares slope of y(t) over the points with t ≥ t0.
+fn slope_after(
+    hist: &[(Real, Real, Real)],
+    t0: Real,
+    y: impl Fn(&(Real, Real, Real)) -> Real,
+) -> Real {
+    let pts: Vec<_> = hist.iter().filter(|h| h.0 >= t0).collect();
+    let n = pts.len() as Real;
+    let (st, sy) = pts.iter().fold((0.0, 0.0), |a, h| (a.0 + h.0, a.1 + y(h)));
+    let (mt, my) = (st / n, sy / n);
+    let (num, den) = pts.iter().fold((0.0, 0.0), |a, h| {
+        (a.0 + (h.0 - mt) * (y(h) - my), a.1 + (h.0 - mt).powi(2))
+    });
+    num / den
 }
 
 /// θ = 15° with μ = 0.7 (friction angle 35°): the block sticks; over 1 s it creeps less than
@@ -218,17 +251,253 @@ fn block_on_incline_slides_at_coulomb_acceleration() {
     let (theta, mu): (Real, Real) = (40.0, 0.5);
     let (hist, sim) = incline(theta, mu, 0.4);
     let a_exact = 9.81 * (theta.to_radians().sin() - mu * theta.to_radians().cos());
-    let pts: Vec<_> = hist.iter().filter(|h| h.0 >= 0.1).collect();
-    let n = pts.len() as Real;
-    let (st, sv) = pts.iter().fold((0.0, 0.0), |a, h| (a.0 + h.0, a.1 + h.2));
-    let (mt, mv) = (st / n, sv / n);
-    let (num, den) = pts.iter().fold((0.0, 0.0), |a, h| {
-        (a.0 + (h.0 - mt) * (h.2 - mv), a.1 + (h.0 - mt).powi(2))
-    });
-    let a = num / den;
+    let a = slope_after(&hist, 0.1, |h| h.2);
     let e = sim.energy;
     println!("a = {a:.5} m/s² vs {a_exact:.5}; friction dissipated {:.4e} J, gravity work {:.4e} J, KE {:.4e} J, balance error {:.3e} J; dt {:.3e}", e.friction, e.gravity_work, e.kinetic, e.balance_error(), sim.dt);
     assert!((a - a_exact).abs() < 0.02 * a_exact);
+}
+
+/// The friction law `name` of Rhai source `src`, compiled as stage 5 uses it.
+fn friction_law(src: &str, name: &str, params: &[(&str, Real)]) -> Arc<CompiledLaw> {
+    let ast = rhai::Engine::new_raw().compile(src).unwrap();
+    let mut p = rhai::Map::new();
+    for (k, v) in params {
+        p.insert((*k).into(), (*v).into());
+    }
+    Arc::new(compile_with(&ast, name, &p, FRICTION_LAW).unwrap())
+}
+
+/// The rule of the incline tests (contact damping ζ = 1) with a friction law.
+fn law_rule(friction: Real, law: Arc<CompiledLaw>) -> ContactRule {
+    ContactRule {
+        friction,
+        damping: 1.0,
+        friction_law: Some(law),
+        ..Default::default()
+    }
+}
+
+/// A compiled law that returns the constant μ takes the same path through stage 5 as the
+/// built-in Coulomb friction: the block sliding down 40° with μ = 0.5 has bit-identical
+/// positions, velocities and energies after 0.1 s (6400 steps, settling and sliding), whether μ
+/// comes from the rule, from a law parameter (`p.mu`, the rule's friction 0) or from the
+/// law's input `c.mu` (returned as a bare number).
+#[test]
+fn friction_law_returning_a_constant_is_bit_identical_to_builtin_coulomb() {
+    let t_end = 0.1;
+    let (_, builtin) = incline(40.0, 0.5, t_end);
+    let from_param = friction_law("fn mu(c, p) { #{ friction: p.mu } }", "mu", &[("mu", 0.5)]);
+    let from_input = friction_law("fn mu(c, p) { c.mu }", "mu", &[]);
+    for (friction, law) in [(0.0, from_param), (0.5, from_input)] {
+        let mut sim = incline_model(40.0, 0.1, law_rule(friction, law), 0.0);
+        let hist = run_incline(&mut sim, t_end);
+        assert!(hist.last().unwrap().1 > 1e-3, "the block slides");
+        assert_eq!(sim.step, builtin.step);
+        assert_eq!(sim.nodes.x, builtin.nodes.x);
+        assert_eq!(sim.nodes.v, builtin.nodes.v);
+        assert_eq!(sim.energy_history, builtin.energy_history);
+    }
+}
+
+/// The contact penalty of the rate- and slip-dependent incline tests: E/10 instead of the
+/// default 10·E. Under the default the block's contact overlap (σH/8p ≈ 7 nm) is far smaller
+/// than the elastic deformation of the block under its weight (ρgh²/2E ≈ 0.3 µm), and the
+/// sliding contact chatters: the normal force fluctuates with a standard deviation of about
+/// 2/3 of its mean (measured). Coulomb's constant μ averages that exactly, a μ(v) does not
+/// (the terminal speed came out 2.4 % fast); at E/10 the overlap is 0.7 µm and the normal
+/// force is steady to 1e-4.
+const SMOOTH_PENALTY: Real = 1.0e7;
+
+/// Velocity strengthening μ(v) = μ0 + k·v (stdlib `linear_rate`, μ0 = 0.3, k = 2.5 s/m) on
+/// 25° (tan 25° = 0.466 > μ0), a flat block (0.1 × 0.1 × 0.05 m, so that the friction moment
+/// cannot lift its rear edge): it accelerates until sinθ = μ(v)·cosθ, the terminal slip
+/// speed v* = (tanθ − μ0)/k = 0.06652 m/s. Linearised, v approaches v* with the time constant
+/// 1/(g·k·cosθ) = 0.045 s, so the mean velocity over 0.3–0.35 s (6.7 time constants: 0.1 %
+/// left) must be v* within 2 %.
+#[test]
+fn velocity_strengthening_friction_reaches_the_terminal_slip_speed() {
+    let (theta, mu0, k): (Real, Real, Real) = (25.0, 0.3, 2.5);
+    let law = friction_law(
+        include_str!("../stdlib/friction_laws.rhai"),
+        "linear_rate",
+        &[("mu0", mu0), ("k", k)],
+    );
+    let rule = ContactRule {
+        penalty: Some(SMOOTH_PENALTY),
+        ..law_rule(0.0, law)
+    };
+    let mut sim = incline_model(theta, 0.05, rule, 0.0);
+    let hist = run_incline(&mut sim, 0.35);
+    let v_star = (theta.to_radians().tan() - mu0) / k;
+    let late: Vec<Real> = hist.iter().filter(|h| h.0 >= 0.3).map(|h| h.2).collect();
+    let v = late.iter().sum::<Real>() / late.len() as Real;
+    let spread = late.iter().fold(0.0, |m: Real, x| m.max((x - v).abs()));
+    println!(
+        "terminal slip speed {v:.6} m/s (±{spread:.1e} over 0.3–0.35 s) vs v* = {v_star:.6} m/s ({:+.3} %); v at 0.1 s {:.5}; {} steps, dt {:.3e}",
+        100.0 * (v / v_star - 1.0),
+        hist.iter().find(|h| h.0 >= 0.1).unwrap().2,
+        sim.step,
+        sim.dt
+    );
+    assert!((v - v_star).abs() < 0.02 * v_star);
+}
+
+/// Linear slip weakening μ = μ_d + (μ_s − μ_d)·max(0, 1 − slip/D_c) (stdlib
+/// `slip_weakening`, μ_s = 0.5, μ_d = 0.25, D_c = 1 mm) on 20°, the flat block: tan 20° =
+/// 0.364 lies between them. Pushed down the slope at 0.05 m/s, a block with the constant
+/// μ_s stops (checked: |v| < 1e-4 m/s at 0.3 s), but with slip weakening it slides through
+/// D_c, weakens its contacts and keeps sliding with a = g(sinθ − μ_d·cosθ) = 1.0506 m/s²
+/// (rigid block, uniform contact). Fitted over 0.1–0.3 s (by 0.1 s it has slid 8 mm, 8·D_c):
+/// within 2 %.
+#[test]
+fn slip_weakening_friction_keeps_a_pushed_block_sliding_at_the_dynamic_acceleration() {
+    let (theta, mu_s, mu_d, d_c): (Real, Real, Real, Real) = (20.0, 0.5, 0.25, 1e-3);
+    let v0 = 0.05;
+    let law = friction_law(
+        include_str!("../stdlib/friction_laws.rhai"),
+        "slip_weakening",
+        &[("mu_s", mu_s), ("mu_d", mu_d), ("d_c", d_c)],
+    );
+    let rule = ContactRule {
+        penalty: Some(SMOOTH_PENALTY),
+        ..law_rule(0.0, law)
+    };
+    let mut sim = incline_model(theta, 0.05, rule, v0);
+    let hist = run_incline(&mut sim, 0.3);
+    let a_exact = 9.81 * (theta.to_radians().sin() - mu_d * theta.to_radians().cos());
+    let a = slope_after(&hist, 0.1, |h| h.2);
+    let at_01 = hist.iter().find(|h| h.0 >= 0.1).unwrap();
+    let last = hist.last().unwrap();
+    let min_slip = sim
+        .contact
+        .state
+        .iter()
+        .filter(|s| s.touching)
+        .map(|s| s.slip)
+        .fold(Real::INFINITY, Real::min);
+    let static_rule = ContactRule {
+        penalty: Some(SMOOTH_PENALTY),
+        friction: mu_s,
+        damping: 1.0,
+        ..Default::default()
+    };
+    let mut stuck = incline_model(theta, 0.05, static_rule, v0);
+    let stuck_hist = run_incline(&mut stuck, 0.3);
+    let stuck_last = stuck_hist.last().unwrap();
+    println!(
+        "a = {a:.5} m/s² vs g(sinθ − μ_d cosθ) = {a_exact:.5} ({:+.3} %); slid {:.4} m by 0.1 s, {:.4} m by 0.3 s (v {:.4} m/s); smallest slip of a touching pair {min_slip:.2e} m; with constant μ_s: slid {:.3e} m, v {:.1e} m/s; dt {:.3e}",
+        100.0 * (a / a_exact - 1.0),
+        at_01.1,
+        last.1,
+        last.2,
+        stuck_last.1,
+        stuck_last.2,
+        sim.dt
+    );
+    assert!(
+        stuck_last.2.abs() < 1e-4,
+        "constant μ_s: v = {}",
+        stuck_last.2
+    );
+    assert!(at_01.1 > 5.0 * d_c, "slid only {} m by 0.1 s", at_01.1);
+    assert!((a - a_exact).abs() < 0.02 * a_exact);
+}
+
+/// The laws of stdlib/friction_laws.rhai compile and give their formulas (to 1e-15) at a
+/// few points: inputs in the order slip_rate, slip, pressure, normal_force, area, time, mu.
+#[test]
+fn stdlib_friction_laws_give_their_formulas() {
+    let src = include_str!("../stdlib/friction_laws.rhai");
+    let at = |v: Real, slip: Real| [v, slip, 1e5, 10.0, 1e-4, 0.5, 0.6];
+    let linear = friction_law(src, "linear_rate", &[("mu0", 0.3), ("k", 2.0)]);
+    let expo = friction_law(
+        src,
+        "exponential_rate",
+        &[("mu_s", 0.6), ("mu_d", 0.2), ("v_c", 0.1)],
+    );
+    let sw = friction_law(
+        src,
+        "slip_weakening",
+        &[("mu_s", 0.6), ("mu_d", 0.2), ("d_c", 1e-3)],
+    );
+    let cases: [(&CompiledLaw, [Real; 7], Real); 8] = [
+        (&linear, at(0.0, 0.0), 0.3),
+        (&linear, at(0.25, 0.0), 0.3 + 2.0 * 0.25),
+        (&expo, at(0.0, 0.0), 0.6),
+        (&expo, at(0.1, 0.0), 0.2 + 0.4 * (-1.0 as Real).exp()),
+        (&sw, at(0.0, 0.0), 0.6),
+        (&sw, at(0.0, 0.25e-3), 0.2 + 0.4 * 0.75),
+        (&sw, at(0.0, 1e-3), 0.2),
+        (&sw, at(0.0, 5e-3), 0.2),
+    ];
+    for (law, inputs, expected) in cases {
+        let [mu] = law.evaluate(&inputs);
+        assert!(
+            (mu - expected).abs() < 1e-15,
+            "{}: {mu} vs {expected}",
+            law.name
+        );
+    }
+}
+
+/// A law's μ must be finite and ≥ 0: a negative value (μ = 0.1 − 10·v turns negative once
+/// the block slides faster than 1 cm/s) and a NaN (ln of a negative number) stop the run
+/// with the function, the value, the pair and every input named.
+#[test]
+fn negative_or_nan_friction_from_a_law_stops_the_run_with_its_inputs() {
+    for (src, value) in [
+        (
+            "fn mu(c, p) { p.mu0 - p.k * c.slip_rate }",
+            "returned friction = -",
+        ),
+        (
+            "fn mu(c, p) { ln(c.slip_rate - 1.0) }",
+            "returned friction = NaN",
+        ),
+    ] {
+        let law = friction_law(src, "mu", &[("mu0", 0.1), ("k", 10.0)]);
+        let mut sim = incline_model(40.0, 0.1, law_rule(0.5, law), 0.0);
+        let err = (0..100_000)
+            .find_map(|_| sim.step().err())
+            .expect("the run must stop");
+        let msg = err.to_string();
+        println!("{msg}");
+        assert!(matches!(err, fdem::pipeline::SimError::Law(_)));
+        assert!(
+            msg.starts_with("friction law 'mu' ") && msg.contains(value),
+            "{msg}"
+        );
+        assert!(
+            msg.contains("(body 'block')") && msg.contains("(body 'base')"),
+            "{msg}"
+        );
+        for input in fdem::joints::compiled::FRICTION_INPUTS {
+            assert!(msg.contains(&format!("c.{input} = ")), "{msg}");
+        }
+    }
+}
+
+/// Friction laws are refused at setup, with the place: an unknown function (the defined ones
+/// listed), an unknown input (the inputs listed), constructs outside the compiled subset
+/// (with their line).
+#[test]
+fn bad_friction_laws_are_refused_with_the_function_and_line() {
+    let compile = |src: &str, name: &str| {
+        let ast = rhai::Engine::new_raw().compile(src).unwrap();
+        compile_with(&ast, name, &rhai::Map::new(), FRICTION_LAW).unwrap_err()
+    };
+    let cases = [
+        ("fn mu(c, p) { c.mu }", "my_mu", "friction law: no function 'my_mu' in the script; functions defined: mu"),
+        ("fn mu(c, p) {\n    c.velocity\n}", "mu", "friction law 'mu': line 2: c.velocity is not an input; inputs: slip_rate, slip, pressure, normal_force, area, time, mu"),
+        ("fn mu(c, p) {\n    let m = 0.0;\n    while m < 1.0 { m += 0.1; }\n    m\n}", "mu", "friction law 'mu': line 3: a loop is not supported"),
+        ("fn mu(c, p) {\n    let s = `${c.mu}`;\n    0.5\n}", "mu", "friction law 'mu': line 2: a string is not supported"),
+        ("fn mu(c, p) {\n    #{ mu: 0.5 }\n}", "mu", "line 2: the result map has key 'mu'; allowed keys: friction"),
+        ("fn mu(c) { 0.5 }", "mu", "must take two parameters"),
+    ];
+    for (src, name, expected) in cases {
+        let e = compile(src, name);
+        assert!(e.contains(expected), "{e}");
+    }
 }
 
 /// Four blocks (0.1 m cubes, staggered by 1–2 cm) stacked on a fixed base under gravity, μ =

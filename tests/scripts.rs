@@ -257,6 +257,9 @@ let g6 = dome(#{ radius: 1.0, thickness: 0.2, courses: 2, blocks_per_course: 4, 
 let voussoirs = sim.add_blocks(g4, m, #{ layout: "continuous", prefix: "voussoir" });
 sim.contact_law("potential", #{ penalty: 1e7, tangential_penalty: 1e7, friction: 0.5, damping: 0.1 });
 sim.contact_law("potential", #{ between: [m, m], friction: 0.3 });
+fn mu(c, p) { p.mu0 + p.k * c.slip_rate }
+sim.contact_law("potential", #{ between: [m, m], friction: 0.3, friction_law: #{ function: "mu", params: #{ mu0: 0.3, k: 0.1 } } });
+sim.contact_law("potential", #{ between: [m, m], friction_law: #{ source: "stdlib/friction_laws", function: "slip_weakening", params: #{ mu_s: 0.6, mu_d: 0.3, d_c: 1e-3 } } });
 sim.contact_detection(#{ skin: 0.01 });
 sim.on_new_contact_pair(|s, pair| ());
 sim.integrator("central_difference", #{ safety: 0.5, dt: 1e-5 });
@@ -349,4 +352,60 @@ print("finished");
         "{err}"
     );
     assert!(err.contains("body 'block'"), "{err}");
+}
+
+/// A friction law in a script: the example of docs/theory/contact.md ("Custom friction laws")
+/// runs as printed there and passes its self-check (terminal slip speed within 2 %), and bad
+/// laws fail with the script's line and a message naming the problem: an unknown function
+/// (the defined ones listed, closures left out), a misspelled key of `friction_law` (the
+/// allowed ones listed), a construct outside the compiled subset (its line in the function),
+/// and a negative μ at run time (the function, value and inputs).
+#[test]
+fn friction_law_example_runs_and_bad_laws_are_named() {
+    let doc = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/theory/contact.md"),
+    )
+    .unwrap();
+    let section = &doc[doc.find("## Custom friction laws").expect("section")..];
+    let start = section.find("```rhai\n").expect("a rhai example") + 8;
+    let text = &section[start..start + section[start..].find("```").unwrap()];
+    let (ok, out, err) = run_text("friction_law", text, &[]);
+    assert!(ok, "{out}\n{err}");
+    assert!(out.contains("check ok: terminal slip speed"), "{out}");
+    // The output shown under the example is this run's.
+    let shown = &section[start + section[start..].find("```text\n").unwrap() + 8..];
+    let shown = &shown[..shown.find("```").unwrap()];
+    for line in shown
+        .lines()
+        .filter(|l| l.starts_with("slip speed") || l.starts_with("check ok"))
+    {
+        assert!(
+            out.contains(line),
+            "docs show '{line}', the run printed:\n{out}"
+        );
+    }
+    let cases = [
+        (
+            text.replace("function: \"mu\"", "function: \"my_mu\""),
+            "error: contact_law(): friction law: no function 'my_mu' in the script; functions defined: mu\n",
+        ),
+        (
+            text.replace("function: \"mu\"", "funtion: \"mu\""),
+            "error: contact_law(): friction_law: unknown key 'funtion' (did you mean 'function'?); allowed keys: function, params, source",
+        ),
+        (
+            text.replace("p.mu0 + p.k * c.slip_rate", "let m = 0.0;\n    while m < p.mu0 { m += 0.1; }\n    m"),
+            "error: contact_law(): friction law 'mu': line 4: a loop is not supported in compiled functions",
+        ),
+        (
+            text.replace("p.mu0 + p.k * c.slip_rate", "p.mu0 - 10.0 * p.k * c.slip_rate"),
+            "error: run(): friction law 'mu' returned friction = -",
+        ),
+    ];
+    for (bad, expected) in cases {
+        let (ok, out, err) = run_text("bad_friction_law", &bad, &[]);
+        assert!(!ok, "{out}");
+        assert!(err.contains(expected), "expected '{expected}' in:\n{err}");
+        assert!(err.contains("bad_friction_law.rhai:"), "{err}");
+    }
 }

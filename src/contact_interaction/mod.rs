@@ -17,6 +17,13 @@
 //! kinetic friction slides at μ|F_n|. Storing the force rather than the spring extension
 //! keeps the force continuous when A (hence k_t) changes.
 //!
+//! **Friction laws**: μ is the rule's constant `friction`, or, when the rule has a
+//! `friction_law`, the value of a Rhai function compiled to native code
+//! ([`crate::joints::compiled`], signature [`FRICTION_LAW`]) of the pair's slip rate, slip
+//! path (history [`PairState::slip`]), pressure, normal force, area, time and the constant,
+//! evaluated once per touching pair and step just before the return to the cone. A result
+//! that is not finite and ≥ 0 stops the run ([`ContactSums::law_failure`]).
+//!
 //! **Normal damping** (optional, ratio ζ): a dashpot on the normal relative velocity at x_p,
 //! f_d = −2ζ·√(k·m*)·(v_rel·n)·n with k = (4/3)·p·A·(1/h_c + 1/h_t) and m* the reduced mass
 //! of one node of each tetrahedron (ζ is the damping ratio of one face node on its contact
@@ -29,10 +36,16 @@
 pub mod potential;
 
 use crate::contact_detection::{Aabb, Detector};
+pub use crate::joints::compiled::FRICTION_LAW;
+use crate::joints::compiled::{CompiledLaw, Frame};
 use crate::math::{Real, Vec3};
 use crate::pipeline::Nodes;
-use potential::{overlapping_tet_tet, separating_axis, PairForces, TetGeom, OVERLAPPED};
+use potential::{overlapping_tet_tet, separating_axis, TetGeom, OVERLAPPED};
 use rayon::prelude::*;
+use std::sync::Arc;
+
+/// [`ContactProps::friction_law`] of a rule without a friction law (μ is `friction`).
+pub const NO_FRICTION_LAW: u32 = u32::MAX;
 
 /// Contact parameters of one pair of materials.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -41,15 +54,25 @@ pub struct ContactProps {
     pub penalty: Real,
     /// Tangential penalty p_t [Pa] (spring k_t = 4·p_t·A·(1/h_c + 1/h_t)).
     pub tangential_penalty: Real,
-    /// Coulomb friction coefficient μ [-].
+    /// Coulomb friction coefficient μ [-] (with a friction law: its input `mu`).
     pub friction: Real,
     /// Normal damping ratio ζ [-].
     pub damping: Real,
+    /// Index into [`Contact::friction_laws`], or [`NO_FRICTION_LAW`].
+    pub friction_law: u32,
+}
+
+impl ContactProps {
+    /// Friction acts (a positive constant μ, or a law that may make it so).
+    #[inline]
+    pub fn has_friction(&self) -> bool {
+        self.friction > 0.0 || self.friction_law != NO_FRICTION_LAW
+    }
 }
 
 /// A contact rule from the script: defaults apply to every pair of materials, rules with
 /// `materials` to one pair (later rules override earlier ones).
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default)]
 pub struct ContactRule {
     pub materials: Option<(u32, u32)>,
     /// None: 10 × the larger Young's modulus of the pair.
@@ -58,6 +81,9 @@ pub struct ContactRule {
     pub tangential_penalty: Option<Real>,
     pub friction: Real,
     pub damping: Real,
+    /// μ as a compiled function of the pair's kinematics (signature [`FRICTION_LAW`]); None:
+    /// the constant `friction`.
+    pub friction_law: Option<Arc<CompiledLaw>>,
 }
 
 /// A pair that came into contact (for `on_new_contact_pair`).
@@ -90,17 +116,27 @@ pub struct PairState {
     /// The axis that last separated the pair (see [`potential::separating_axis`]), tried
     /// first.
     pub witness: u8,
+    /// Slip path while touching [m]: Σ|Δu_t| of the relative tangential displacement at the
+    /// contact point, summed every step the pair's friction acts; back to 0 when the pair
+    /// releases. The `slip` input of friction laws.
+    pub slip: Real,
 }
 
 impl PairState {
     /// The pair stopped touching: its friction spring is released (booked as dissipated).
     #[inline]
     fn release(&mut self, sums: &mut ContactSums) {
+        // Released already (every field below is zero): no store, so the many candidate
+        // pairs that stay apart are only read each step.
+        if !self.touching {
+            return;
+        }
         sums.dissipated += self.e_prev;
         self.e_prev = 0.0;
         self.f_prev = Vec3::zeros();
         self.spring = Vec3::zeros();
         self.touching = false;
+        self.slip = 0.0;
     }
 }
 
@@ -114,6 +150,7 @@ impl Default for PairState {
             f_prev: Vec3::zeros(),
             e_prev: 0.0,
             witness: 0,
+            slip: 0.0,
         }
     }
 }
@@ -137,6 +174,24 @@ pub struct ContactSums {
     pub max_overlap_ratio: Real,
     /// Largest mean pressure |F_n|/A over touching pairs [Pa].
     pub max_pressure: Real,
+    /// The first pair (in pair order) whose friction law gave a μ that is not finite and
+    /// ≥ 0 in this step: the run must stop (the pair got μ = 0).
+    pub law_failure: Option<FrictionLawFailure>,
+}
+
+/// A friction law that returned an invalid μ, with what it was given.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrictionLawFailure {
+    /// Index into [`Contact::friction_laws`].
+    pub law: u32,
+    /// Simulation tet ids (contactor, target).
+    pub tets: [u32; 2],
+    /// Contact point [m].
+    pub point: Vec3,
+    /// The inputs, in the order of [`crate::joints::compiled::FRICTION_INPUTS`].
+    pub inputs: [Real; 7],
+    /// What the law returned.
+    pub friction: Real,
 }
 
 /// Output of one touching pair.
@@ -160,6 +215,8 @@ pub struct Contact {
     pub rules: Vec<ContactRule>,
     /// Resolved parameters, `props[a * n_materials + b]`.
     pub props: Vec<ContactProps>,
+    /// The distinct friction laws of the rules (filled by `resolve`).
+    pub friction_laws: Vec<Arc<CompiledLaw>>,
     pub n_materials: usize,
     pub detector: Detector,
     /// Skin given by the script [m] (None: a quarter of the mean surface element size).
@@ -211,6 +268,14 @@ impl Contact {
         let n = young.len();
         self.n_materials = n;
         self.props.clear();
+        self.friction_laws.clear();
+        for r in &self.rules {
+            if let Some(l) = &r.friction_law {
+                if !self.friction_laws.iter().any(|k| Arc::ptr_eq(k, l)) {
+                    self.friction_laws.push(l.clone());
+                }
+            }
+        }
         for a in 0..n {
             for b in 0..n {
                 let mut p = ContactProps {
@@ -218,6 +283,7 @@ impl Contact {
                     tangential_penalty: 0.0,
                     friction: 0.0,
                     damping: 0.0,
+                    friction_law: NO_FRICTION_LAW,
                 };
                 let mut pt = None;
                 for r in &self.rules {
@@ -235,6 +301,12 @@ impl Contact {
                         pt = r.tangential_penalty.or(pt);
                         p.friction = r.friction;
                         p.damping = r.damping;
+                        p.friction_law = r.friction_law.as_ref().map_or(NO_FRICTION_LAW, |l| {
+                            self.friction_laws
+                                .iter()
+                                .position(|k| Arc::ptr_eq(k, l))
+                                .unwrap() as u32
+                        });
                     }
                 }
                 p.tangential_penalty = pt.unwrap_or(p.penalty);
@@ -401,6 +473,7 @@ pub fn add_contact_forces(
     chunk_sums.resize(n_chunks, ContactSums::default());
     chunk_handover.resize_with(n_chunks, Vec::new);
     let props = &contact.props;
+    let laws = &contact.friction_laws;
     let tet_mass = &contact.tet_mass;
     let n_mat = contact.n_materials;
     let (geom, inv_h, boxes) = (&*geom, &*inv_h, &*current_boxes);
@@ -416,6 +489,8 @@ pub fn add_contact_forces(
             out.clear();
             handover.clear();
             *sums = ContactSums::default();
+            // Slots of the compiled friction laws (on the stack, reused by every pair).
+            let mut frame = Frame::new();
             for (k, ps) in st.iter_mut().enumerate() {
                 let pi = ci * CHUNK + k;
                 let [a, b] = pairs_ref[pi];
@@ -434,22 +509,27 @@ pub fn add_contact_forces(
                     ps.release(sums);
                     continue;
                 };
+                // Separated (most candidates, most steps): one plane test on the witness axis,
+                // and nothing written unless the pair changes.
+                if let Some(axis) = separating_axis(gc, gt, ps.witness) {
+                    if ps.witness != axis {
+                        ps.witness = axis;
+                    }
+                    ps.release(sums);
+                    if !ps.armed {
+                        ps.armed = true;
+                        if ps.joint != u32::MAX {
+                            handover.push(ps.joint);
+                        }
+                    }
+                    continue;
+                }
                 let (ea, eb) = (surface_ref[a as usize], surface_ref[b as usize]);
                 let pr = props[tet_material[ea as usize] as usize * n_mat
                     + tet_material[eb as usize] as usize];
-                let r = match separating_axis(gc, gt, ps.witness) {
-                    Some(axis) => {
-                        ps.witness = axis;
-                        PairForces::default()
-                    }
-                    None => {
-                        let r = overlapping_tet_tet(gc, gt, pr.penalty);
-                        // Not overlapping after all (an edge–edge separation): search all
-                        // axes next step.
-                        ps.witness = if r.touching { OVERLAPPED } else { 0 };
-                        r
-                    }
-                };
+                let r = overlapping_tet_tet(gc, gt, pr.penalty);
+                // Not overlapping after all (an edge–edge separation): all axes next step.
+                ps.witness = if r.touching { OVERLAPPED } else { 0 };
                 if !ps.armed {
                     // Armed once there is no overlap energy to release (exactly touching
                     // faces, e.g. blocks that start face to face, arm at once).
@@ -478,7 +558,7 @@ pub fn add_contact_forces(
                 let f_normal: Vec3 = r.fc.iter().sum();
                 let fn_mag = f_normal.norm();
                 let mut energy = r.energy;
-                if (pr.friction > 0.0 || pr.damping > 0.0) && fn_mag > 0.0 {
+                if (pr.has_friction() || pr.damping > 0.0) && fn_mag > 0.0 {
                     let n = f_normal / fn_mag;
                     let nc = gc.bary(&r.point);
                     let nt = gt.bary(&r.point);
@@ -508,8 +588,38 @@ pub fn add_contact_forces(
                     }
                     let du = dv * dt_prev;
                     let mut e_spring = 0.0;
-                    if pr.friction > 0.0 {
+                    if pr.has_friction() {
                         let du_t = du - n * n.dot(&du);
+                        ps.slip += du_t.norm();
+                        // μ: the rule's constant, or its compiled law of this pair's state.
+                        let mu = if pr.friction_law == NO_FRICTION_LAW {
+                            pr.friction
+                        } else {
+                            let dv_t = dv - n * n.dot(&dv);
+                            let inputs = [
+                                dv_t.norm(),
+                                ps.slip,
+                                normal / r.area,
+                                normal,
+                                r.area,
+                                time,
+                                pr.friction,
+                            ];
+                            let [mu] =
+                                laws[pr.friction_law as usize].evaluate_in(&mut frame, &inputs);
+                            if mu.is_finite() && mu >= 0.0 {
+                                mu
+                            } else {
+                                sums.law_failure.get_or_insert(FrictionLawFailure {
+                                    law: pr.friction_law,
+                                    tets: [ea, eb],
+                                    point: r.point,
+                                    inputs,
+                                    friction: mu,
+                                });
+                                0.0
+                            }
+                        };
                         let kt = pr.tangential_penalty * stiff;
                         // Keep the stored force's magnitude on the new tangent plane.
                         let old = ps.spring;
@@ -520,7 +630,7 @@ pub fn add_contact_forces(
                             ft *= m_old / m_new;
                         }
                         ft -= du_t * kt;
-                        let limit = pr.friction * normal;
+                        let limit = mu * normal;
                         let mag = ft.norm();
                         if mag > limit {
                             ft *= limit / mag;
@@ -543,9 +653,11 @@ pub fn add_contact_forces(
                         f[4 + i] -= fx * nt[i];
                     }
                 } else {
-                    let was = ps.touching;
+                    // Still touching: keep the touching flag and the slip path.
+                    let (was, slip) = (ps.touching, ps.slip);
                     ps.release(sums);
                     ps.touching = was;
+                    ps.slip = slip;
                 }
                 sums.energy += energy;
                 sums.active += 1;
@@ -586,6 +698,9 @@ pub fn add_contact_forces(
         total.max_overlap = total.max_overlap.max(s.max_overlap);
         total.max_overlap_ratio = total.max_overlap_ratio.max(s.max_overlap_ratio);
         total.max_pressure = total.max_pressure.max(s.max_pressure);
+        if total.law_failure.is_none() {
+            total.law_failure = s.law_failure;
+        }
         for po in out {
             for k in 0..8 {
                 nodes.f[po.nodes[k] as usize] += po.f[k];
@@ -614,3 +729,103 @@ fn pair_nodes(tet_nodes: &[[u32; 4]], ea: u32, eb: u32) -> [u32; 8] {
 
 /// Marks a pair that started touching in this step (top bit of the pair index).
 const NEW_FLAG: u32 = 1 << 31;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A target tet with its face z = 0 on top and a contactor whose bottom face sinks 1 mm
+    /// into it, friction μ = 0.5 (nodes 0–3 target, 4–7 contactor).
+    fn two_tets() -> (Contact, Nodes, Vec<[u32; 4]>, Vec<u32>) {
+        let mut nodes = Nodes::default();
+        let pts = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(0.2, 0.2, -1e-3),
+            Vec3::new(1.0, 0.2, -1e-3),
+            Vec3::new(0.2, 1.0, -1e-3),
+            Vec3::new(0.2, 0.2, 1.0),
+        ];
+        for (i, p) in pts.into_iter().enumerate() {
+            nodes.push(p, (i / 4) as u32);
+            nodes.m[i] = 1.0;
+        }
+        let mut contact = Contact::default();
+        contact.rules.push(ContactRule {
+            penalty: Some(1e6),
+            friction: 0.5,
+            ..Default::default()
+        });
+        contact.resolve(&[1e5]);
+        contact.surface = vec![0, 1];
+        contact.pairs = vec![[1, 0]];
+        contact.state = vec![PairState::default()];
+        contact.tet_mass = vec![1.0, 1.0];
+        (contact, nodes, vec![[0, 1, 2, 3], [4, 5, 6, 7]], vec![0, 0])
+    }
+
+    /// Move the contactor by `d` per step for `steps` steps (velocity d/dt, as the central
+    /// difference gives it to stage 5).
+    fn slide(
+        c: &mut Contact,
+        nodes: &mut Nodes,
+        tets: &[[u32; 4]],
+        mat: &[u32],
+        d: Vec3,
+        steps: usize,
+    ) {
+        let dt = 1e-3;
+        for _ in 0..steps {
+            for n in 4..8 {
+                nodes.x[n] += d;
+                nodes.v[n] = d / dt;
+            }
+            add_contact_forces(c, nodes, tets, mat, dt, 0.0);
+            nodes.f.iter_mut().for_each(|f| *f = Vec3::zeros());
+        }
+    }
+
+    /// `slip` is the path length of the tangential relative motion, not the net displacement:
+    /// 10 steps of +0.1 mm and 10 of −0.1 mm along x give 2 mm (to 1e-9: the overlap is
+    /// planar, so the contact normal is z and every step is tangential), with the contactor back
+    /// where it started; a normal motion adds nothing; the slip is 0 once the pair releases.
+    #[test]
+    fn slip_accumulates_the_path_length_and_resets_on_release() {
+        let (mut c, mut nodes, tets, mat) = two_tets();
+        let dx = Vec3::new(1e-4, 0.0, 0.0);
+        slide(&mut c, &mut nodes, &tets, &mat, dx, 10);
+        let forth = c.state[0].slip;
+        slide(&mut c, &mut nodes, &tets, &mat, -dx, 10);
+        let back = c.state[0].slip;
+        println!("slip after 10 steps forth {forth:e} m, and back {back:e} m");
+        assert!(c.state[0].touching);
+        assert!((forth - 1e-3).abs() < 1e-9 * 1e-3, "{forth:e}");
+        assert!((back - 2e-3).abs() < 1e-9 * 2e-3, "{back:e}");
+        assert!((nodes.x[4] - nodes.x0[4]).norm() < 1e-15);
+        slide(
+            &mut c,
+            &mut nodes,
+            &tets,
+            &mat,
+            Vec3::new(0.0, 0.0, -1e-5),
+            5,
+        );
+        assert!(
+            (c.state[0].slip - back).abs() < 1e-9 * back,
+            "normal motion is no slip"
+        );
+        // Lift the contactor off: the pair releases and its slip path starts again from 0.
+        slide(
+            &mut c,
+            &mut nodes,
+            &tets,
+            &mat,
+            Vec3::new(0.0, 0.0, 1e-2),
+            1,
+        );
+        assert!(!c.state[0].touching);
+        assert_eq!(c.state[0].slip, 0.0);
+    }
+}

@@ -1,4 +1,5 @@
-//! Joint laws written in Rhai, compiled at setup into native closure trees.
+//! Joint laws written in Rhai, compiled at setup into native closure trees (also the fracture
+//! criteria of stage 3 and the contact friction laws of stage 5, with their own [`Signature`]).
 //!
 //! Interpreting Rhai per joint per step costs ~1.7 µs a call against ~10 ns for native code,
 //! so a user's law — a plain Rhai function — is compiled once: its AST is walked into a tree
@@ -68,7 +69,28 @@ pub const CRITERION: Signature = Signature {
     outputs: &["broken"],
 };
 
-/// The evaluation frame: variable slots and the three outputs.
+/// Inputs of a contact friction law (per touching pair, every step): tangential relative speed
+/// at the contact point [m/s], slip path accumulated while touching [m], mean normal pressure
+/// |F_n|/A [Pa], normal force |F_n| [N], contact area A [m²], time [s], and the rule's static
+/// `friction` value [-].
+pub const FRICTION_INPUTS: [&str; 7] = [
+    "slip_rate",
+    "slip",
+    "pressure",
+    "normal_force",
+    "area",
+    "time",
+    "mu",
+];
+
+/// A contact friction law: `fn law(c, p)` returning `#{ friction: μ }` (or μ alone).
+pub const FRICTION_LAW: Signature = Signature {
+    kind: "friction law",
+    inputs: &FRICTION_INPUTS,
+    outputs: &["friction"],
+};
+
+/// The evaluation frame: variable slots and the outputs.
 pub struct Frame {
     pub v: [f64; MAX_SLOTS],
     pub out: [f64; MAX_OUTPUTS],
@@ -226,7 +248,12 @@ pub fn compile_with(
 ) -> Result<CompiledLaw, String> {
     let kind = sig.kind;
     let Some(def) = ast.iter_fn_def().find(|f| f.name == name) else {
-        let names: Vec<String> = ast.iter_functions().map(|f| f.name.to_string()).collect();
+        // Closures are stored as functions named anon$…: not the user's to name.
+        let names: Vec<String> = ast
+            .iter_functions()
+            .filter(|f| !f.name.starts_with("anon$"))
+            .map(|f| f.name.to_string())
+            .collect();
         return Err(format!(
             "{kind}: no function '{name}' in the script; functions defined: {}",
             if names.is_empty() {
@@ -238,7 +265,7 @@ pub fn compile_with(
     };
     if def.params.len() != 2 {
         return Err(format!(
-            "{kind} '{name}': the function must take two parameters (j, p), it takes {}",
+            "{kind} '{name}': the function must take two parameters (inputs, params), e.g. fn {name}(j, p); it takes {}",
             def.params.len()
         ));
     }
@@ -283,7 +310,7 @@ struct Compiler<'a> {
     next: usize,
 }
 
-const ALLOWED: &str = "numbers, let, assignment, if/else, return, + - * / % **, comparisons, && || !, exp ln sqrt abs min max sin cos tan atan floor ceil, j.<input>, p.<parameter>";
+const ALLOWED: &str = "numbers, let, assignment, if/else, return, + - * / % **, comparisons, && || !, exp ln sqrt abs min max sin cos tan atan floor ceil";
 
 /// A statement that is a value: an expression, or a function/operator call (Rhai stores
 /// `a * b` as a call statement).
@@ -302,10 +329,12 @@ fn line(pos: Position) -> String {
 impl Compiler<'_> {
     fn refuse<T>(&self, pos: Position, what: &str) -> Result<T, String> {
         Err(format!(
-            "{} '{}': line {}: {what} is not supported in compiled functions (allowed: {ALLOWED})",
+            "{} '{}': line {}: {what} is not supported in compiled functions (allowed: {ALLOWED}, {}.<input>, {}.<parameter>)",
             self.sig.kind,
             self.name,
-            line(pos)
+            line(pos),
+            self.j,
+            self.p
         ))
     }
 

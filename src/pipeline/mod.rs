@@ -193,6 +193,8 @@ pub enum SimError {
     Invalid(String),
     /// The solution blew up: non-finite values or inverted elements.
     Unstable(String),
+    /// A law written in the script returned a value it must not (a negative or NaN μ).
+    Law(String),
 }
 
 impl std::fmt::Display for SimError {
@@ -200,6 +202,7 @@ impl std::fmt::Display for SimError {
         match self {
             SimError::Invalid(m) => write!(f, "{m}"),
             SimError::Unstable(m) => write!(f, "unstable run: {m}"),
+            SimError::Law(m) => write!(f, "{m}"),
         }
     }
 }
@@ -678,6 +681,9 @@ impl Simulation {
             self.contact_energy = cs.energy;
             self.contact_dissipated = cs.dissipated;
             self.timers.seconds[Stage::ContactInteraction as usize] += t.elapsed().as_secs_f64();
+            if let Some(failure) = &cs.law_failure {
+                return Err(SimError::Law(self.describe_friction_failure(failure)));
+            }
         }
 
         // 6. external loads
@@ -779,6 +785,35 @@ impl Simulation {
             );
         }
         format!("non-finite energy {at}; {hint}")
+    }
+
+    /// What a friction law returned, where, and what it was given.
+    fn describe_friction_failure(
+        &self,
+        f: &crate::contact_interaction::FrictionLawFailure,
+    ) -> String {
+        let law = &self.contact.friction_laws[f.law as usize];
+        let body = |t: u32| &self.bodies[self.tets.body[t as usize] as usize].name;
+        let inputs: Vec<String> = crate::joints::compiled::FRICTION_INPUTS
+            .iter()
+            .zip(f.inputs)
+            .map(|(name, v)| format!("c.{name} = {v:.6e}"))
+            .collect();
+        format!(
+            "friction law '{}' returned friction = {} (μ must be finite and ≥ 0) in step {} (t = {:.6e} s) for the pair of tet {} (body '{}') and tet {} (body '{}') at ({:.4}, {:.4}, {:.4}); its inputs: {}",
+            law.name,
+            f.friction,
+            self.step,
+            self.time,
+            f.tets[0],
+            body(f.tets[0]),
+            f.tets[1],
+            body(f.tets[1]),
+            f.point.x,
+            f.point.y,
+            f.point.z,
+            inputs.join(", ")
+        )
     }
 
     /// det F ≤ 0 (or NaN) at the current positions.

@@ -432,9 +432,15 @@ pub const INSERT_JOINTS_KEYS: &[Key] = &[
 pub const CONTACT_LAW_KEYS: &[Key] = &[
     key("penalty", "float", "Pa", "E of the stiffer material", "Normal penalty p: contact energy p∫(φ_c + φ_t) dV over the overlap. Overlap depth ≈ H·σ/(8p) under contact pressure σ (H the element height); the critical time step falls as p grows."),
     key("tangential_penalty", "float", "Pa", "= penalty", "Friction spring: stiffness 4·p_t·A·(1/h_c + 1/h_t) per pair (A contact area, h element heights)."),
-    key("friction", "float", "-", "0", "Coulomb coefficient μ (static = kinetic)."),
+    key("friction", "float", "-", "0", "Coulomb coefficient μ (static = kinetic). With `friction_law`: the law's input `c.mu`."),
+    key("friction_law", "map", "", "none (μ = friction)", "μ as a Rhai function of each pair's slip rate, slip, pressure, …, compiled to native code: `#{ function, params, source }` (below; docs/theory/contact.md)."),
     key("damping", "float", "-", "0", "Normal damping ratio ζ in [0, 1]: a dashpot 2ζ√(k_n·m*) on the normal approach speed (for settling; dissipation is booked with friction)."),
     key("between", "[material, material]", "", "all pairs", "Apply to this pair of materials only (later calls override earlier ones)."),
+];
+pub const FRICTION_LAW_KEYS: &[Key] = &[
+    key("function", "string", "", "required", "Name of the Rhai function `fn name(c, p)` returning μ ≥ 0 (`#{ friction: μ }` or the number). Inputs, per touching pair and step: c.slip_rate (tangential relative speed at the contact point) [m/s], c.slip (slip path since the pair started touching) [m], c.pressure (|F_n|/A) [Pa], c.normal_force [N], c.area [m²], c.time [s], c.mu (the rule's `friction`) [-]."),
+    key("params", "map of numbers", "", "#{}", "Parameters read as `p.<name>` (constants)."),
+    key("source", "string", "", "this script", "Where the function is defined: this script, or a stdlib module such as \"stdlib/friction_laws\"."),
 ];
 pub const CONTACT_DETECTION_KEYS: &[Key] = &[
     key("skin", "float", "m", "¼ of the mean surface element size", "Boxes are inflated by skin/2; detection runs again only when a node has moved more than skin/2 since the last one (no contact can be missed)."),
@@ -538,6 +544,8 @@ pub const API: &[FnDoc] = &[
     // ── Contact
     FnDoc { section: "Contact", name: "sim.contact_law", signature: "sim.contact_law(\"potential\", #{ … })",
         summary: "Switch contact on (between all bodies, fragments and crack faces) or set it for one pair of materials. Broken joints hand their faces over to contact.", keys: CONTACT_LAW_KEYS },
+    FnDoc { section: "Contact", name: "friction_law", signature: "sim.contact_law(\"potential\", #{ friction_law: #{ … }, … })",
+        summary: "A friction law written in Rhai: μ of each touching pair, every step, from its kinematics, compiled once to native code like the joint laws. The value must be finite and ≥ 0, or the run stops naming the function and its inputs. Example: `fn mu(c, p) { p.mu0 + p.k * c.slip_rate }` with `friction_law: #{ function: \"mu\", params: #{ mu0: 0.5, k: 2.0 } }`.", keys: FRICTION_LAW_KEYS },
     FnDoc { section: "Contact", name: "sim.contact_detection", signature: "sim.contact_detection(#{ … })", summary: "Options of the NBS contact detection (stage 4).", keys: CONTACT_DETECTION_KEYS },
     FnDoc { section: "Contact", name: "sim.on_new_contact_pair", signature: "sim.on_new_contact_pair(|s, pair| …)", summary: "Call a closure for every pair of elements that starts touching, with `#{ time, point, bodies, elements }`.", keys: &[] },
     FnDoc { section: "Contact", name: "s.contact", signature: "s.contact() -> #{ … }", summary: "Contact in the last step: `pairs` (candidates), `active` (touching), `surface_elements`, `normal_force` and `friction_force` (sums of magnitudes over pairs) [N], `energy` [J], `detections`.", keys: &[] },

@@ -28,9 +28,9 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
     register_bodies(engine);
     register_loads(engine);
     register_queries(engine);
-    register_hooks(engine, ctx);
+    register_hooks(engine, ctx.clone());
     super::bindings_joints::register(engine);
-    super::bindings_contact::register(engine);
+    super::bindings_contact::register(engine, ctx);
     super::bindings_generators::register(engine);
 }
 

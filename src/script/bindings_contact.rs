@@ -4,14 +4,40 @@
 use super::api::keys_of;
 use super::opts::{err, vec3_to_array, Opts, RhaiResult};
 use super::types::{BodyHandle, MaterialValue, SimHandle};
-use crate::contact_interaction::ContactRule;
+use super::ScriptContext;
+use crate::contact_interaction::{ContactRule, FRICTION_LAW};
 use crate::math::Vec3;
 use rhai::{Array, Dynamic, Engine, FnPtr, Map};
+use std::rc::Rc;
 
-pub fn register(engine: &mut Engine) {
+/// `friction_law: #{ function, params, source }` of `contact_law`: compile the function.
+fn friction_law(
+    ctx: &ScriptContext,
+    d: &Dynamic,
+) -> RhaiResult<std::sync::Arc<crate::joints::compiled::CompiledLaw>> {
+    let Some(m) = d.clone().try_cast::<Map>() else {
+        return err(format!(
+            "contact_law(): 'friction_law' must be a map #{{ function, params, source }}, got {}",
+            d.type_name()
+        ));
+    };
+    let o = Opts::nested("contact_law", "friction_law", m, keys_of("friction_law"))?;
+    let function = o.string("function")?.map_or_else(
+        || err("contact_law(): friction_law: missing required key 'function'"),
+        Ok,
+    )?;
+    let params = o
+        .typed::<Map>("params", "a map of numbers")?
+        .unwrap_or_default();
+    let law = super::bindings_joints::compile_from(ctx, &o, &function, &params, FRICTION_LAW)
+        .map_err(|e| format!("contact_law(): {e}"))?;
+    Ok(std::sync::Arc::new(law))
+}
+
+pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
     engine.register_fn(
         "contact_law",
-        |s: &mut SimHandle, law: &str, m: Map| -> RhaiResult<()> {
+        move |s: &mut SimHandle, law: &str, m: Map| -> RhaiResult<()> {
             if law != "potential" {
                 return err(format!(
                     "contact_law(): unknown law \"{law}\"; the allowed laws are \"potential\" (Munjiza's potential contact force with Coulomb friction)"
@@ -22,6 +48,10 @@ pub fn register(engine: &mut Engine) {
             if friction.is_nan() || friction < 0.0 {
                 return err(format!("contact_law(): 'friction' must be ≥ 0, got {friction}"));
             }
+            let compiled = match o.get("friction_law") {
+                None => None,
+                Some(d) => Some(friction_law(&ctx, d)?),
+            };
             let damping = o.float("damping")?.unwrap_or(0.0);
             if !(0.0..=1.0).contains(&damping) {
                 return err(format!(
@@ -70,6 +100,7 @@ pub fn register(engine: &mut Engine) {
                 tangential_penalty: o.positive("tangential_penalty")?,
                 friction,
                 damping,
+                friction_law: compiled,
             });
             st.sim.invalidate();
             Ok(())

@@ -248,7 +248,7 @@ pub fn register_script_laws(engine: &mut Engine, ctx: Rc<ScriptContext>) {
 }
 
 /// Compile `function` from the running script or from the stdlib module named by `source`.
-fn compile_from(
+pub(super) fn compile_from(
     ctx: &ScriptContext,
     o: &Opts,
     function: &str,

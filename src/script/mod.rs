@@ -66,6 +66,10 @@ pub const STDLIB: &[(&str, &str)] = &[
         "stdlib/joint_laws",
         include_str!("../../stdlib/joint_laws.rhai"),
     ),
+    (
+        "stdlib/friction_laws",
+        include_str!("../../stdlib/friction_laws.rhai"),
+    ),
 ];
 
 /// Build the Rhai engine used for every script.

@@ -49,12 +49,35 @@ pub fn vec3_to_array(v: Vec3) -> Array {
 /// A validated options map of one function.
 pub struct Opts {
     pub func: &'static str,
+    /// For a map that is the value of a key of `func`'s options: that key (named in messages).
+    pub within: Option<&'static str>,
     map: Map,
 }
 
 impl Opts {
     /// Check every key of `map` against `keys`; an unknown key is an error naming the allowed ones.
     pub fn new(func: &'static str, map: Map, keys: &[Key]) -> RhaiResult<Self> {
+        Self::build(func, None, map, keys)
+    }
+
+    /// The options map given as key `within` of `func`'s options (messages say
+    /// "func(): within: …").
+    pub fn nested(
+        func: &'static str,
+        within: &'static str,
+        map: Map,
+        keys: &[Key],
+    ) -> RhaiResult<Self> {
+        Self::build(func, Some(within), map, keys)
+    }
+
+    fn build(
+        func: &'static str,
+        within: Option<&'static str>,
+        map: Map,
+        keys: &[Key],
+    ) -> RhaiResult<Self> {
+        let at = Self::place(func, within);
         for k in map.keys() {
             if !keys.iter().any(|key| key.name == k.as_str()) {
                 let allowed: Vec<&str> = keys.iter().map(|k| k.name).collect();
@@ -62,12 +85,24 @@ impl Opts {
                     .map(|s| format!(" (did you mean '{s}'?)"))
                     .unwrap_or_default();
                 return err(format!(
-                    "{func}(): unknown key '{k}'{hint}; allowed keys: {}",
+                    "{at}: unknown key '{k}'{hint}; allowed keys: {}",
                     allowed.join(", ")
                 ));
             }
         }
-        Ok(Opts { func, map })
+        Ok(Opts { func, within, map })
+    }
+
+    fn place(func: &str, within: Option<&str>) -> String {
+        match within {
+            None => format!("{func}()"),
+            Some(w) => format!("{func}(): {w}"),
+        }
+    }
+
+    /// Where messages say an error is: "func()" or "func(): key".
+    pub fn at(&self) -> String {
+        Self::place(self.func, self.within)
     }
 
     pub fn has(&self, k: &str) -> bool {
@@ -80,14 +115,14 @@ impl Opts {
 
     fn type_err<T>(&self, k: &str, expected: &str, v: &Dynamic) -> RhaiResult<T> {
         err(format!(
-            "{}(): key '{k}' must be {expected}, got {} ({v})",
-            self.func,
+            "{}: key '{k}' must be {expected}, got {} ({v})",
+            self.at(),
             v.type_name()
         ))
     }
 
     fn missing<T>(&self, k: &str) -> RhaiResult<T> {
-        err(format!("{}(): missing required key '{k}'", self.func))
+        err(format!("{}: missing required key '{k}'", self.at()))
     }
 
     pub fn float(&self, k: &str) -> RhaiResult<Option<Real>> {
@@ -104,7 +139,7 @@ impl Opts {
     }
     pub fn positive(&self, k: &str) -> RhaiResult<Option<Real>> {
         match self.float(k)? {
-            Some(x) if x <= 0.0 => err(format!("{}(): key '{k}' must be > 0, got {x}", self.func)),
+            Some(x) if x <= 0.0 => err(format!("{}: key '{k}' must be > 0, got {x}", self.at())),
             o => Ok(o),
         }
     }
@@ -119,7 +154,7 @@ impl Opts {
     }
     pub fn positive_int(&self, k: &str) -> RhaiResult<Option<u64>> {
         match self.int(k)? {
-            Some(i) if i < 1 => err(format!("{}(): key '{k}' must be ≥ 1, got {i}", self.func)),
+            Some(i) if i < 1 => err(format!("{}: key '{k}' must be ≥ 1, got {i}", self.at())),
             o => Ok(o.map(|i| i as u64)),
         }
     }
