@@ -512,7 +512,11 @@ pub fn joint_kinematics(
     let (n, area, dn, st) = joint_jumps(faces, x);
     let pts = std::array::from_fn(|i| {
         let ds = st[i].norm();
-        let dir = if ds > 0.0 { st[i] / ds } else { Vec3::zeros() };
+        let dir = if ds > 0.0 {
+            st[i] * (1.0 / ds)
+        } else {
+            Vec3::zeros()
+        };
         (dn[i], ds, dir)
     });
     (n, area, pts)
@@ -604,6 +608,9 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
             }
             let (n, area, pts) = joint_kinematics(&faces[j], x);
             let was_failed = st.iter().all(|p| p.damage >= 1.0);
+            // Only cohesive laws use the friction anchors (of broken joints): other laws
+            // neither read nor write them.
+            let uses_anchor = matches!(lw, JointLaw::Cohesive(_));
             // SAFETY: as for the state.
             let anchors = unsafe { &mut *ap.get().add(j) };
             for (p, (dn, ds, dir)) in pts.iter().enumerate() {
@@ -614,10 +621,17 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
                     normal: n,
                     size: size[j],
                 };
-                let mut ps = PointState::from_parts(st[p], anchors[p]);
+                let anchor = if uses_anchor {
+                    anchors[p]
+                } else {
+                    Vec3::zeros()
+                };
+                let mut ps = PointState::from_parts(st[p], anchor);
                 let t = lw.evaluate_in(&mut frame, cs, &k, inv_h, &mut ps, want_energy);
                 st[p] = ps.history();
-                anchors[p] = ps.anchor;
+                if uses_anchor {
+                    anchors[p] = ps.anchor;
+                }
                 let on_b = -(n * t.normal + dir * t.shear + t.friction) * (area / 3.0);
                 // SAFETY: blocks of one colour share no node, and a block runs on
                 // one thread, so no two concurrent writes alias; `f` outlives this.
