@@ -123,6 +123,19 @@ pub struct PairState {
 }
 
 impl PairState {
+    /// The elements do not overlap: release the friction spring and arm the pair (a broken
+    /// joint between the two is handed over to contact).
+    #[inline]
+    fn apart(&mut self, sums: &mut ContactSums, handover: &mut Vec<u32>) {
+        self.release(sums);
+        if !self.armed {
+            self.armed = true;
+            if self.joint != u32::MAX {
+                handover.push(self.joint);
+            }
+        }
+    }
+
     /// The pair stopped touching: its friction spring is released (booked as dissipated).
     #[inline]
     fn release(&mut self, sums: &mut ContactSums) {
@@ -496,13 +509,7 @@ pub fn add_contact_forces(
                 let [a, b] = pairs_ref[pi];
                 // Cheap rejection on current boxes.
                 if !boxes[a as usize].overlaps(&boxes[b as usize]) {
-                    ps.release(sums);
-                    if !ps.armed {
-                        ps.armed = true;
-                        if ps.joint != u32::MAX {
-                            handover.push(ps.joint);
-                        }
-                    }
+                    ps.apart(sums, handover);
                     continue;
                 }
                 let (Some(gc), Some(gt)) = (&geom[a as usize], &geom[b as usize]) else {
@@ -515,13 +522,7 @@ pub fn add_contact_forces(
                     if ps.witness != axis {
                         ps.witness = axis;
                     }
-                    ps.release(sums);
-                    if !ps.armed {
-                        ps.armed = true;
-                        if ps.joint != u32::MAX {
-                            handover.push(ps.joint);
-                        }
-                    }
+                    ps.apart(sums, handover);
                     continue;
                 }
                 let (ea, eb) = (surface_ref[a as usize], surface_ref[b as usize]);

@@ -576,8 +576,8 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
     let handed_over = &*handed_over;
     let x = &nodes.x;
     let fp = SyncPtr(nodes.f.as_mut_ptr());
-    let sp = StatePtr(state.as_mut_ptr());
-    let ap = AnchorPtr(anchor.as_mut_ptr());
+    let sp = SyncPtr(state.as_mut_ptr());
+    let ap = SyncPtr(anchor.as_mut_ptr());
     let mut total = JointSums::default();
     let run_block = |range: &std::ops::Range<usize>| {
         let mut s = JointSums::default();
@@ -666,35 +666,20 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
     total
 }
 
-#[derive(Clone, Copy)]
-struct StatePtr(*mut [PointHistory; 3]);
-unsafe impl Send for StatePtr {}
-unsafe impl Sync for StatePtr {}
-impl StatePtr {
-    #[inline(always)]
-    fn get(self) -> *mut [PointHistory; 3] {
-        self.0
+/// A pointer into an array that stage 2's colour blocks write concurrently, each to
+/// entries no other block of its colour touches (nodes of its joints, its own joints).
+struct SyncPtr<T>(*mut T);
+impl<T> Clone for SyncPtr<T> {
+    fn clone(&self) -> Self {
+        *self
     }
 }
-
-#[derive(Clone, Copy)]
-struct AnchorPtr(*mut [Vec3; 3]);
-unsafe impl Send for AnchorPtr {}
-unsafe impl Sync for AnchorPtr {}
-impl AnchorPtr {
+impl<T> Copy for SyncPtr<T> {}
+unsafe impl<T> Send for SyncPtr<T> {}
+unsafe impl<T> Sync for SyncPtr<T> {}
+impl<T> SyncPtr<T> {
     #[inline(always)]
-    fn get(self) -> *mut [Vec3; 3] {
-        self.0
-    }
-}
-
-#[derive(Clone, Copy)]
-struct SyncPtr(*mut Vec3);
-unsafe impl Send for SyncPtr {}
-unsafe impl Sync for SyncPtr {}
-impl SyncPtr {
-    #[inline(always)]
-    fn get(self) -> *mut Vec3 {
+    fn get(self) -> *mut T {
         self.0
     }
 }
