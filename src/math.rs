@@ -31,3 +31,22 @@ pub fn rotation_matrix(axis: &Vec3, angle: Real) -> Mat3 {
     let a = axis.normalize();
     nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_unchecked(a), angle).into_inner()
 }
+
+/// A raw pointer into an array that parallel workers write at disjoint entries (stage 1's
+/// body runs, stage 2's colour blocks). Each use states why its writes never alias.
+pub(crate) struct SyncPtr<T>(pub(crate) *mut T);
+impl<T> Clone for SyncPtr<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T> Copy for SyncPtr<T> {}
+// SAFETY: only the pointer is shared; every dereference is justified at its use.
+unsafe impl<T> Send for SyncPtr<T> {}
+unsafe impl<T> Sync for SyncPtr<T> {}
+impl<T> SyncPtr<T> {
+    #[inline(always)]
+    pub(crate) fn get(self) -> *mut T {
+        self.0
+    }
+}

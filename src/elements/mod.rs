@@ -19,7 +19,7 @@
 //! forces into a slot buffer that is then gathered per node in a fixed order (no atomics).
 
 use crate::material::{munjiza_cauchy, Formulation, Material};
-use crate::math::{Mat3, Real, Vec3};
+use crate::math::{Mat3, Real, SyncPtr, Vec3};
 use crate::pipeline::state::{Body, Layout, Nodes, Tets};
 use rayon::prelude::*;
 
@@ -127,7 +127,17 @@ pub struct ElementsWorkspace {
     /// Per-body gather data for bodies that share nodes.
     pub shared: Vec<Option<SharedGather>>,
     partials: Vec<ElementSums>,
+    /// Bodies with at least `BIG_BODY` tets, each split into parallel chunks.
+    big: Vec<usize>,
+    /// Runs of consecutive smaller bodies (≈ `GROUP_TETS` tets each), one thread per run.
+    groups: Vec<std::ops::Range<usize>>,
 }
+
+/// A body this large is split into parallel chunks of its own.
+const BIG_BODY: usize = 8 * CHUNK;
+/// Smaller bodies are grouped into runs of about this many tets, the runs in parallel
+/// (a masonry wall or a fragmented stack has thousands of bodies of ~100 tets).
+const GROUP_TETS: usize = 2 * CHUNK;
 
 /// Slot buffer and CSR node→slots map of a body that shares nodes.
 #[derive(Clone, Debug, Default)]
@@ -175,14 +185,40 @@ impl ElementsWorkspace {
                 })
             })
             .collect();
+        let (mut big, mut groups) = (Vec::new(), Vec::new());
+        let mut run = 0..0;
+        let mut run_tets = 0;
+        for (i, b) in bodies.iter().enumerate() {
+            // Node ranges follow body order (groups hand out disjoint node slices).
+            debug_assert!(i == 0 || bodies[i - 1].nodes.end <= b.nodes.start);
+            if b.tets.len() >= BIG_BODY {
+                big.push(i);
+                continue;
+            }
+            if run.is_empty() {
+                run = i..i;
+            }
+            run.end = i + 1;
+            run_tets += b.tets.len();
+            if run_tets >= GROUP_TETS {
+                groups.push(std::mem::replace(&mut run, 0..0));
+                run_tets = 0;
+            }
+        }
+        if !run.is_empty() {
+            groups.push(run);
+        }
         let max_chunks = bodies
             .iter()
             .map(|b| b.tets.len().div_ceil(CHUNK))
             .max()
-            .unwrap_or(0);
+            .unwrap_or(0)
+            .max(groups.len());
         ElementsWorkspace {
             shared,
             partials: Vec::with_capacity(max_chunks),
+            big,
+            groups,
         }
     }
 }
@@ -210,7 +246,70 @@ pub fn add_internal_forces(
     let mut total = ElementSums::default();
     let x = &nodes.x;
     let v = &nodes.v;
-    for (b, shared) in bodies.iter().zip(ws.shared.iter_mut()) {
+    let add_partials = |total: &mut ElementSums, partials: &[ElementSums]| {
+        for p in partials {
+            total.strain_energy += p.strain_energy;
+            total.viscous_power += p.viscous_power;
+            total.inverted += p.inverted;
+        }
+    };
+    // Runs of small bodies, one thread per run. Per node the arithmetic is the same as the
+    // chunked path below (a body's forces, then its gather in slot order), so results do
+    // not depend on how bodies are scheduled.
+    let f_ptr = SyncPtr(nodes.f.as_mut_ptr());
+    let g_ptr = SyncPtr(ws.shared.as_mut_ptr());
+    ws.groups
+        .par_iter()
+        .map(|run| {
+            let mut s = ElementSums::default();
+            for bi in run.clone() {
+                let b = &bodies[bi];
+                // SAFETY: runs are disjoint ranges of bodies, whose node ranges are disjoint
+                // (checked when the runs are built), and each body's gather data belongs to
+                // it alone; `nodes.f` and `ws.shared` outlive this parallel section.
+                let (f_body, shared) = unsafe {
+                    (
+                        std::slice::from_raw_parts_mut(
+                            f_ptr.get().add(b.nodes.start),
+                            b.nodes.len(),
+                        ),
+                        &mut *g_ptr.get().add(bi),
+                    )
+                };
+                let e0 = b.tets.start;
+                match shared {
+                    None => {
+                        for (i, f4) in f_body.chunks_exact_mut(4).enumerate() {
+                            let r = tet_result(tets, materials, x, v, e0 + i, want_energy);
+                            for (f, rf) in f4.iter_mut().zip(r.forces) {
+                                *f += rf;
+                            }
+                            accumulate(&mut s, &r);
+                        }
+                    }
+                    Some(g) => {
+                        for (i, slot) in g.slots.iter_mut().enumerate() {
+                            let r = tet_result(tets, materials, x, v, e0 + i, want_energy);
+                            *slot = r.forces;
+                            accumulate(&mut s, &r);
+                        }
+                        for (i, f) in f_body.iter_mut().enumerate() {
+                            for &k in &g.slot_ids[g.offsets[i] as usize..g.offsets[i + 1] as usize]
+                            {
+                                *f += g.slots[k as usize / 4][k as usize % 4];
+                            }
+                        }
+                    }
+                }
+            }
+            s
+        })
+        .collect_into_vec(&mut ws.partials);
+    add_partials(&mut total, &ws.partials);
+    // Large bodies, each in parallel chunks.
+    for &bi in &ws.big {
+        let b = &bodies[bi];
+        let shared = &mut ws.shared[bi];
         let e0 = b.tets.start;
         let f_body = &mut nodes.f[b.nodes.clone()];
         match shared {
@@ -259,11 +358,7 @@ pub fn add_internal_forces(
                     });
             }
         }
-        for p in &ws.partials {
-            total.strain_energy += p.strain_energy;
-            total.viscous_power += p.viscous_power;
-            total.inverted += p.inverted;
-        }
+        add_partials(&mut total, &ws.partials);
     }
     total
 }
@@ -279,4 +374,71 @@ fn accumulate(s: &mut ElementSums, r: &TetResult) {
 pub fn deformation_gradient(tets: &Tets, x: &[Vec3], e: usize) -> Mat3 {
     let n = tets.nodes[e].map(|i| x[i as usize]);
     Mat3::from_columns(&[n[1] - n[0], n[2] - n[0], n[3] - n[0]]) * tets.dm_inv[e]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::Formulation;
+    use crate::mesh::box_mesh;
+    use crate::pipeline::Simulation;
+
+    /// Runs of small bodies (one thread per run) give the same nodal forces, bit for bit,
+    /// as every body in its own parallel chunks: per node the arithmetic is the same. Forty
+    /// deformed bodies, continuous and jointed, and one large one.
+    #[test]
+    fn body_runs_equal_per_body_chunks() {
+        let mut sim = Simulation::new();
+        let m = sim
+            .add_material(Material::new(Formulation::NeoHookean, 1000.0, 1e7, 0.3, 1e3).unwrap());
+        for k in 0..40 {
+            let b = box_mesh(
+                Vec3::new(k as Real, 0.0, 0.0),
+                Vec3::new(k as Real + 0.5, 0.5, 0.5),
+                [2, 2, 2 + k % 3],
+            );
+            let layout = if k % 2 == 0 {
+                Layout::Continuous
+            } else {
+                Layout::Jointed
+            };
+            sim.add_body(&format!("b{k}"), &b, m, layout).unwrap();
+        }
+        let big = box_mesh(
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(4.0, 3.0, 1.0),
+            [16, 8, 8],
+        );
+        sim.add_body("big", &big, m, Layout::Continuous).unwrap();
+        // A smooth deformation and velocity, so every tet has forces.
+        for (i, x) in sim.nodes.x.iter_mut().enumerate() {
+            *x += Vec3::new(0.01 * x.y * x.z, -0.02 * x.x, 0.003 * (i % 7) as Real);
+        }
+        for (i, v) in sim.nodes.v.iter_mut().enumerate() {
+            *v = Vec3::new(0.1, -0.2 * (i % 3) as Real, 0.05);
+        }
+        let run = |ws: &mut ElementsWorkspace, sim: &mut Simulation| {
+            for f in sim.nodes.f.iter_mut() {
+                *f = Vec3::zeros();
+            }
+            add_internal_forces(
+                &mut sim.nodes,
+                &sim.tets,
+                &sim.bodies,
+                &sim.materials,
+                ws,
+                true,
+            );
+            sim.nodes.f.clone()
+        };
+        let mut grouped = ElementsWorkspace::new(&sim.bodies, &sim.tets);
+        assert!(grouped.groups.len() >= 2 && grouped.big.len() == 1);
+        let mut chunked = ElementsWorkspace::new(&sim.bodies, &sim.tets);
+        chunked.big = (0..sim.bodies.len()).collect();
+        chunked.groups.clear();
+        let a = run(&mut grouped, &mut sim);
+        let b = run(&mut chunked, &mut sim);
+        assert!(a.iter().any(|f| f.norm() > 0.0));
+        assert_eq!(a, b);
+    }
 }

@@ -19,6 +19,7 @@
 pub mod compiled;
 pub mod law;
 
+use crate::math::SyncPtr;
 use crate::math::{Real, Vec3};
 use crate::mesh::TET_FACES;
 use crate::pipeline::state::{Body, Layout, Nodes};
@@ -664,24 +665,6 @@ pub fn add_joint_forces(joints: &mut Joints, nodes: &mut Nodes, want_energy: boo
         }
     }
     total
-}
-
-/// A pointer into an array that stage 2's colour blocks write concurrently, each to
-/// entries no other block of its colour touches (nodes of its joints, its own joints).
-struct SyncPtr<T>(*mut T);
-impl<T> Clone for SyncPtr<T> {
-    fn clone(&self) -> Self {
-        *self
-    }
-}
-impl<T> Copy for SyncPtr<T> {}
-unsafe impl<T> Send for SyncPtr<T> {}
-unsafe impl<T> Sync for SyncPtr<T> {}
-impl<T> SyncPtr<T> {
-    #[inline(always)]
-    fn get(self) -> *mut T {
-        self.0
-    }
 }
 
 #[cfg(test)]
