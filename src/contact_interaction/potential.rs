@@ -491,25 +491,18 @@ fn integrate_piece(
     let cone_oth = (centroid - other.centroid).dot(&n) * area / 3.0;
     let e_own = 0.25 * cone_own;
     let e_oth = cone_oth * (0.25 + 0.75 * phi_c);
-    match side {
-        Side::Contactor => {
-            // Facet of ∂C inside T: φ_other = φ_t.
-            acc.e_c += e_own;
-            acc.e_t += e_oth;
-            for q in 0..4 {
-                acc.sc[q] += n * i_own[q]; //  + ∫_{∂C∩T} φ_t N^c n_c
-                acc.st[q] -= n * i_oth[q]; //  − ∫_{T∩∂C} φ_t N^t n_c
-            }
-        }
-        Side::Target => {
-            // Facet of ∂T inside C: φ_other = φ_c.
-            acc.e_t += e_own;
-            acc.e_c += e_oth;
-            for q in 0..4 {
-                acc.st[q] += n * i_own[q]; //  + ∫_{∂T∩C} φ_c N^t n_t
-                acc.sc[q] -= n * i_oth[q]; //  − ∫_{C∩∂T} φ_c N^c n_t
-            }
-        }
+    // A facet of ∂C inside T (φ_other = φ_t) adds + ∫_{∂C∩T} φ_t N^c n_c to the contactor and
+    // − ∫_{T∩∂C} φ_t N^t n_c to the target; a facet of ∂T inside C (φ_other = φ_c) adds
+    // + ∫_{∂T∩C} φ_c N^t n_t to the target and − ∫_{C∩∂T} φ_c N^c n_t to the contactor.
+    let (e_own_sum, e_oth_sum, s_own, s_oth) = match side {
+        Side::Contactor => (&mut acc.e_c, &mut acc.e_t, &mut acc.sc, &mut acc.st),
+        Side::Target => (&mut acc.e_t, &mut acc.e_c, &mut acc.st, &mut acc.sc),
+    };
+    *e_own_sum += e_own;
+    *e_oth_sum += e_oth;
+    for q in 0..4 {
+        s_own[q] += n * i_own[q];
+        s_oth[q] -= n * i_oth[q];
     }
 }
 
