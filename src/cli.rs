@@ -3,8 +3,9 @@
 use crate::material::{Formulation, Material};
 use crate::math::Vec3;
 use crate::mesh::box_mesh;
-use crate::pipeline::{Layout, Simulation, Stage};
+use crate::pipeline::{Simulation, Stage};
 use crate::script::{self, RunOptions};
+use crate::state::Layout;
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -400,8 +401,11 @@ pub fn bench(
                         .compile(src)
                         .map_err(|e| e.to_string())?;
                     crate::joints::JointLaw::Script {
-                        law: std::sync::Arc::new(crate::joints::compiled::compile(
-                            &ast, "munjiza", &p,
+                        law: std::sync::Arc::new(crate::compiled::compile_with(
+                            &ast,
+                            "munjiza",
+                            &p,
+                            crate::joints::JOINT_LAW,
                         )?),
                         normal_penalty: cohesive.normal_penalty,
                         tangential_penalty: cohesive.tangential_penalty,

@@ -17,6 +17,7 @@
 //! [`io`] (ParaView and CSV output) and [`cli`].
 
 pub mod cli;
+pub mod compiled;
 pub mod contact_detection;
 pub mod contact_interaction;
 pub mod elements;
@@ -30,5 +31,7 @@ pub mod math;
 pub mod mesh;
 pub mod pipeline;
 pub mod script;
+pub mod state;
 
-pub use pipeline::{Layout, Simulation, Stage};
+pub use pipeline::{Simulation, Stage};
+pub use state::Layout;

@@ -5,12 +5,12 @@
 mod common;
 
 use common::material;
+use fdem::compiled::{compile_with, CompiledLaw};
 use fdem::contact_interaction::{ContactRule, FRICTION_LAW};
-use fdem::joints::compiled::{compile_with, CompiledLaw};
 use fdem::material::Formulation;
 use fdem::math::{Real, Vec3};
 use fdem::mesh::box_mesh;
-use fdem::pipeline::{Layout, Simulation};
+use fdem::{Layout, Simulation};
 use std::sync::Arc;
 
 fn body_momentum(sim: &Simulation, b: usize) -> (Vec3, Real) {
@@ -471,7 +471,7 @@ fn negative_or_nan_friction_from_a_law_stops_the_run_with_its_inputs() {
             msg.contains("(body 'block')") && msg.contains("(body 'base')"),
             "{msg}"
         );
-        for input in fdem::joints::compiled::FRICTION_INPUTS {
+        for input in fdem::contact_interaction::FrictionInputs::NAMES {
             assert!(msg.contains(&format!("c.{input} = ")), "{msg}");
         }
     }

@@ -7,7 +7,7 @@ use common::*;
 use fdem::loads::{NodalForces, PrescribedVelocity, TimeFunction};
 use fdem::material::{Formulation, Material};
 use fdem::math::{Real, Vec3};
-use fdem::pipeline::{Layout, Simulation};
+use fdem::{Layout, Simulation};
 
 fn prescribe(sim: &mut Simulation, nodes: Vec<u32>, v: [Option<Real>; 3]) {
     sim.loads.prescribed.push(PrescribedVelocity {

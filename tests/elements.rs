@@ -7,7 +7,7 @@ use fdem::elements::{add_internal_forces, internal_force_tet4, ElementsWorkspace
 use fdem::material::{Formulation, Material, StressMeasure};
 use fdem::math::{rotation_matrix, Mat3, Real, Vec3};
 use fdem::mesh::Region;
-use fdem::pipeline::{Layout, Simulation};
+use fdem::{Layout, Simulation};
 use proptest::prelude::*;
 
 /// Perturb interior nodes of a box mesh so the patch is irregular (a patch test on a

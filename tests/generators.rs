@@ -10,7 +10,7 @@ use fdem::math::{Real, Vec3};
 use fdem::mesh::masonry::{self, Arch, Assembly, Dome, Wall};
 use fdem::mesh::solids::{self, NotchedBeam};
 use fdem::mesh::{Mesh, TET_FACES};
-use fdem::pipeline::{Layout, Simulation};
+use fdem::{Layout, Simulation};
 use std::f64::consts::PI;
 
 /// Default cases (the table of docs/generators.md).
@@ -122,7 +122,7 @@ fn joints_between(a: &Assembly) -> usize {
         tangential_penalty: 1e10,
     });
     let tol = sim.length_tolerance();
-    let refs: Vec<&fdem::pipeline::Body> = sim.bodies.iter().collect();
+    let refs: Vec<&fdem::state::Body> = sim.bodies.iter().collect();
     let x0 = sim.nodes.x0.clone();
     let mut joints = sim.joints.clone();
     joints.insert_between(&refs, &x0, law, tol)

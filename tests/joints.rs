@@ -7,7 +7,7 @@ use fdem::loads::{PrescribedVelocity, TimeFunction};
 use fdem::material::{Formulation, Material};
 use fdem::math::{Real, Vec3};
 use fdem::mesh::Mesh;
-use fdem::pipeline::{Layout, Simulation};
+use fdem::{Layout, Simulation};
 
 /// Two tets sharing the face (1, 2, 3); tet A holds the origin, tet B the far node.
 fn two_tets() -> Mesh {
@@ -560,7 +560,9 @@ fn rhai_munjiza_law_equals_the_builtin() {
         ] {
             params.insert(k.into(), v.into());
         }
-        let script = fdem::joints::compiled::compile(&ast, "munjiza", &params).unwrap();
+        let script =
+            fdem::compiled::compile_with(&ast, "munjiza", &params, fdem::joints::JOINT_LAW)
+                .unwrap();
         let consts = coh.consts();
         let h = 0.02;
         let dnp = coh.peak_opening(h);
@@ -630,7 +632,9 @@ fn unsupported_construct_in_a_script_law_is_refused_with_its_line() {
     ];
     for (src, expected) in cases {
         let ast = rhai::Engine::new_raw().compile(src).unwrap();
-        let e = fdem::joints::compiled::compile(&ast, "law", &rhai::Map::new()).unwrap_err();
+        let e =
+            fdem::compiled::compile_with(&ast, "law", &rhai::Map::new(), fdem::joints::JOINT_LAW)
+                .unwrap_err();
         assert!(e.contains(expected), "{e}");
     }
 }
@@ -645,13 +649,7 @@ fn criterion(
     for (k, v) in params {
         p.insert((*k).into(), (*v).into());
     }
-    let f = fdem::joints::compiled::compile_with(
-        &ast,
-        "criterion",
-        &p,
-        fdem::joints::compiled::CRITERION,
-    )
-    .unwrap();
+    let f = fdem::compiled::compile_with(&ast, "criterion", &p, fdem::fracture::CRITERION).unwrap();
     fdem::fracture::FractureCriterion::new(std::sync::Arc::new(f), when)
 }
 

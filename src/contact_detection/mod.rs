@@ -354,9 +354,9 @@ impl Detector {
 /// cracks and separate fragments do, and distant parts of one jointed body may.
 pub fn update_pairs(
     contact: &mut crate::contact_interaction::Contact,
-    nodes: &crate::pipeline::Nodes,
-    tets: &crate::pipeline::Tets,
-    bodies: &[crate::pipeline::Body],
+    nodes: &crate::state::Nodes,
+    tets: &crate::state::Tets,
+    bodies: &[crate::state::Body],
     joints: &crate::joints::Joints,
 ) -> bool {
     if contact.surface_stale {
@@ -396,7 +396,7 @@ pub fn update_pairs(
     let x0 = &nodes.x0;
     let continuous: Vec<bool> = bodies
         .iter()
-        .map(|b| b.layout == crate::pipeline::Layout::Continuous)
+        .map(|b| b.layout == crate::state::Layout::Continuous)
         .collect();
     let tet_body = &tets.body;
     let skin = contact.detector.skin;
@@ -510,12 +510,12 @@ pub fn update_pairs(
 /// surface list changes (pair indices refer to it).
 fn refresh_surface(
     contact: &mut crate::contact_interaction::Contact,
-    nodes: &crate::pipeline::Nodes,
-    tets: &crate::pipeline::Tets,
-    bodies: &[crate::pipeline::Body],
+    nodes: &crate::state::Nodes,
+    tets: &crate::state::Tets,
+    bodies: &[crate::state::Body],
     joints: &crate::joints::Joints,
 ) {
-    use crate::pipeline::Layout;
+    use crate::state::Layout;
     let mut free = vec![0i32; tets.len()];
     for b in bodies {
         match b.layout {

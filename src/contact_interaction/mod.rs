@@ -19,7 +19,7 @@
 //!
 //! **Friction laws**: μ is the rule's constant `friction`, or, when the rule has a
 //! `friction_law`, the value of a Rhai function compiled to native code
-//! ([`crate::joints::compiled`], signature [`FRICTION_LAW`]) of the pair's slip rate, slip
+//! ([`crate::compiled`], signature [`FRICTION_LAW`]) of the pair's slip rate, slip
 //! path (history [`PairState::slip`]), pressure, normal force, area, time and the constant,
 //! evaluated once per touching pair and step just before the return to the cone. A result
 //! that is not finite and ≥ 0 stops the run ([`ContactSums::law_failure`]).
@@ -35,14 +35,23 @@
 
 pub mod potential;
 
+use crate::compiled::{CompiledLaw, Frame};
 use crate::contact_detection::{Aabb, Detector};
-pub use crate::joints::compiled::FRICTION_LAW;
-use crate::joints::compiled::{CompiledLaw, Frame};
 use crate::math::{Real, Vec3};
-use crate::pipeline::Nodes;
+use crate::state::Nodes;
 use potential::{overlapping_tet_tet, separating_axis, TetGeom, OVERLAPPED};
 use rayon::prelude::*;
 use std::sync::Arc;
+
+crate::compiled::law_signature! {
+    /// Inputs of a contact friction law, per touching pair and step: tangential relative
+    /// speed at the contact point [m/s], slip path accumulated while touching [m], mean
+    /// normal pressure |F_n|/A [Pa], normal force |F_n| [N], contact area A [m²], time [s],
+    /// and the rule's static `friction` value [-].
+    pub struct FrictionInputs { slip_rate, slip, pressure, normal_force, area, time, mu }
+    /// A contact friction law: `fn law(c, p)` returning `#{ friction: μ }` (or μ alone).
+    pub const FRICTION_LAW = "friction law" -> ["friction"];
+}
 
 /// [`ContactProps::friction_law`] of a rule without a friction law (μ is `friction`).
 pub const NO_FRICTION_LAW: u32 = u32::MAX;
@@ -201,8 +210,8 @@ pub struct FrictionLawFailure {
     pub tets: [u32; 2],
     /// Contact point [m].
     pub point: Vec3,
-    /// The inputs, in the order of [`crate::joints::compiled::FRICTION_INPUTS`].
-    pub inputs: [Real; 7],
+    /// What the law was given.
+    pub inputs: FrictionInputs,
     /// What the law returned.
     pub friction: Real,
 }
@@ -597,17 +606,17 @@ pub fn add_contact_forces(
                             pr.friction
                         } else {
                             let dv_t = dv - n * n.dot(&dv);
-                            let inputs = [
-                                dv_t.norm(),
-                                ps.slip,
-                                normal / r.area,
-                                normal,
-                                r.area,
+                            let inputs = FrictionInputs {
+                                slip_rate: dv_t.norm(),
+                                slip: ps.slip,
+                                pressure: normal / r.area,
+                                normal_force: normal,
+                                area: r.area,
                                 time,
-                                pr.friction,
-                            ];
-                            let [mu] =
-                                laws[pr.friction_law as usize].evaluate_in(&mut frame, &inputs);
+                                mu: pr.friction,
+                            };
+                            let [mu] = laws[pr.friction_law as usize]
+                                .evaluate_in(&mut frame, &inputs.to_slots());
                             if mu.is_finite() && mu >= 0.0 {
                                 mu
                             } else {

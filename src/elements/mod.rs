@@ -20,7 +20,7 @@
 
 use crate::material::{munjiza_cauchy, Formulation, Material};
 use crate::math::{Mat3, Real, SyncPtr, Vec3};
-use crate::pipeline::state::{Body, Layout, Nodes, Tets};
+use crate::state::{Body, Layout, Nodes, Tets};
 use rayon::prelude::*;
 
 /// Tets per parallel work item; fixed, so partial sums are the same for any thread count.

@@ -59,10 +59,20 @@ pub enum CriterionWhen {
     Always { every: u64 },
 }
 
-/// A fracture criterion written in Rhai and compiled ([`crate::joints::compiled::CRITERION`]).
+crate::compiled::law_signature! {
+    /// Inputs of a fracture criterion, per joint: largest damage [-], mean opening and slip
+    /// [m], largest opening and slip so far [m], centroid x, y, z [m], size [m], time [s].
+    pub struct CriterionInputs {
+        damage, opening, slip, max_opening, max_slip, x, y, z, size, time
+    }
+    /// A fracture criterion: `fn criterion(j, p)` returning true (break) or false.
+    pub const CRITERION = "fracture criterion" -> ["broken"];
+}
+
+/// A fracture criterion written in Rhai and compiled ([`CRITERION`]).
 #[derive(Clone, Debug)]
 pub struct FractureCriterion {
-    pub function: std::sync::Arc<crate::joints::compiled::CompiledLaw>,
+    pub function: std::sync::Arc<crate::compiled::CompiledLaw>,
     pub when: CriterionWhen,
     /// Fully damaged joints the criterion has not let break yet.
     pending: Vec<usize>,
@@ -70,7 +80,7 @@ pub struct FractureCriterion {
 
 impl FractureCriterion {
     pub fn new(
-        function: std::sync::Arc<crate::joints::compiled::CompiledLaw>,
+        function: std::sync::Arc<crate::compiled::CompiledLaw>,
         when: CriterionWhen,
     ) -> Self {
         FractureCriterion {
@@ -90,21 +100,22 @@ impl FractureCriterion {
             .map(|&n| x[n as usize])
             .sum::<Vec3>()
             / 6.0;
-        let inputs = [
-            st.iter().map(|p| p.damage).fold(0.0, Real::max),
-            pts.iter().map(|p| p.0).sum::<Real>() / 3.0,
-            pts.iter().map(|p| p.1).sum::<Real>() / 3.0,
-            st.iter()
+        let inputs = CriterionInputs {
+            damage: st.iter().map(|p| p.damage).fold(0.0, Real::max),
+            opening: pts.iter().map(|p| p.0).sum::<Real>() / 3.0,
+            slip: pts.iter().map(|p| p.1).sum::<Real>() / 3.0,
+            max_opening: st
+                .iter()
                 .map(|p| p.max_opening)
                 .fold(Real::NEG_INFINITY, Real::max),
-            st.iter().map(|p| p.max_slip).fold(0.0, Real::max),
-            c.x,
-            c.y,
-            c.z,
-            joints.size[j],
+            max_slip: st.iter().map(|p| p.max_slip).fold(0.0, Real::max),
+            x: c.x,
+            y: c.y,
+            z: c.z,
+            size: joints.size[j],
             time,
-        ];
-        let [b] = self.function.evaluate(&inputs);
+        };
+        let [b] = self.function.evaluate(&inputs.to_slots());
         b != 0.0 && !b.is_nan()
     }
 }
@@ -219,7 +230,7 @@ fn record(
 
 /// Fragments with their volumes [m³] and masses [kg]: (fragment id per tet, volumes, masses).
 pub fn fragment_sizes(
-    tets: &crate::pipeline::Tets,
+    tets: &crate::state::Tets,
     materials: &[crate::material::Material],
     joints: &Joints,
     n_nodes: usize,

@@ -20,7 +20,7 @@
 pub mod stable_dt;
 
 use crate::math::{Real, Vec3};
-use crate::pipeline::state::Nodes;
+use crate::state::Nodes;
 use rayon::prelude::*;
 
 /// Nodes per parallel work item (fixed for deterministic partial sums).

@@ -16,13 +16,13 @@
 //! colours run one after another (blocks of a colour in parallel, each block in order on one
 //! thread): every node receives its forces in a fixed order, with no atomics and no gather.
 
-pub mod compiled;
+use crate::compiled;
 pub mod law;
 
 use crate::math::SyncPtr;
 use crate::math::{Real, Vec3};
 use crate::mesh::TET_FACES;
-use crate::pipeline::state::{Body, Layout, Nodes};
+use crate::state::{Body, Layout, Nodes};
 use law::{Cohesive, CohesiveConsts, PointHistory, PointKinematics, PointState, PointTraction};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -32,6 +32,14 @@ pub const CHUNK: usize = 1024;
 
 /// Index of the block bucket that runs on one thread (blocks no parallel colour could take).
 const SEQUENTIAL: usize = 63;
+
+compiled::law_signature! {
+    /// Inputs of a joint law written in Rhai, per integration point: opening δn and slip |δs|
+    /// [m], their largest values so far [m], the joint size h [m] and the damage D [-].
+    pub struct JointLawInputs { opening, slip, max_opening, max_slip, size, damage }
+    /// A joint law: `fn law(j, p)` returning `#{ normal, shear, damage }` (σ, τ [Pa], D [-]).
+    pub const JOINT_LAW = "joint law" -> ["normal", "shear", "damage"];
+}
 
 /// A joint constitutive law (registry name ↔ type).
 #[derive(Clone, Debug)]
@@ -131,17 +139,15 @@ impl JointLaw {
                 // dissipation (the energy account then shows its work as a balance error).
                 s.max_opening = s.max_opening.max(k.opening);
                 s.max_slip = s.max_slip.max(k.slip);
-                let [normal, shear, damage] = law.evaluate_in(
-                    frame,
-                    &[
-                        k.opening,
-                        k.slip,
-                        s.max_opening,
-                        s.max_slip,
-                        k.size,
-                        s.damage,
-                    ],
-                );
+                let inputs = JointLawInputs {
+                    opening: k.opening,
+                    slip: k.slip,
+                    max_opening: s.max_opening,
+                    max_slip: s.max_slip,
+                    size: k.size,
+                    damage: s.damage,
+                };
+                let [normal, shear, damage] = law.evaluate_in(frame, &inputs.to_slots());
                 s.damage = s.damage.max(damage.min(1.0));
                 PointTraction {
                     normal,

@@ -12,7 +12,7 @@ mod time_function;
 pub use time_function::TimeFunction;
 
 use crate::math::{Real, Vec3};
-use crate::pipeline::state::Nodes;
+use crate::state::Nodes;
 
 /// A set of nodal forces: node i gets `force[i]·scale(t)` [N].
 #[derive(Clone, Debug)]

@@ -1,16 +1,14 @@
 //! The simulation state and the time step: the seven stages of Munjiza's FEM/DEM in order,
 //! each a free function of exactly the arrays it reads and writes, each timed.
 
-pub mod state;
-
 use crate::elements::{self, ElementsWorkspace};
 use crate::integration::{self, stable_dt, IntegrationSums, StepParams};
 use crate::loads::{self, Loads};
 use crate::material::Material;
 use crate::math::{Real, Vec3};
 use crate::mesh::{boundary_faces, BoundaryFace, Mesh, Region};
+use crate::state::{self, Body, Layout, MaterialId, Nodes, Tets};
 use rayon::prelude::*;
-pub use state::{Body, Layout, MaterialId, Nodes, Tets};
 use std::time::Instant;
 
 /// The seven stages of a time step (Munjiza 2004), in execution order.
@@ -794,9 +792,9 @@ impl Simulation {
     ) -> String {
         let law = &self.contact.friction_laws[f.law as usize];
         let body = |t: u32| &self.bodies[self.tets.body[t as usize] as usize].name;
-        let inputs: Vec<String> = crate::joints::compiled::FRICTION_INPUTS
+        let inputs: Vec<String> = crate::contact_interaction::FrictionInputs::NAMES
             .iter()
-            .zip(f.inputs)
+            .zip(f.inputs.to_slots())
             .map(|(name, v)| format!("c.{name} = {v:.6e}"))
             .collect();
         format!(

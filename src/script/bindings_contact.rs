@@ -14,7 +14,7 @@ use std::rc::Rc;
 fn friction_law(
     ctx: &ScriptContext,
     d: &Dynamic,
-) -> RhaiResult<std::sync::Arc<crate::joints::compiled::CompiledLaw>> {
+) -> RhaiResult<std::sync::Arc<crate::compiled::CompiledLaw>> {
     let Some(m) = d.clone().try_cast::<Map>() else {
         return err(format!(
             "contact_law(): 'friction_law' must be a map #{{ function, params, source }}, got {}",

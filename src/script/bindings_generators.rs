@@ -9,7 +9,7 @@ use crate::math::{Real, Vec3};
 use crate::mesh::masonry::{self, Assembly};
 use crate::mesh::solids::{self, NotchedBeam};
 use crate::mesh::{Mesh, Quality, Region};
-use crate::pipeline::Layout;
+use crate::state::Layout;
 use rhai::{Array, Dynamic, Engine, Map};
 use std::f64::consts::PI;
 use std::rc::Rc;

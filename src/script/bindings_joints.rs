@@ -69,11 +69,11 @@ pub fn register(engine: &mut Engine) {
                 return err("insert_joints(): 'region' applies to 'within'");
             }
             let gap = o.positive("gap_tolerance")?.unwrap_or(tol);
-            let list: Vec<crate::pipeline::Body> = bodies.iter().map(|b| st.sim.bodies[b.id].clone()).collect();
+            let list: Vec<crate::state::Body> = bodies.iter().map(|b| st.sim.bodies[b.id].clone()).collect();
             let young = list.iter().map(|b| st.sim.materials[b.material as usize].young).fold(f64::INFINITY, f64::min);
             let id = st.sim.joints.add_law(resolve(young));
             let x0 = st.sim.nodes.x0.clone();
-            let refs: Vec<&crate::pipeline::Body> = list.iter().collect();
+            let refs: Vec<&crate::state::Body> = list.iter().collect();
             total = st.sim.joints.insert_between(&refs, &x0, id, gap);
             if total == 0 {
                 return err(format!("insert_joints(): no coincident faces between the bodies within gap_tolerance = {gap:e} m (faces must match vertex for vertex)"));
@@ -139,7 +139,7 @@ fn script_law(ctx: &ScriptContext, o: &Opts) -> RhaiResult<JointLawValue> {
     let params = o
         .typed::<Map>("params", "a map of numbers")?
         .unwrap_or_default();
-    let law = compile_from(ctx, o, &function, &params, crate::joints::compiled::LAW)
+    let law = compile_from(ctx, o, &function, &params, crate::joints::JOINT_LAW)
         .map_err(|e| format!("joint_law(\"script\"): {e}"))?;
     Ok(JointLawValue {
         name: format!("script:{function}"),
@@ -226,7 +226,7 @@ pub fn register_script_laws(engine: &mut Engine, ctx: Rc<ScriptContext>) {
         let o = Opts::new("fracture_criterion", m, keys_of("sim.fracture_criterion"))?;
         let function = o.string("function")?.map_or_else(|| err("fracture_criterion(): missing required key 'function'"), Ok)?;
         let params = o.typed::<Map>("params", "a map of numbers")?.unwrap_or_default();
-        let compiled = compile_from(&ctx, &o, &function, &params, crate::joints::compiled::CRITERION)
+        let compiled = compile_from(&ctx, &o, &function, &params, crate::fracture::CRITERION)
             .map_err(|e| format!("fracture_criterion(): {e}"))?;
         let when = match o.string("when")?.as_deref() {
             None | Some("damaged") => {
@@ -253,13 +253,13 @@ pub(super) fn compile_from(
     o: &Opts,
     function: &str,
     params: &Map,
-    sig: crate::joints::compiled::Signature,
-) -> Result<crate::joints::compiled::CompiledLaw, String> {
+    sig: crate::compiled::Signature,
+) -> Result<crate::compiled::CompiledLaw, String> {
     match o.string("source").map_err(|e| e.to_string())? {
         None => {
             let ast = ctx.ast.borrow();
             let ast = ast.as_ref().ok_or("no script is running")?;
-            crate::joints::compiled::compile_with(ast, function, params, sig)
+            crate::compiled::compile_with(ast, function, params, sig)
         }
         Some(src) => {
             let Some((_, text)) = super::STDLIB.iter().find(|(n, _)| *n == src) else {
@@ -272,7 +272,7 @@ pub(super) fn compile_from(
             let ast = rhai::Engine::new_raw()
                 .compile(*text)
                 .map_err(|e| format!("{src}: {e}"))?;
-            crate::joints::compiled::compile_with(&ast, function, params, sig)
+            crate::compiled::compile_with(&ast, function, params, sig)
         }
     }
 }

@@ -40,8 +40,7 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
                 .map(|t| sim.tets.body[t[0] as usize])
                 .collect();
             for (id, b) in sim.bodies.iter().enumerate() {
-                if b.layout == crate::pipeline::Layout::Jointed
-                    && !with_joints.contains(&(id as u32))
+                if b.layout == crate::state::Layout::Jointed && !with_joints.contains(&(id as u32))
                 {
                     ctx.say(&format!(
                         "[{}] warning: body '{}' is jointed but has no joints: its tetrahedra are not connected and will move independently (sim.insert_joints(..) adds them)",

@@ -52,7 +52,7 @@ pub struct JointLawValue {
     /// None for "tied" and script laws.
     pub cohesive: Option<crate::joints::law::Cohesive>,
     /// A compiled Rhai law.
-    pub script: Option<std::sync::Arc<crate::joints::compiled::CompiledLaw>>,
+    pub script: Option<std::sync::Arc<crate::compiled::CompiledLaw>>,
     /// (p_n, p_t) [Pa] when given.
     pub penalties: (Option<f64>, Option<f64>),
 }

@@ -4,7 +4,7 @@
 use fdem::material::{Formulation, Material};
 use fdem::math::{Real, Vec3};
 use fdem::mesh::{box_mesh, Region};
-use fdem::pipeline::{Layout, Simulation};
+use fdem::{Layout, Simulation};
 
 /// A simulation holding one box body meshed with `div` cells.
 pub fn box_sim(min: Vec3, max: Vec3, div: [usize; 3], mat: Material, layout: Layout) -> Simulation {

@@ -1,16 +1,20 @@
-//! Joint laws written in Rhai, compiled at setup into native closure trees (also the fracture
-//! criteria of stage 3 and the contact friction laws of stage 5, with their own [`Signature`]).
+//! Script laws compiled to native code: the one Rhai-to-native compiler that every stage's
+//! user law goes through (stage 2 joint laws, stage 3 fracture criteria, stage 5 friction
+//! laws). Each stage declares its law's [`Signature`] next to itself with [`law_signature!`]
+//! (inputs and outputs by name): [`crate::joints::JOINT_LAW`],
+//! [`crate::fracture::CRITERION`], [`crate::contact_interaction::FRICTION_LAW`].
 //!
 //! Interpreting Rhai per joint per step costs ~1.7 µs a call against ~10 ns for native code,
 //! so a user's law — a plain Rhai function — is compiled once: its AST is walked into a tree
 //! of `Send + Sync` closures over a fixed stack frame (no allocation per call), evaluated in
-//! parallel by stage 2.
+//! parallel by the stage.
 //!
-//! The function has two parameters, `fn my_law(j, p)`: `j.opening`, `j.slip`,
-//! `j.max_opening`, `j.max_slip`, `j.size` and `j.damage` are the kinematics and history of
-//! the integration point; `p.<name>` are the law's parameters (constants, folded in at
-//! compile time). It returns `#{ normal: σ, shear: τ, damage: D }` (σ > 0 in tension, τ ≥ 0
-//! opposing the slip; the host keeps D non-decreasing and ≤ 1). The body may use numbers,
+//! The function has two parameters, `fn my_law(j, p)`: `j.<input>` are the inputs of the
+//! stage's signature (for a joint law `j.opening`, `j.slip`, `j.max_opening`, `j.max_slip`,
+//! `j.size` and `j.damage`, the kinematics and history of the integration point);
+//! `p.<name>` are the law's parameters (constants, folded in at compile time). It returns a
+//! map of the signature's outputs (a joint law `#{ normal: σ, shear: τ, damage: D }`), or
+//! the value alone when there is one output. The body may use numbers,
 //! `let`, assignment, `if`/`else` (also as an expression), `return`, arithmetic
 //! (`+ - * / % **`), comparisons, `&&`, `||`, `!`, and the functions `exp`, `ln`, `sqrt`,
 //! `abs`, `min`, `max`, `sin`, `cos`, `tan`, `atan`, `floor`, `ceil`. Anything else is
@@ -18,15 +22,6 @@
 
 use rhai::{Expr, Map, Position, Stmt, StmtBlock, AST};
 
-/// Inputs of a law, in slot order.
-pub const INPUTS: [&str; 6] = [
-    "opening",
-    "slip",
-    "max_opening",
-    "max_slip",
-    "size",
-    "damage",
-];
 /// Local variable slots available to a function (inputs included).
 pub const MAX_SLOTS: usize = 48;
 /// Largest number of outputs.
@@ -40,55 +35,46 @@ pub struct Signature {
     pub outputs: &'static [&'static str],
 }
 
-/// A joint law: `fn law(j, p)` returning `#{ normal, shear, damage }`.
-pub const LAW: Signature = Signature {
-    kind: "joint law",
-    inputs: &INPUTS,
-    outputs: &["normal", "shear", "damage"],
-};
-
-/// Inputs of a fracture criterion (per joint): largest damage, mean opening and slip, largest
-/// opening and slip so far, centroid, size, time.
-pub const CRITERION_INPUTS: [&str; 10] = [
-    "damage",
-    "opening",
-    "slip",
-    "max_opening",
-    "max_slip",
-    "x",
-    "y",
-    "z",
-    "size",
-    "time",
-];
-
-/// A fracture criterion: `fn criterion(j, p)` returning true (break) or false.
-pub const CRITERION: Signature = Signature {
-    kind: "fracture criterion",
-    inputs: &CRITERION_INPUTS,
-    outputs: &["broken"],
-};
-
-/// Inputs of a contact friction law (per touching pair, every step): tangential relative speed
-/// at the contact point [m/s], slip path accumulated while touching [m], mean normal pressure
-/// |F_n|/A [Pa], normal force |F_n| [N], contact area A [m²], time [s], and the rule's static
-/// `friction` value [-].
-pub const FRICTION_INPUTS: [&str; 7] = [
-    "slip_rate",
-    "slip",
-    "pressure",
-    "normal_force",
-    "area",
-    "time",
-    "mu",
-];
-
-/// A contact friction law: `fn law(c, p)` returning `#{ friction: μ }` (or μ alone).
-pub const FRICTION_LAW: Signature = Signature {
-    kind: "friction law",
-    inputs: &FRICTION_INPUTS,
-    outputs: &["friction"],
-};
+/// Declares the signature of a stage's script law next to the stage: a struct of the named
+/// inputs (their order is the slot order, written once), its `NAMES`, `to_slots()`, and a
+/// [`Signature`] constant with the kind and the output names.
+///
+/// ```ignore
+/// law_signature! {
+///     /// Inputs of a friction law.
+///     pub struct FrictionInputs { slip_rate, slip, pressure, normal_force, area, time, mu }
+///     /// A contact friction law.
+///     pub const FRICTION_LAW = "friction law" -> ["friction"];
+/// }
+/// ```
+macro_rules! law_signature {
+    (
+        $(#[$smeta:meta])*
+        $vis:vis struct $inputs:ident { $( $(#[$fmeta:meta])* $field:ident ),* $(,)? }
+        $(#[$cmeta:meta])*
+        $cvis:vis const $sig:ident = $kind:literal -> [ $($out:literal),* $(,)? ];
+    ) => {
+        $(#[$smeta])*
+        #[derive(Clone, Copy, Debug, Default, PartialEq)]
+        $vis struct $inputs { $( $(#[$fmeta])* pub $field: f64, )* }
+        impl $inputs {
+            /// Input names in slot order (`<first parameter>.<name>` in the script).
+            pub const NAMES: &'static [&'static str] = &[$(stringify!($field)),*];
+            /// The inputs in slot order.
+            #[inline(always)]
+            pub fn to_slots(&self) -> [f64; [$(stringify!($field)),*].len()] {
+                [$(self.$field),*]
+            }
+        }
+        $(#[$cmeta])*
+        $cvis const $sig: $crate::compiled::Signature = $crate::compiled::Signature {
+            kind: $kind,
+            inputs: $inputs::NAMES,
+            outputs: &[$($out),*],
+        };
+    };
+}
+pub(crate) use law_signature;
 
 /// The evaluation frame: variable slots and the outputs.
 pub struct Frame {
@@ -232,11 +218,6 @@ impl Default for Frame {
     fn default() -> Self {
         Self::new()
     }
-}
-
-/// Compile the joint law `name` of `ast` with parameters `params`.
-pub fn compile(ast: &AST, name: &str, params: &Map) -> Result<CompiledLaw, String> {
-    compile_with(ast, name, params, LAW)
 }
 
 /// Compile the script function `name` of `ast` as a function of signature `sig`.
