@@ -588,37 +588,40 @@ pub fn bench_fragmented(tets: usize, steps: u64) -> Result<serde_json::Value, St
     });
     sim.loads.gravity = Vec3::new(0.0, 0.0, -9.81);
     sim.contact
+        .laws
         .rules
-        .push(crate::contact_interaction::ContactRule {
-            friction: 0.5,
-            damping: 0.2,
-            ..Default::default()
-        });
+        .push(crate::contact_interaction::ContactRule::from(
+            crate::contact_interaction::PotentialContact {
+                friction: 0.5,
+                damping: 0.2,
+                ..Default::default()
+            },
+        ));
     let setup = t.elapsed().as_secs_f64();
     let (seconds, stages) = time_steps(&mut sim, steps)?;
     let contact =
         sim.timers.get(Stage::ContactDetection) + sim.timers.get(Stage::ContactInteraction);
     let n = sim.tets.len();
-    let (kernel_pairs, kernel_ns) = sim
-        .contact
-        .kernel_ns_per_touching_pair(&sim.tets.material, 5);
+    let (kernel_pairs, kernel_ns) =
+        sim.contact
+            .kernel_ns_per_touching_pair(&sim.contact_detection, &sim.tets.material, 5);
     Ok(serde_json::json!({
         "case": "fragmented",
         "kernel_pairs": kernel_pairs,
         "kernel_ns_per_pair": kernel_ns,
         "tets": n,
         "blocks": sim.bodies.len() - 1,
-        "surface_elements": sim.contact.surface.len(),
-        "candidate_pairs": sim.contact.pairs.len(),
+        "surface_elements": sim.contact_detection.surface.len(),
+        "candidate_pairs": sim.contact_detection.pairs.len(),
         "touching_pairs": sim.contact.last.active,
-        "detections": sim.contact.detector.detections,
+        "detections": sim.contact_detection.detector.detections,
         "steps": steps,
         "threads": rayon::current_num_threads(),
         "seconds": seconds,
         "setup_seconds": setup,
         "tet_steps_per_s": n as f64 * steps as f64 / seconds,
         "contact_over_elements": contact / sim.timers.get(Stage::Elements).max(1e-12),
-        "contact_bytes": sim.contact.bytes(),
+        "contact_bytes": sim.contact.bytes() + sim.contact_detection.bytes(),
         "stages": stages,
     }))
 }

@@ -6,7 +6,7 @@ mod common;
 
 use common::material;
 use fdem::compiled::{compile_with, CompiledLaw};
-use fdem::contact_interaction::{ContactRule, FRICTION_LAW};
+use fdem::contact_interaction::{ContactRule, PotentialContact, FRICTION_LAW};
 use fdem::material::Formulation;
 use fdem::math::{Real, Vec3};
 use fdem::mesh::box_mesh;
@@ -54,11 +54,14 @@ fn cubes_head_on_conserve_momentum_and_energy() {
     b.translate(Vec3::new(0.105, 0.02, 0.01));
     sim.add_body("a", &a, m, Layout::Continuous).unwrap();
     sim.add_body("b", &b, m, Layout::Continuous).unwrap();
-    sim.contact.rules.push(ContactRule {
-        penalty: Some(PENALTY),
-        friction: 0.0,
-        ..Default::default()
-    });
+    sim.contact
+        .laws
+        .rules
+        .push(ContactRule::from(PotentialContact {
+            penalty: Some(PENALTY),
+            friction: 0.0,
+            ..Default::default()
+        }));
     set_velocity(&mut sim, 0, Vec3::new(V, 0.0, 0.0));
     set_velocity(&mut sim, 1, Vec3::new(-V, 0.0, 0.0));
     sim.prepare().unwrap();
@@ -90,7 +93,7 @@ fn cubes_head_on_conserve_momentum_and_energy() {
         ke / ke0,
         pa / ma,
         sim.energy.balance_error(),
-        sim.contact.detector.detections
+        sim.contact_detection.detector.detections
     );
     assert!(pa.x < 0.0 && pb.x > 0.0, "the cubes must bounce back");
     assert!(ke >= 0.98 * ke0, "kinetic energy recovered {:.4}", ke / ke0);
@@ -114,10 +117,13 @@ fn bars_end_on_exchange_velocities() {
     b.translate(Vec3::new(1.001, 0.0, 0.0));
     sim.add_body("striker", &a, m, Layout::Continuous).unwrap();
     sim.add_body("target", &b, m, Layout::Continuous).unwrap();
-    sim.contact.rules.push(ContactRule {
-        penalty: Some(10.0 * e),
-        ..Default::default()
-    });
+    sim.contact
+        .laws
+        .rules
+        .push(ContactRule::from(PotentialContact {
+            penalty: Some(10.0 * e),
+            ..Default::default()
+        }));
     let v = 1.0;
     set_velocity(&mut sim, 0, Vec3::new(v, 0.0, 0.0));
     sim.prepare().unwrap();
@@ -175,7 +181,7 @@ fn incline_model(theta_deg: Real, height: Real, rule: ContactRule, v0: Real) -> 
     });
     let th = theta_deg.to_radians();
     sim.loads.gravity = Vec3::new(th.sin(), 0.0, -th.cos()) * 9.81;
-    sim.contact.rules.push(rule);
+    sim.contact.laws.rules.push(rule);
     set_velocity(&mut sim, 1, Vec3::new(v0, 0.0, 0.0));
     sim.prepare().unwrap();
     sim
@@ -202,11 +208,11 @@ fn run_incline(sim: &mut Simulation, t_end: Real) -> Vec<(Real, Real, Real)> {
 /// its contact springs at t = 0 and would otherwise ring). Coulomb: below the friction angle
 /// it sticks; above, it slides with a = g(sinθ − μcosθ).
 fn incline(theta_deg: Real, mu: Real, t_end: Real) -> (Vec<(Real, Real, Real)>, Simulation) {
-    let rule = ContactRule {
+    let rule = ContactRule::from(PotentialContact {
         friction: mu,
         damping: 1.0,
         ..Default::default()
-    };
+    });
     let mut sim = incline_model(theta_deg, 0.1, rule, 0.0);
     (run_incline(&mut sim, t_end), sim)
 }
@@ -269,7 +275,11 @@ fn friction_law(src: &str, name: &str, params: &[(&str, Real)]) -> Arc<CompiledL
 
 /// The rule of the incline tests (contact damping ζ = 1) with a friction law.
 fn law_rule(friction: Real, law: Arc<CompiledLaw>) -> ContactRule {
-    ContactRule {
+    ContactRule::from(law_params(friction, law))
+}
+
+fn law_params(friction: Real, law: Arc<CompiledLaw>) -> PotentialContact {
+    PotentialContact {
         friction,
         damping: 1.0,
         friction_law: Some(law),
@@ -322,10 +332,10 @@ fn velocity_strengthening_friction_reaches_the_terminal_slip_speed() {
         "linear_rate",
         &[("mu0", mu0), ("k", k)],
     );
-    let rule = ContactRule {
+    let rule = ContactRule::from(PotentialContact {
         penalty: Some(SMOOTH_PENALTY),
-        ..law_rule(0.0, law)
-    };
+        ..law_params(0.0, law)
+    });
     let mut sim = incline_model(theta, 0.05, rule, 0.0);
     let hist = run_incline(&mut sim, 0.35);
     let v_star = (theta.to_radians().tan() - mu0) / k;
@@ -358,10 +368,10 @@ fn slip_weakening_friction_keeps_a_pushed_block_sliding_at_the_dynamic_accelerat
         "slip_weakening",
         &[("mu_s", mu_s), ("mu_d", mu_d), ("d_c", d_c)],
     );
-    let rule = ContactRule {
+    let rule = ContactRule::from(PotentialContact {
         penalty: Some(SMOOTH_PENALTY),
-        ..law_rule(0.0, law)
-    };
+        ..law_params(0.0, law)
+    });
     let mut sim = incline_model(theta, 0.05, rule, v0);
     let hist = run_incline(&mut sim, 0.3);
     let a_exact = 9.81 * (theta.to_radians().sin() - mu_d * theta.to_radians().cos());
@@ -375,12 +385,12 @@ fn slip_weakening_friction_keeps_a_pushed_block_sliding_at_the_dynamic_accelerat
         .filter(|s| s.touching)
         .map(|s| s.slip)
         .fold(Real::INFINITY, Real::min);
-    let static_rule = ContactRule {
+    let static_rule = ContactRule::from(PotentialContact {
         penalty: Some(SMOOTH_PENALTY),
         friction: mu_s,
         damping: 1.0,
         ..Default::default()
-    };
+    });
     let mut stuck = incline_model(theta, 0.05, static_rule, v0);
     let stuck_hist = run_incline(&mut stuck, 0.3);
     let stuck_last = stuck_hist.last().unwrap();
@@ -531,11 +541,14 @@ fn stack_of_blocks_settles_and_stays_at_rest() {
         components: [(); 3].map(|_| Some(fdem::loads::TimeFunction::Constant(0.0))),
     });
     sim.loads.gravity = Vec3::new(0.0, 0.0, -9.81);
-    sim.contact.rules.push(ContactRule {
-        friction: 0.5,
-        damping: 0.3,
-        ..Default::default()
-    });
+    sim.contact
+        .laws
+        .rules
+        .push(ContactRule::from(PotentialContact {
+            friction: 0.5,
+            damping: 0.3,
+            ..Default::default()
+        }));
     sim.settings.mass_damping = 60.0;
     sim.prepare().unwrap();
     let weight: Real = (1..5).map(|b| body_momentum(&sim, b).1).sum::<Real>() * 9.81;
@@ -571,7 +584,7 @@ fn stack_of_blocks_settles_and_stays_at_rest() {
     let on_base: Vec3 = base_nodes.iter().map(|&n| node_force[n as usize]).sum();
     println!(
         "drift {drift:.3e} m, max KE {max_ke:.3e} J (gravity work {released:.3e} J), contact force on the base {:.4} N vs weight {weight:.4} N, detections {}, dt {:.3e}",
-        -on_base.z, sim.contact.detector.detections, sim.dt
+        -on_base.z, sim.contact_detection.detector.detections, sim.dt
     );
     assert!(drift < 1e-6, "drift {drift:.3e} m");
     assert!(max_ke < 1e-4 * released, "max KE {max_ke:.3e} J");
@@ -619,10 +632,13 @@ fn impact_model() -> (Simulation, usize) {
         nodes: plate_nodes,
         components: [(); 3].map(|_| Some(fdem::loads::TimeFunction::Constant(0.0))),
     });
-    sim.contact.rules.push(ContactRule {
-        friction: 0.3,
-        ..Default::default()
-    });
+    sim.contact
+        .laws
+        .rules
+        .push(ContactRule::from(PotentialContact {
+            friction: 0.3,
+            ..Default::default()
+        }));
     set_velocity(&mut sim, b, Vec3::new(0.0, 0.0, -5.0));
     (sim, joints)
 }
@@ -753,11 +769,14 @@ fn dry_arch_crown_drop(t_over_r: Real, t_end: Real) -> (Real, Real) {
         components: [(); 3].map(|_| Some(fdem::loads::TimeFunction::Constant(0.0))),
     });
     sim.loads.gravity = Vec3::new(0.0, 0.0, -9.81);
-    sim.contact.rules.push(ContactRule {
-        friction: 0.7,
-        damping: 0.3,
-        ..Default::default()
-    });
+    sim.contact
+        .laws
+        .rules
+        .push(ContactRule::from(PotentialContact {
+            friction: 0.7,
+            damping: 0.3,
+            ..Default::default()
+        }));
     sim.prepare().unwrap();
     let crown_z = |sim: &Simulation| {
         crown
@@ -822,5 +841,5 @@ fn contact_results_are_bit_identical_for_1_and_2_threads() {
     assert_eq!(a.nodes.x, b.nodes.x);
     assert_eq!(a.nodes.v, b.nodes.v);
     assert_eq!(a.energy_history, b.energy_history);
-    assert_eq!(a.contact.pairs, b.contact.pairs);
+    assert_eq!(a.contact_detection.pairs, b.contact_detection.pairs);
 }

@@ -1,318 +1,37 @@
-//! Stage 4: contact detection — candidate pairs of surface elements whose (inflated) bounding
-//! boxes overlap.
+//! Stage 4: contact detection — the broad phase. Reads node positions, tets, bodies and the
+//! joints' broken flags; writes the candidate pairs of surface elements whose (inflated)
+//! bounding boxes overlap, and hands stage 5 an old→new remap of the pair list
+//! ([`PairOrigin`]) so that stage 5 carries its per-pair history over.
 //!
-//! **NBS (Munjiza's No Binary Search).** The cell size d is the largest box extent. Every
-//! element is mapped to the integer cell of its box centre, `floor(c/d)`; two boxes that
-//! overlap have centres less than d apart on every axis, so they sit in the same or
-//! neighbouring cells, and only those 27 cells are searched. Occupied cells are found by
-//! hashing their integer coordinates (an open-addressing table of ≥ 2N slots), never by
-//! searching or by an array over the domain: time and memory are O(N) whatever the extent
-//! (fragments kilometres apart cost what they cost packed). Elements are scattered into
-//! their cells in index order and every pair is emitted once, by its lower index, in index
-//! order — the pair list is identical for any number of threads.
+//! **Search**: Munjiza's NBS ([`nbs`]), linear in time and memory, with a brute-force oracle
+//! and a sort-and-sweep comparison point.
+//!
+//! **Surface**: tets with a free face (the outer boundary of a continuous body, every face of
+//! a jointed body's tet not held by an intact joint), refreshed when joints break.
 //!
 //! **Skin.** Boxes are inflated by `skin/2` on every side. While no node has moved more than
 //! `skin/2` since the last detection, every box still lies inside its inflated box, so every
 //! pair that can touch is already a candidate: detection need not run again (see
 //! [`Detector::needs_update`]).
 //!
-//! [`brute_force_pairs`] is the test oracle; [`sweep_pairs`] (sort and sweep, N log N) is a
-//! comparison point for the benchmark.
+//! **Which pairs are candidates**: pairs are excluded while their tets are connected: in the
+//! same fragment and touching in the reference configuration (a shared reference node
+//! position: neighbours in one mesh, or glued faces of two bodies), unless they are the two
+//! sides of a broken joint; and a continuous body does not contact itself. So intact material
+//! never contacts itself, cracks and separate fragments do, and distant parts of one jointed
+//! body may. A face plane of one tet with the whole other tet more than a skin outside it
+//! separates the pair until the next detection.
 
+pub mod nbs;
+
+pub use nbs::{brute_force_pairs, nbs_pairs, sweep_pairs, Aabb, NbsWorkspace};
+
+use crate::joints::Joints;
 use crate::math::{Real, Vec3};
+use crate::state::{Body, Layout, Nodes, Tets};
 use rayon::prelude::*;
 
-/// Axis-aligned box.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Aabb {
-    pub lo: Vec3,
-    pub hi: Vec3,
-}
-
-impl Aabb {
-    #[inline(always)]
-    pub fn of_points(p: &[Vec3]) -> Self {
-        let mut lo = p[0];
-        let mut hi = p[0];
-        for q in &p[1..] {
-            lo = lo.inf(q);
-            hi = hi.sup(q);
-        }
-        Aabb { lo, hi }
-    }
-    #[inline(always)]
-    pub fn inflate(&self, r: Real) -> Self {
-        Aabb {
-            lo: self.lo - Vec3::repeat(r),
-            hi: self.hi + Vec3::repeat(r),
-        }
-    }
-    #[inline(always)]
-    pub fn overlaps(&self, o: &Aabb) -> bool {
-        self.lo.x <= o.hi.x
-            && o.lo.x <= self.hi.x
-            && self.lo.y <= o.hi.y
-            && o.lo.y <= self.hi.y
-            && self.lo.z <= o.hi.z
-            && o.lo.z <= self.hi.z
-    }
-    #[inline(always)]
-    fn centre(&self) -> Vec3 {
-        (self.lo + self.hi) * 0.5
-    }
-    #[inline(always)]
-    fn max_extent(&self) -> Real {
-        (self.hi - self.lo).max()
-    }
-}
-
-const CHUNK: usize = 2048;
-
-/// One slot of the cell hash table: a cell's integer coordinates and its run of elements in
-/// the cell-sorted arrays (`count == 0`: free slot). One cache line answers a lookup.
-#[derive(Clone, Copy, Debug, Default)]
-struct Slot {
-    c: [i64; 3],
-    start: u32,
-    count: u32,
-}
-
-/// Reusable NBS buffers (no allocation per detection once warmed up).
-#[derive(Clone, Debug, Default)]
-pub struct NbsWorkspace {
-    /// Integer cell of each element.
-    cell_xyz: Vec<[i64; 3]>,
-    /// Open-addressing table of occupied cells.
-    slots: Vec<Slot>,
-    /// Slot of each element.
-    slot_of: Vec<u32>,
-    /// Elements grouped by cell (index order within a cell), and their boxes in that order.
-    sorted: Vec<u32>,
-    sorted_boxes: Vec<Aabb>,
-    fill: Vec<u32>,
-    chunk_pairs: Vec<Vec<[u32; 2]>>,
-    /// Pairs per first element (counting sort of the output by first index).
-    first_count: Vec<u32>,
-}
-
-impl NbsWorkspace {
-    /// Bytes held by the buffers (capacity) [B].
-    pub fn bytes(&self) -> usize {
-        use std::mem::size_of;
-        self.cell_xyz.capacity() * size_of::<[i64; 3]>()
-            + self.slots.capacity() * size_of::<Slot>()
-            + (self.slot_of.capacity()
-                + self.sorted.capacity()
-                + self.fill.capacity()
-                + self.first_count.capacity())
-                * 4
-            + self.sorted_boxes.capacity() * size_of::<Aabb>()
-            + self
-                .chunk_pairs
-                .iter()
-                .map(|c| c.capacity() * 8)
-                .sum::<usize>()
-    }
-}
-
-/// Slot of a cell: linear in x, so cells adjacent along x sit in adjacent slots and the 27
-/// cells around a cell fall in 9 runs of 3 slots (9 cache lines, shared by the next cell).
-#[inline(always)]
-fn hash(c: &[i64; 3], mask: usize) -> usize {
-    let h = (c[0] as u64)
-        .wrapping_add((c[1] as u64).wrapping_mul(0x9E37_79B1))
-        .wrapping_add((c[2] as u64).wrapping_mul(0x85EB_CA77_C2B2_AE3D));
-    (h as usize) & mask
-}
-
-/// The slot of integer cell `c`, or None when no element lies in it.
-#[inline(always)]
-fn lookup(slots: &[Slot], c: &[i64; 3]) -> Option<Slot> {
-    let mask = slots.len() - 1;
-    let mut h = hash(c, mask);
-    loop {
-        let s = slots[h];
-        if s.count == 0 {
-            return None;
-        }
-        if s.c == *c {
-            return Some(s);
-        }
-        h = (h + 1) & mask;
-    }
-}
-
-/// All pairs `[i, j]` (i < j) of boxes that overlap and pass `keep`, by NBS. Pairs are
-/// ordered by i, and for equal i in a fixed order; the result does not depend on threads.
-pub fn nbs_pairs(
-    boxes: &[Aabb],
-    ws: &mut NbsWorkspace,
-    keep: &(impl Fn(u32, u32) -> bool + Sync),
-    out: &mut Vec<[u32; 2]>,
-) {
-    out.clear();
-    let n = boxes.len();
-    if n < 2 {
-        return;
-    }
-    // Cell size: the largest box; cells counted from the smallest centre (only to keep the
-    // integers small — nothing is sized by the extent).
-    let (d, origin) = boxes
-        .par_iter()
-        .map(|b| (b.max_extent(), b.centre()))
-        .reduce(
-            || (0.0, Vec3::repeat(Real::INFINITY)),
-            |a, b| (a.0.max(b.0), a.1.inf(&b.1)),
-        );
-    let d = if d > 0.0 { d } else { 1.0 };
-    let inv = 1.0 / d;
-    ws.cell_xyz.clear();
-    ws.cell_xyz.par_extend(boxes.par_iter().map(|b| {
-        let c = (b.centre() - origin) * inv;
-        [c.x.floor() as i64, c.y.floor() as i64, c.z.floor() as i64]
-    }));
-    // Occupied cells: count the elements of each (consecutive elements are often in the
-    // same cell, so the last slot is remembered).
-    let cap = (2 * n).next_power_of_two();
-    ws.slots.clear();
-    ws.slots.resize(cap, Slot::default());
-    ws.slot_of.clear();
-    let mask = cap - 1;
-    let mut last: Option<([i64; 3], usize)> = None;
-    for c in &ws.cell_xyz {
-        let h = match last {
-            Some((lc, lh)) if lc == *c => lh,
-            _ => {
-                let mut h = hash(c, mask);
-                loop {
-                    let s = &mut ws.slots[h];
-                    if s.count == 0 {
-                        s.c = *c;
-                        break;
-                    }
-                    if s.c == *c {
-                        break;
-                    }
-                    h = (h + 1) & mask;
-                }
-                last = Some((*c, h));
-                h
-            }
-        };
-        ws.slots[h].count += 1;
-        ws.slot_of.push(h as u32);
-    }
-    // Runs of the cells in the sorted arrays (prefix sum over the table), then a counting
-    // sort of the elements (index order within each cell).
-    let mut acc = 0u32;
-    for s in ws.slots.iter_mut() {
-        s.start = acc;
-        acc += s.count;
-    }
-    ws.fill.clear();
-    ws.fill.extend(ws.slots.iter().map(|s| s.start));
-    ws.sorted.clear();
-    ws.sorted.resize(n, 0);
-    for (e, &h) in ws.slot_of.iter().enumerate() {
-        let k = &mut ws.fill[h as usize];
-        ws.sorted[*k as usize] = e as u32;
-        *k += 1;
-    }
-    ws.sorted_boxes.clear();
-    ws.sorted_boxes
-        .par_extend(ws.sorted.par_iter().map(|&e| boxes[e as usize]));
-    // Search the 27 cells around each element's cell for higher-indexed overlapping boxes,
-    // visiting the elements cell by cell (neighbouring elements share their lookups' cache
-    // lines).
-    let n_chunks = n.div_ceil(CHUNK);
-    ws.chunk_pairs.resize_with(n_chunks, Vec::new);
-    let (slots, sorted, sorted_boxes, cell_xyz) =
-        (&ws.slots, &ws.sorted, &ws.sorted_boxes, &ws.cell_xyz);
-    ws.chunk_pairs
-        .par_iter_mut()
-        .enumerate()
-        .for_each(|(ci, pairs)| {
-            pairs.clear();
-            for k in ci * CHUNK..((ci + 1) * CHUNK).min(n) {
-                let e = sorted[k] as usize;
-                let c = cell_xyz[e];
-                let be = &sorted_boxes[k];
-                for dz in -1..=1 {
-                    for dy in -1..=1 {
-                        for dx in -1..=1 {
-                            let Some(s) = lookup(slots, &[c[0] + dx, c[1] + dy, c[2] + dz]) else {
-                                continue;
-                            };
-                            let run = s.start as usize..(s.start + s.count) as usize;
-                            for (&f, bf) in sorted[run.clone()].iter().zip(&sorted_boxes[run]) {
-                                if f as usize > e && be.overlaps(bf) && keep(e as u32, f) {
-                                    pairs.push([e as u32, f]);
-                                }
-                            }
-                        }
-                    }
-                }
-            }
-        });
-    // Order the pairs by their first element (a counting sort: linear, deterministic).
-    ws.first_count.clear();
-    ws.first_count.resize(n + 1, 0);
-    for p in ws.chunk_pairs.iter().flatten() {
-        ws.first_count[p[0] as usize + 1] += 1;
-    }
-    for i in 0..n {
-        ws.first_count[i + 1] += ws.first_count[i];
-    }
-    let total = ws.first_count[n] as usize;
-    out.resize(total, [0, 0]);
-    for p in ws.chunk_pairs.iter().flatten() {
-        let k = &mut ws.first_count[p[0] as usize];
-        out[*k as usize] = *p;
-        *k += 1;
-    }
-}
-
-/// All overlapping pairs by checking every pair: O(N²), the test oracle. Sorted.
-pub fn brute_force_pairs(boxes: &[Aabb], keep: impl Fn(u32, u32) -> bool) -> Vec<[u32; 2]> {
-    let mut out = Vec::new();
-    for i in 0..boxes.len() {
-        for j in i + 1..boxes.len() {
-            if boxes[i].overlaps(&boxes[j]) && keep(i as u32, j as u32) {
-                out.push([i as u32, j as u32]);
-            }
-        }
-    }
-    out
-}
-
-/// Sort and sweep along x (O(N log N) + pairs): a comparison point. Sorted.
-pub fn sweep_pairs(boxes: &[Aabb]) -> Vec<[u32; 2]> {
-    let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
-    order.par_sort_unstable_by(|&a, &b| {
-        boxes[a as usize]
-            .lo
-            .x
-            .total_cmp(&boxes[b as usize].lo.x)
-            .then(a.cmp(&b))
-    });
-    let mut out = Vec::new();
-    for (k, &a) in order.iter().enumerate() {
-        let ba = &boxes[a as usize];
-        for &b in &order[k + 1..] {
-            let bb = &boxes[b as usize];
-            if bb.lo.x > ba.hi.x {
-                break;
-            }
-            if ba.overlaps(bb) {
-                out.push([a.min(b), a.max(b)]);
-            }
-        }
-    }
-    out.par_sort_unstable();
-    out
-}
-
-/// Detection state between steps: candidate pairs, positions at the last detection, skin.
+/// Detection state between steps: positions at the last detection, skin.
 #[derive(Clone, Debug, Default)]
 pub struct Detector {
     /// Skin [m]: boxes are inflated by skin/2.
@@ -343,66 +62,188 @@ impl Detector {
     }
 }
 
-/// Stage 4: refresh the surface lists when the topology changed, and re-detect the candidate
-/// pairs when a node moved more than skin/2 since the last detection. Friction history is
-/// carried over for pairs that remain candidates. Returns true when it detected.
-///
-/// Pairs are excluded while their tets are connected: in the same fragment and touching in
-/// the reference configuration (a shared reference node position: neighbours in one mesh,
-/// or glued faces of two bodies), unless they are the two sides of a broken joint; and a
-/// continuous body does not contact itself. So intact material never contacts itself,
-/// cracks and separate fragments do, and distant parts of one jointed body may.
-pub fn update_pairs(
-    contact: &mut crate::contact_interaction::Contact,
-    nodes: &crate::state::Nodes,
-    tets: &crate::state::Tets,
-    bodies: &[crate::state::Body],
-    joints: &crate::joints::Joints,
-) -> bool {
-    if contact.surface_stale {
-        refresh_surface(contact, nodes, tets, bodies, joints);
+/// Where a pair of the new candidate list comes from (the remap stage 4 hands stage 5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PairOrigin {
+    /// The pair was a candidate before, at this index of the previous list: its history
+    /// carries over.
+    Kept(u32),
+    /// A new candidate. `neighbours`: the two tets were connected when contact started (same
+    /// fragment, a shared reference position), so they may overlap from the deformation they
+    /// underwent while connected; `joint`: the broken joint between them (u32::MAX if none).
+    New { neighbours: bool, joint: u32 },
+}
+
+/// Stage 4 state: surface, candidate pairs and the remap of the last detection.
+#[derive(Clone, Debug, Default)]
+pub struct ContactDetection {
+    pub detector: Detector,
+    /// Skin given by the script [m] (None: a quarter of the mean surface element size).
+    pub skin: Option<Real>,
+    /// Surface tets (a free face: outer boundary or broken joint), simulation ids.
+    pub surface: Vec<u32>,
+    /// Nodes of surface tets, sorted.
+    pub surface_nodes: Vec<u32>,
+    /// Fragment of each tet at the last detection.
+    pub fragment: Vec<u32>,
+    /// Fragment of each tet when contact started: only tets that were once connected can
+    /// carry an overlap contact did not make.
+    pub fragment0: Vec<u32>,
+    /// Tet pairs (lower id first) across a broken joint, sorted, with the joint id.
+    pub broken_faces: Vec<([u32; 2], u32)>,
+    /// Candidate pairs (indices into `surface`, lower first), ordered by first index.
+    pub pairs: Vec<[u32; 2]>,
+    /// For every pair of `pairs`: where it comes from (valid after a detection).
+    pub origins: Vec<PairOrigin>,
+    /// Inflated boxes of the surface tets at the last detection.
+    pub boxes: Vec<Aabb>,
+    /// Surface lists must be rebuilt (joints broke, model changed).
+    pub surface_stale: bool,
+    /// Break events seen by the last surface refresh.
+    seen_breaks: usize,
+    /// The previous pair list and, for each of its pairs, its index in the list before the
+    /// last surface refresh (reused buffers).
+    old_pairs: Vec<[u32; 2]>,
+    carried: Vec<u32>,
+}
+
+impl ContactDetection {
+    /// Before the first step after the model changed: rebuild the surface at the next update.
+    pub fn prepare(&mut self) {
+        self.surface_stale = true;
     }
-    if !contact
-        .detector
-        .needs_update(&nodes.x, &contact.surface_nodes)
-    {
+
+    /// Joints broke since the last update (`break_events` is the number of break events so
+    /// far): the surface changes.
+    pub fn joints_broke(&mut self, break_events: usize) {
+        if break_events != self.seen_breaks {
+            self.surface_stale = true;
+            self.seen_breaks = break_events;
+        }
+    }
+
+    /// Bytes held by the detection buffers (capacity).
+    pub fn bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.detector.workspace.bytes()
+            + (self.pairs.capacity() + self.old_pairs.capacity()) * 8
+            + self.origins.capacity() * size_of::<PairOrigin>()
+            + self.boxes.capacity() * size_of::<Aabb>()
+            + (self.surface.capacity() + self.surface_nodes.capacity()) * 4
+            + self.detector.x_at_detection.capacity() * size_of::<Vec3>()
+    }
+}
+
+/// Stage 4: refresh the surface lists when the topology changed, and re-detect the candidate
+/// pairs when a node moved more than skin/2 since the last detection. Returns true when it
+/// detected: then `origins` maps every new pair to its old index (or marks it new), for
+/// stage 5 to carry its history over.
+pub fn update_pairs(
+    cd: &mut ContactDetection,
+    nodes: &Nodes,
+    tets: &Tets,
+    bodies: &[Body],
+    joints: &Joints,
+) -> bool {
+    if cd.surface_stale {
+        refresh_surface(cd, nodes, tets, bodies, joints);
+    } else if !cd.detector.needs_update(&nodes.x, &cd.surface_nodes) {
         return false;
+    } else {
+        cd.carried.clear();
+        cd.carried.extend(0..cd.pairs.len() as u32);
     }
     let x = &nodes.x;
     let tn = &tets.nodes;
     // Boxes of the surface tets at the current positions.
-    if contact.skin.is_none() && contact.detector.skin == 0.0 {
-        let mean = contact
+    if cd.skin.is_none() && cd.detector.skin == 0.0 {
+        let mean = cd
             .surface
             .par_iter()
             .map(|&e| Aabb::of_points(&tn[e as usize].map(|n| x[n as usize])).max_extent())
             .sum::<Real>()
-            / contact.surface.len().max(1) as Real;
-        contact.detector.skin = 0.25 * mean;
+            / cd.surface.len().max(1) as Real;
+        cd.detector.skin = 0.25 * mean;
     }
-    if let Some(s) = contact.skin {
-        contact.detector.skin = s;
+    if let Some(s) = cd.skin {
+        cd.detector.skin = s;
     }
-    let half = 0.5 * contact.detector.skin;
-    contact.boxes.clear();
-    contact.boxes.par_extend(
-        contact
-            .surface
+    let half = 0.5 * cd.detector.skin;
+    cd.boxes.clear();
+    cd.boxes.par_extend(
+        cd.surface
             .par_iter()
             .map(|&e| Aabb::of_points(&tn[e as usize].map(|n| x[n as usize])).inflate(half)),
     );
-    let (surface, fragment, broken) = (&contact.surface, &contact.fragment, &contact.broken_faces);
-    let fragment0 = &contact.fragment0;
-    let x0 = &nodes.x0;
     let continuous: Vec<bool> = bodies
         .iter()
-        .map(|b| b.layout == crate::state::Layout::Continuous)
+        .map(|b| b.layout == Layout::Continuous)
         .collect();
-    let tet_body = &tets.body;
-    let skin = contact.detector.skin;
-    // Narrow the candidates: a face plane of one tet with the whole other tet more than a
-    // skin outside it separates them until the next detection (each moves < skin/2).
-    let near = |a: u32, b: u32| {
+    let filter = CandidateFilter {
+        surface: &cd.surface,
+        fragment: &cd.fragment,
+        fragment0: &cd.fragment0,
+        broken: &cd.broken_faces,
+        tet_nodes: tn,
+        tet_body: &tets.body,
+        continuous: &continuous,
+        x,
+        x0: &nodes.x0,
+        skin: cd.detector.skin,
+    };
+    std::mem::swap(&mut cd.pairs, &mut cd.old_pairs);
+    nbs_pairs(
+        &cd.boxes,
+        &mut cd.detector.workspace,
+        &|i, j| filter.keep(i, j),
+        &mut cd.pairs,
+    );
+    // Find every new pair in the old list (both are ordered by their first index).
+    cd.origins.clear();
+    let old = &cd.old_pairs;
+    let mut k = 0;
+    for p in &cd.pairs {
+        while k < old.len() && old[k][0] < p[0] {
+            k += 1;
+        }
+        let mut q = k;
+        let mut origin = None;
+        while q < old.len() && old[q][0] == p[0] {
+            if old[q][1] == p[1] {
+                origin = Some(PairOrigin::Kept(cd.carried[q]));
+                break;
+            }
+            q += 1;
+        }
+        cd.origins
+            .push(origin.unwrap_or_else(|| filter.new_pair(p[0], p[1])));
+    }
+    cd.detector.x_at_detection.clear();
+    cd.detector.x_at_detection.extend_from_slice(x);
+    cd.detector.stale = false;
+    cd.detector.detections += 1;
+    true
+}
+
+/// Which box pairs become candidates (see the module doc), over surface indices.
+struct CandidateFilter<'a> {
+    surface: &'a [u32],
+    fragment: &'a [u32],
+    fragment0: &'a [u32],
+    broken: &'a [([u32; 2], u32)],
+    tet_nodes: &'a [[u32; 4]],
+    tet_body: &'a [u32],
+    continuous: &'a [bool],
+    x: &'a [Vec3],
+    x0: &'a [Vec3],
+    skin: Real,
+}
+
+impl CandidateFilter<'_> {
+    /// No face plane of one tet has the whole other tet more than a skin outside it (else
+    /// they stay apart until the next detection: each moves < skin/2).
+    fn near(&self, a: u32, b: u32) -> bool {
+        let (tn, x) = (self.tet_nodes, self.x);
         let pa = tn[a as usize].map(|n| x[n as usize]);
         let pb = tn[b as usize].map(|n| x[n as usize]);
         for (p, q) in [(&pa, &pb), (&pb, &pa)] {
@@ -414,108 +255,75 @@ pub fn update_pairs(
                     continue;
                 }
                 let nrm = if inward { nrm / len } else { -nrm / len };
-                if q.iter().all(|v| (v - p[f[0]]).dot(&nrm) > skin) {
+                if q.iter().all(|v| (v - p[f[0]]).dot(&nrm) > self.skin) {
                     return false;
                 }
             }
         }
         true
-    };
-    let keep = |i: u32, j: u32| {
-        let (a, b) = (surface[i as usize], surface[j as usize]);
-        if !near(a, b) {
-            return false;
-        }
-        if fragment[a as usize] != fragment[b as usize] {
-            return true;
-        }
-        // A continuous body does not contact itself.
-        let body = tet_body[a as usize];
-        if body == tet_body[b as usize] && continuous[body as usize] {
-            return false;
-        }
-        let (na, nb) = (tn[a as usize], tn[b as usize]);
-        let mut shared = 0;
-        for p in na {
-            if nb.iter().any(|q| x0[*q as usize] == x0[p as usize]) {
-                shared += 1;
-            }
-        }
-        if shared == 0 {
-            return true;
-        }
-        shared == 3
-            && broken
-                .binary_search_by_key(&[a.min(b), a.max(b)], |x| x.0)
-                .is_ok()
-    };
-    // Shared reference positions of two tets (0 for strangers).
-    let shared_of = |a: u32, b: u32| {
-        let (na, nb) = (tn[a as usize], tn[b as usize]);
+    }
+
+    /// Reference positions the two tets share (0 for strangers).
+    fn shared(&self, a: u32, b: u32) -> usize {
+        let (na, nb) = (self.tet_nodes[a as usize], self.tet_nodes[b as usize]);
+        let x0 = self.x0;
         na.iter()
             .filter(|p| nb.iter().any(|q| x0[*q as usize] == x0[**p as usize]))
             .count()
-    };
-    let old_pairs = std::mem::take(&mut contact.pairs);
-    let old_state = std::mem::take(&mut contact.state);
-    let old_surface_len = contact.boxes.len();
-    let mut pairs = Vec::with_capacity(old_pairs.len());
-    nbs_pairs(
-        &contact.boxes,
-        &mut contact.detector.workspace,
-        &keep,
-        &mut pairs,
-    );
-    // Carry the history of pairs found again (both lists are ordered by their first index).
-    let mut state = Vec::with_capacity(pairs.len());
-    let mut k = 0;
-    for p in &pairs {
-        while k < old_pairs.len() && old_pairs[k][0] < p[0] {
-            k += 1;
-        }
-        let mut s = None;
-        let mut q = k;
-        while q < old_pairs.len() && old_pairs[q][0] == p[0] {
-            if old_pairs[q][1] == p[1] {
-                s = Some(old_state[q]);
-                break;
-            }
-            q += 1;
-        }
-        // A new pair of former neighbours starts unarmed (see PairState::armed).
-        let s = s.unwrap_or_else(|| {
-            let (a, b) = (surface[p[0] as usize], surface[p[1] as usize]);
-            let mut s = crate::contact_interaction::PairState::default();
-            if fragment0[a as usize] == fragment0[b as usize] && shared_of(a, b) > 0 {
-                s.armed = false;
-                if let Ok(i) = broken.binary_search_by_key(&[a.min(b), a.max(b)], |x| x.0) {
-                    s.joint = broken[i].1;
-                }
-            }
-            s
-        });
-        state.push(s);
     }
-    debug_assert_eq!(old_surface_len, contact.surface.len());
-    contact.pairs = pairs;
-    contact.state = state;
-    contact.detector.x_at_detection.clear();
-    contact.detector.x_at_detection.extend_from_slice(x);
-    contact.detector.stale = false;
-    contact.detector.detections += 1;
-    true
+
+    fn broken_joint(&self, a: u32, b: u32) -> Option<u32> {
+        self.broken
+            .binary_search_by_key(&[a.min(b), a.max(b)], |x| x.0)
+            .ok()
+            .map(|i| self.broken[i].1)
+    }
+
+    /// Surface elements `i` and `j` (overlapping boxes) are a candidate pair.
+    fn keep(&self, i: u32, j: u32) -> bool {
+        let (a, b) = (self.surface[i as usize], self.surface[j as usize]);
+        if !self.near(a, b) {
+            return false;
+        }
+        if self.fragment[a as usize] != self.fragment[b as usize] {
+            return true;
+        }
+        // A continuous body does not contact itself.
+        let body = self.tet_body[a as usize];
+        if body == self.tet_body[b as usize] && self.continuous[body as usize] {
+            return false;
+        }
+        match self.shared(a, b) {
+            0 => true,
+            3 => self.broken_joint(a, b).is_some(),
+            _ => false,
+        }
+    }
+
+    /// The origin of a pair (surface indices) that was not a candidate before.
+    fn new_pair(&self, i: u32, j: u32) -> PairOrigin {
+        let (a, b) = (self.surface[i as usize], self.surface[j as usize]);
+        let neighbours =
+            self.fragment0[a as usize] == self.fragment0[b as usize] && self.shared(a, b) > 0;
+        let joint = if neighbours {
+            self.broken_joint(a, b).unwrap_or(u32::MAX)
+        } else {
+            u32::MAX
+        };
+        PairOrigin::New { neighbours, joint }
+    }
 }
 
-/// Surface tets, their nodes, fragments and broken faces. Pair history is dropped when the
-/// surface list changes (pair indices refer to it).
+/// Surface tets, their nodes, fragments and broken faces. When the surface list changes, the
+/// pairs are renumbered onto it (pairs of tets that left the surface are dropped) and
+/// `carried` remembers each one's index in the list before.
 fn refresh_surface(
-    contact: &mut crate::contact_interaction::Contact,
-    nodes: &crate::state::Nodes,
-    tets: &crate::state::Tets,
-    bodies: &[crate::state::Body],
-    joints: &crate::joints::Joints,
+    cd: &mut ContactDetection,
+    nodes: &Nodes,
+    tets: &Tets,
+    bodies: &[Body],
+    joints: &Joints,
 ) {
-    use crate::state::Layout;
     let mut free = vec![0i32; tets.len()];
     for b in bodies {
         match b.layout {
@@ -541,116 +349,44 @@ fn refresh_surface(
     let surface: Vec<u32> = (0..tets.len() as u32)
         .filter(|&e| free[e as usize] > 0)
         .collect();
-    // Map old pair history onto the new surface indices.
-    if surface != contact.surface {
+    cd.carried.clear();
+    if surface != cd.surface {
         let mut new_index = vec![u32::MAX; tets.len()];
         for (i, &e) in surface.iter().enumerate() {
             new_index[e as usize] = i as u32;
         }
-        let mut moved: Vec<([u32; 2], crate::contact_interaction::PairState)> = contact
+        let mut moved: Vec<([u32; 2], u32)> = cd
             .pairs
             .iter()
-            .zip(&contact.state)
-            .filter_map(|(p, s)| {
+            .enumerate()
+            .filter_map(|(k, p)| {
                 let (a, b) = (
-                    new_index[contact.surface[p[0] as usize] as usize],
-                    new_index[contact.surface[p[1] as usize] as usize],
+                    new_index[cd.surface[p[0] as usize] as usize],
+                    new_index[cd.surface[p[1] as usize] as usize],
                 );
-                (a != u32::MAX && b != u32::MAX).then(|| ([a.min(b), a.max(b)], *s))
+                (a != u32::MAX && b != u32::MAX).then_some(([a.min(b), a.max(b)], k as u32))
             })
             .collect();
         moved.sort_unstable_by_key(|m| m.0);
-        contact.pairs = moved.iter().map(|m| m.0).collect();
-        contact.state = moved.iter().map(|m| m.1).collect();
-        contact.surface = surface;
+        cd.pairs = moved.iter().map(|m| m.0).collect();
+        cd.carried.extend(moved.iter().map(|m| m.1));
+        cd.surface = surface;
+    } else {
+        cd.carried.extend(0..cd.pairs.len() as u32);
     }
-    let mut sn: Vec<u32> = contact
+    let mut sn: Vec<u32> = cd
         .surface
         .iter()
         .flat_map(|&e| tets.nodes[e as usize])
         .collect();
     sn.sort_unstable();
     sn.dedup();
-    contact.surface_nodes = sn;
-    contact.fragment = crate::fracture::fragments(&tets.nodes, joints, nodes.len());
-    if contact.fragment0.len() != tets.len() {
-        contact.fragment0 = contact.fragment.clone();
+    cd.surface_nodes = sn;
+    cd.fragment = crate::fracture::fragments(&tets.nodes, joints, nodes.len());
+    if cd.fragment0.len() != tets.len() {
+        cd.fragment0 = cd.fragment.clone();
     }
-    contact.broken_faces = broken;
-    contact.surface_stale = false;
-    contact.detector.stale = true;
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn random_boxes(n: usize, seed: u64, spread: Real, sizes: &[Real]) -> Vec<Aabb> {
-        let mut s = seed;
-        let mut r = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as Real / (1u64 << 53) as Real
-        };
-        (0..n)
-            .map(|i| {
-                let c = Vec3::new(r(), r(), r()) * spread;
-                let h = sizes[i % sizes.len()] * (0.5 + r());
-                Aabb {
-                    lo: c - Vec3::repeat(h * 0.5),
-                    hi: c + Vec3::new(h, h * r(), h * 0.7) * 0.5,
-                }
-            })
-            .collect()
-    }
-
-    fn sorted(mut v: Vec<[u32; 2]>) -> Vec<[u32; 2]> {
-        v.sort_unstable();
-        v
-    }
-
-    #[test]
-    fn nbs_equals_brute_force_and_sweep() {
-        let mut ws = NbsWorkspace::default();
-        let mut out = Vec::new();
-        for (seed, spread, sizes) in [
-            (1u64, 10.0, vec![1.0]),
-            (2, 3.0, vec![1.0]),                  // dense
-            (3, 100.0, vec![1.0]),                // sparse
-            (4, 10.0, vec![0.1, 0.5, 2.0, 0.05]), // mixed sizes
-        ] {
-            let boxes = random_boxes(1500, seed, spread, &sizes);
-            let brute = brute_force_pairs(&boxes, |_, _| true);
-            nbs_pairs(&boxes, &mut ws, &|_, _| true, &mut out);
-            assert_eq!(sorted(out.clone()), brute, "seed {seed}");
-            assert_eq!(sweep_pairs(&boxes), brute, "seed {seed}");
-            assert!(!brute.is_empty());
-        }
-    }
-
-    /// Two clusters 1e6 cell sizes apart: same pairs, and the buffers do not grow with the
-    /// distance.
-    #[test]
-    fn far_apart_costs_no_memory() {
-        let near = random_boxes(2000, 9, 10.0, &[1.0]);
-        let mut far = near.clone();
-        for b in far.iter_mut().skip(1000) {
-            b.lo.x += 1.0e6;
-            b.hi.x += 1.0e6;
-        }
-        let mut ws = NbsWorkspace::default();
-        let mut out = Vec::new();
-        nbs_pairs(&near, &mut ws, &|_, _| true, &mut out);
-        let bytes_near = ws.bytes();
-        let mut ws2 = NbsWorkspace::default();
-        nbs_pairs(&far, &mut ws2, &|_, _| true, &mut out);
-        assert_eq!(sorted(out.clone()), brute_force_pairs(&far, |_, _| true));
-        assert!(
-            ws2.bytes() <= bytes_near + bytes_near / 4,
-            "{} vs {}",
-            ws2.bytes(),
-            bytes_near
-        );
-    }
+    cd.broken_faces = broken;
+    cd.surface_stale = false;
+    cd.detector.stale = true;
 }

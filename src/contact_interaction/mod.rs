@@ -1,99 +1,58 @@
-//! Stage 5: contact interaction — potential contact forces with Coulomb friction between the
-//! candidate pairs found by stage 4.
+//! Stage 5: contact interaction — the narrow phase. Reads stage 4's candidate pairs (and its
+//! old→new remap, to carry the per-pair history), node positions and velocities; adds the
+//! potential contact forces with Coulomb friction to `nodes.f` and owns the pair history
+//! (friction springs, slip paths, separating-axis witnesses, arming).
 //!
 //! **Normal force**: [`potential::tet_tet`], the exact gradient of E = p∫(φ_c + φ_t) dV.
 //!
-//! **Friction** (per pair, with history): the contact normal n is the direction of the
-//! normal force on the contactor, the contact point x_p the centroid of the clipped facets.
-//! Each step the relative displacement of the two elements at x_p over the last step,
+//! **Friction** (per pair, with history; [`friction`]): the contact normal n is the direction
+//! of the normal force on the contactor, the contact point x_p the centroid of the clipped
+//! facets. Each step the relative displacement of the two elements at x_p over the last step,
 //! Δu = Σ N_i^c(x_p)·Δx_i^c − Σ N_j^t(x_p)·Δx_j^t, is projected on the tangent plane and the
-//! tangential force is updated incrementally, f_t ← P_n(f_t) − k_t·Δu_t (P_n re-projects the
-//! stored force on the current tangent plane, keeping its magnitude), then returned to the
-//! Coulomb cone |f_t| ≤ μ|F_n| (sliding). The work μ|F_n|·(|f_trial| − μ|F_n|)/k_t of each
-//! slip is dissipated and ½|f_t|²/k_t is stored. The spring stiffness follows the normal one
-//! of one face node for a thin overlap, k_t = (4/3)·p_t·A·(1/h_c + 1/h_t), with A the contact
-//! area and h the smallest height of each element (the spring acts at one point, so one node
-//! may carry all of it): static friction holds with an elastic offset |f_t|/k_t,
-//! kinetic friction slides at μ|F_n|. Storing the force rather than the spring extension
-//! keeps the force continuous when A (hence k_t) changes.
+//! tangential force is updated incrementally, then returned to the Coulomb cone
+//! |f_t| ≤ μ|F_n| (sliding). The work μ|F_n|·(|f_trial| − μ|F_n|)/k_t of each slip is
+//! dissipated and ½|f_t|²/k_t is stored. The spring stiffness follows the normal one of one
+//! face node for a thin overlap, k_t = (4/3)·p_t·A·(1/h_c + 1/h_t), with A the contact area
+//! and h the smallest height of each element (the spring acts at one point, so one node may
+//! carry all of it): static friction holds with an elastic offset |f_t|/k_t, kinetic
+//! friction slides at μ|F_n|.
 //!
 //! **Friction laws**: μ is the rule's constant `friction`, or, when the rule has a
-//! `friction_law`, the value of a Rhai function compiled to native code
-//! ([`crate::compiled`], signature [`FRICTION_LAW`]) of the pair's slip rate, slip
-//! path (history [`PairState::slip`]), pressure, normal force, area, time and the constant,
-//! evaluated once per touching pair and step just before the return to the cone. A result
-//! that is not finite and ≥ 0 stops the run ([`ContactSums::law_failure`]).
+//! `friction_law`, the value of a Rhai function compiled to native code (signature
+//! [`FRICTION_LAW`]) of the pair's slip rate, slip path (history [`PairState::slip`]),
+//! pressure, normal force, area, time and the constant, evaluated once per touching pair and
+//! step just before the return to the cone. A result that is not finite and ≥ 0 stops the
+//! run ([`ContactSums::law_failure`]).
 //!
 //! **Normal damping** (optional, ratio ζ): a dashpot on the normal relative velocity at x_p,
 //! f_d = −2ζ·√(k·m*)·(v_rel·n)·n with k = (4/3)·p·A·(1/h_c + 1/h_t) and m* the reduced mass
 //! of one node of each tetrahedron (ζ is the damping ratio of one face node on its contact
-//! spring), never pulling harder than the contact pushes. Its work is
-//! dissipated (booked with friction).
+//! spring), never pulling harder than the contact pushes. Its work is dissipated (booked with
+//! friction).
+//!
+//! **Laws**: [`law`] (`"potential"`, with its defaults). **Time step**: the contact springs'
+//! share of the critical step is [`contact_nodal_stiffness`].
 //!
 //! **Determinism**: pairs are evaluated in parallel and their forces added to the nodes in
 //! pair order on one thread.
 
+pub mod friction;
+pub mod law;
 pub mod potential;
 
-use crate::compiled::{CompiledLaw, Frame};
-use crate::contact_detection::{Aabb, Detector};
-use crate::math::{Real, Vec3};
-use crate::state::Nodes;
+pub use friction::{FrictionInputs, FrictionLawFailure, FRICTION_LAW};
+pub use law::{
+    ContactLaw, ContactLaws, ContactProps, ContactRule, PotentialContact, DEFAULT_PENALTY_FACTOR,
+    NO_FRICTION_LAW,
+};
+
+use crate::compiled::Frame;
+use crate::contact_detection::{Aabb, ContactDetection, PairOrigin};
+use crate::material::Material;
+use crate::math::{Mat3, Real, Vec3};
+use crate::state::{Nodes, Tets};
 use potential::{overlapping_tet_tet, separating_axis, TetGeom, OVERLAPPED};
 use rayon::prelude::*;
-use std::sync::Arc;
-
-crate::compiled::law_signature! {
-    /// Inputs of a contact friction law, per touching pair and step: tangential relative
-    /// speed at the contact point [m/s], slip path accumulated while touching [m], mean
-    /// normal pressure |F_n|/A [Pa], normal force |F_n| [N], contact area A [m²], time [s],
-    /// and the rule's static `friction` value [-].
-    pub struct FrictionInputs { slip_rate, slip, pressure, normal_force, area, time, mu }
-    /// A contact friction law: `fn law(c, p)` returning `#{ friction: μ }` (or μ alone).
-    pub const FRICTION_LAW = "friction law" -> ["friction"];
-}
-
-/// [`ContactProps::friction_law`] of a rule without a friction law (μ is `friction`).
-pub const NO_FRICTION_LAW: u32 = u32::MAX;
-
-/// Contact parameters of one pair of materials.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ContactProps {
-    /// Normal penalty p [Pa] (energy per overlap volume at φ = 1).
-    pub penalty: Real,
-    /// Tangential penalty p_t [Pa] (spring k_t = 4·p_t·A·(1/h_c + 1/h_t)).
-    pub tangential_penalty: Real,
-    /// Coulomb friction coefficient μ [-] (with a friction law: its input `mu`).
-    pub friction: Real,
-    /// Normal damping ratio ζ [-].
-    pub damping: Real,
-    /// Index into [`Contact::friction_laws`], or [`NO_FRICTION_LAW`].
-    pub friction_law: u32,
-}
-
-impl ContactProps {
-    /// Friction acts (a positive constant μ, or a law that may make it so).
-    #[inline]
-    pub fn has_friction(&self) -> bool {
-        self.friction > 0.0 || self.friction_law != NO_FRICTION_LAW
-    }
-}
-
-/// A contact rule from the script: defaults apply to every pair of materials, rules with
-/// `materials` to one pair (later rules override earlier ones).
-#[derive(Clone, Debug, Default)]
-pub struct ContactRule {
-    pub materials: Option<(u32, u32)>,
-    /// None: 10 × the larger Young's modulus of the pair.
-    pub penalty: Option<Real>,
-    /// None: equal to the normal penalty.
-    pub tangential_penalty: Option<Real>,
-    pub friction: Real,
-    pub damping: Real,
-    /// μ as a compiled function of the pair's kinematics (signature [`FRICTION_LAW`]); None:
-    /// the constant `friction`.
-    pub friction_law: Option<Arc<CompiledLaw>>,
-}
 
 /// A pair that came into contact (for `on_new_contact_pair`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -132,6 +91,17 @@ pub struct PairState {
 }
 
 impl PairState {
+    /// The history of a pair stage 4 found for the first time: former neighbours start
+    /// unarmed (see [`PairState::armed`]), with the broken joint between them.
+    pub fn new_pair(neighbours: bool, joint: u32) -> Self {
+        let mut s = PairState::default();
+        if neighbours {
+            s.armed = false;
+            s.joint = joint;
+        }
+        s
+    }
+
     /// The elements do not overlap: release the friction spring and arm the pair (a broken
     /// joint between the two is handed over to contact).
     #[inline]
@@ -201,19 +171,21 @@ pub struct ContactSums {
     pub law_failure: Option<FrictionLawFailure>,
 }
 
-/// A friction law that returned an invalid μ, with what it was given.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FrictionLawFailure {
-    /// Index into [`Contact::friction_laws`].
-    pub law: u32,
-    /// Simulation tet ids (contactor, target).
-    pub tets: [u32; 2],
-    /// Contact point [m].
-    pub point: Vec3,
-    /// What the law was given.
-    pub inputs: FrictionInputs,
-    /// What the law returned.
-    pub friction: Real,
+impl ContactSums {
+    /// Add the totals of a later chunk of pairs (pair order).
+    fn add(&mut self, s: &ContactSums) {
+        self.energy += s.energy;
+        self.dissipated += s.dissipated;
+        self.active += s.active;
+        self.normal_force += s.normal_force;
+        self.friction_force += s.friction_force;
+        self.max_overlap = self.max_overlap.max(s.max_overlap);
+        self.max_overlap_ratio = self.max_overlap_ratio.max(s.max_overlap_ratio);
+        self.max_pressure = self.max_pressure.max(s.max_pressure);
+        if self.law_failure.is_none() {
+            self.law_failure = s.law_failure;
+        }
+    }
 }
 
 /// Output of one touching pair.
@@ -230,42 +202,20 @@ struct PairOut {
     pressure: Real,
 }
 
-/// Contact state of a simulation (stages 4 and 5).
+/// Marks a pair that started touching in this step (top bit of the pair index).
+const NEW_FLAG: u32 = 1 << 31;
+
+/// Pairs per parallel task.
+const CHUNK: usize = 1024;
+
+/// Stage 5 state: the laws, the pair history (aligned with stage 4's pair list) and the
+/// outputs of the last step.
 #[derive(Clone, Debug, Default)]
-pub struct Contact {
-    /// Rules as given by the script.
-    pub rules: Vec<ContactRule>,
-    /// Resolved parameters, `props[a * n_materials + b]`.
-    pub props: Vec<ContactProps>,
-    /// The distinct friction laws of the rules (filled by `resolve`).
-    pub friction_laws: Vec<Arc<CompiledLaw>>,
-    pub n_materials: usize,
-    pub detector: Detector,
-    /// Skin given by the script [m] (None: a quarter of the mean surface element size).
-    pub skin: Option<Real>,
-    /// Surface tets (a free face: outer boundary or broken joint), simulation ids.
-    pub surface: Vec<u32>,
-    /// Nodes of surface tets, sorted.
-    pub surface_nodes: Vec<u32>,
-    /// Fragment of each tet at the last detection.
-    pub fragment: Vec<u32>,
-    /// Fragment of each tet when contact started: only tets that were once connected can
-    /// carry an overlap contact did not make (see [`PairState::armed`]).
-    pub fragment0: Vec<u32>,
-    /// Tet pairs (lower id first) across a broken joint, sorted, with the joint id.
-    pub broken_faces: Vec<([u32; 2], u32)>,
-    /// Candidate pairs (indices into `surface`), from stage 4.
-    pub pairs: Vec<[u32; 2]>,
+pub struct ContactInteraction {
+    pub laws: ContactLaws,
+    /// History of every candidate pair, `state[k]` for stage 4's `pairs[k]`.
     pub state: Vec<PairState>,
-    /// Surface lists must be rebuilt (joints broke, model changed).
-    pub surface_stale: bool,
-    pub boxes: Vec<Aabb>,
-    geom: Vec<Option<TetGeom>>,
-    /// Current (uninflated) boxes of the surface tets: the cheap first test of every pair.
-    current_boxes: Vec<Aabb>,
-    inv_h: Vec<Real>,
-    chunk_out: Vec<Vec<PairOut>>,
-    chunk_sums: Vec<ContactSums>,
+    old_state: Vec<PairState>,
     /// Record `events` for new touching pairs.
     pub record_events: bool,
     pub events: Vec<ContactEvent>,
@@ -275,79 +225,51 @@ pub struct Contact {
     pub tet_mass: Vec<Real>,
     /// Broken joints whose faces contact took over in the last step (stage 2 drops them).
     pub handover: Vec<u32>,
+    /// Per surface tet: current geometry, box (the cheap first test of every pair) and
+    /// 1/(smallest height).
+    geom: Vec<Option<TetGeom>>,
+    current_boxes: Vec<Aabb>,
+    inv_h: Vec<Real>,
+    /// Per chunk of pairs: touching pairs' outputs, totals and handovers.
+    chunk_out: Vec<Vec<PairOut>>,
+    chunk_sums: Vec<ContactSums>,
     chunk_handover: Vec<Vec<u32>>,
 }
 
-const CHUNK: usize = 1024;
-
-impl Contact {
+impl ContactInteraction {
+    /// Contact is on once a rule is given.
     pub fn is_enabled(&self) -> bool {
-        !self.rules.is_empty()
+        self.laws.is_enabled()
     }
 
-    /// Resolve the rules for every pair of materials (by Young's moduli for defaults).
-    pub fn resolve(&mut self, young: &[Real]) {
-        let n = young.len();
-        self.n_materials = n;
-        self.props.clear();
-        self.friction_laws.clear();
-        for r in &self.rules {
-            if let Some(l) = &r.friction_law {
-                if !self.friction_laws.iter().any(|k| Arc::ptr_eq(k, l)) {
-                    self.friction_laws.push(l.clone());
-                }
-            }
-        }
-        for a in 0..n {
-            for b in 0..n {
-                let mut p = ContactProps {
-                    penalty: 10.0 * young[a].max(young[b]),
-                    tangential_penalty: 0.0,
-                    friction: 0.0,
-                    damping: 0.0,
-                    friction_law: NO_FRICTION_LAW,
-                };
-                let mut pt = None;
-                for r in &self.rules {
-                    let applies = match r.materials {
-                        None => true,
-                        Some((x, y)) => {
-                            (x as usize == a && y as usize == b)
-                                || (x as usize == b && y as usize == a)
-                        }
-                    };
-                    if applies {
-                        if let Some(v) = r.penalty {
-                            p.penalty = v;
-                        }
-                        pt = r.tangential_penalty.or(pt);
-                        p.friction = r.friction;
-                        p.damping = r.damping;
-                        p.friction_law = r.friction_law.as_ref().map_or(NO_FRICTION_LAW, |l| {
-                            self.friction_laws
-                                .iter()
-                                .position(|k| Arc::ptr_eq(k, l))
-                                .unwrap() as u32
-                        });
-                    }
-                }
-                p.tangential_penalty = pt.unwrap_or(p.penalty);
-                self.props.push(p);
-            }
-        }
+    /// Before the first step after the model changed: resolve the laws for every pair of
+    /// materials and the tet masses the dashpot uses.
+    pub fn prepare(&mut self, materials: &[Material], tets: &Tets) {
+        let young: Vec<Real> = materials.iter().map(|m| m.young).collect();
+        self.laws.resolve(&young);
+        self.tet_mass = (0..tets.len())
+            .map(|e| materials[tets.material[e] as usize].density * tets.vol0[e])
+            .collect();
     }
 
-    #[inline]
-    pub fn props_of(&self, ma: u32, mb: u32) -> ContactProps {
-        self.props[ma as usize * self.n_materials + mb as usize]
-    }
-
-    /// Largest penalty over material pairs [Pa] (for the critical time step).
-    pub fn max_penalty(&self) -> Real {
-        self.props
-            .iter()
-            .map(|p| p.penalty.max(p.tangential_penalty))
-            .fold(0.0, Real::max)
+    /// Stage 4 detected: carry the history over to the new pair list (`origins`, one per new
+    /// pair) and size the per-surface and per-chunk buffers.
+    pub fn carry_history(&mut self, origins: &[PairOrigin], n_surface: usize) {
+        std::mem::swap(&mut self.state, &mut self.old_state);
+        self.state.clear();
+        let old = &self.old_state;
+        self.state.extend(origins.iter().map(|o| match *o {
+            PairOrigin::Kept(k) => old[k as usize],
+            PairOrigin::New { neighbours, joint } => PairState::new_pair(neighbours, joint),
+        }));
+        self.geom.resize(n_surface, None);
+        self.current_boxes
+            .resize(n_surface, Aabb::of_points(&[Vec3::zeros()]));
+        self.inv_h.resize(n_surface, 0.0);
+        let n_chunks = origins.len().div_ceil(CHUNK);
+        self.chunk_out.resize_with(n_chunks, Vec::new);
+        self.chunk_sums.resize(n_chunks, ContactSums::default());
+        self.chunk_handover.resize_with(n_chunks, Vec::new);
     }
 
     /// Contact force on each of `n_nodes` nodes in the last step [N] (zero where none), summed
@@ -396,17 +318,21 @@ impl Contact {
     /// so it is a stable figure on a noisy machine. (touching pairs, ns per pair)
     pub fn kernel_ns_per_touching_pair(
         &self,
+        detection: &ContactDetection,
         tet_material: &[u32],
         repeats: usize,
     ) -> (usize, f64) {
-        let touching: Vec<(TetGeom, TetGeom, Real)> = self
+        let surface = &detection.surface;
+        let touching: Vec<(TetGeom, TetGeom, Real)> = detection
             .pairs
             .iter()
             .zip(&self.state)
             .filter(|(_, s)| s.touching)
             .filter_map(|(&[a, b], _)| {
-                let (ea, eb) = (self.surface[a as usize], self.surface[b as usize]);
-                let p = self.props_of(tet_material[ea as usize], tet_material[eb as usize]);
+                let (ea, eb) = (surface[a as usize], surface[b as usize]);
+                let p = self
+                    .laws
+                    .props_of(tet_material[ea as usize], tet_material[eb as usize]);
                 Some((self.geom[a as usize]?, self.geom[b as usize]?, p.penalty))
             })
             .collect();
@@ -423,17 +349,13 @@ impl Contact {
         (touching.len(), best * 1e9 / touching.len().max(1) as f64)
     }
 
-    /// Bytes held by the contact buffers (capacity).
+    /// Bytes held by the stage 5 buffers (capacity).
     pub fn bytes(&self) -> usize {
         use std::mem::size_of;
-        self.detector.workspace.bytes()
-            + self.pairs.capacity() * 8
-            + self.state.capacity() * size_of::<PairState>()
-            + self.boxes.capacity() * size_of::<Aabb>()
+        (self.state.capacity() + self.old_state.capacity()) * size_of::<PairState>()
             + self.geom.capacity() * size_of::<Option<TetGeom>>()
-            + self.surface.capacity() * 4
-            + self.surface_nodes.capacity() * 4
-            + self.detector.x_at_detection.capacity() * size_of::<Vec3>()
+            + self.current_boxes.capacity() * size_of::<Aabb>()
+            + self.inv_h.capacity() * size_of::<Real>()
             + self
                 .chunk_out
                 .iter()
@@ -442,65 +364,78 @@ impl Contact {
     }
 }
 
-/// Stage 5: add the contact and friction forces of every touching candidate pair to
-/// `nodes.f`. `tet_nodes` and `tet_material` are the simulation's tet arrays; `dt_prev` is
-/// the last step (Δx = v·dt_prev for the friction springs).
+/// Contact stiffness at a node of a tet for the critical step: (8/3)·p·max_k(A_k/H_k) [N/m],
+/// the stiffest face of the tet in a thin overlap with an equal partner (a thin overlap under
+/// face k is a spring k_n = 4pA_k(1/H_c + 1/H_t) ≤ 8pA_k/H_k for equal heights, a third per
+/// face node). With ∇λ_k = g_k, H_k = 1/|g_k| and A_k = 3V|g_k|, so A_k/H_k = 3V|g_k|².
+pub fn contact_nodal_stiffness(dm_inv: &Mat3, vol0: Real, p: Real) -> Real {
+    let g1 = dm_inv.row(0).transpose();
+    let g2 = dm_inv.row(1).transpose();
+    let g3 = dm_inv.row(2).transpose();
+    let g0 = -(g1 + g2 + g3);
+    let g2max = [g0, g1, g2, g3]
+        .iter()
+        .map(|g| g.norm_squared())
+        .fold(0.0, Real::max);
+    8.0 / 3.0 * p * 3.0 * vol0.abs() * g2max
+}
+
+/// What every pair of one step reads.
+struct StepInputs<'a> {
+    surface: &'a [u32],
+    pairs: &'a [[u32; 2]],
+    geom: &'a [Option<TetGeom>],
+    boxes: &'a [Aabb],
+    inv_h: &'a [Real],
+    laws: &'a ContactLaws,
+    tet_mass: &'a [Real],
+    tet_nodes: &'a [[u32; 4]],
+    tet_material: &'a [u32],
+    v: &'a [Vec3],
+    dt_prev: Real,
+    time: Real,
+}
+
+/// Stage 5: add the contact and friction forces of every touching candidate pair of stage 4
+/// to `nodes.f`. `dt_prev` is the last step (Δx = v·dt_prev for the friction springs).
 pub fn add_contact_forces(
-    contact: &mut Contact,
+    ci: &mut ContactInteraction,
+    detection: &ContactDetection,
     nodes: &mut Nodes,
-    tet_nodes: &[[u32; 4]],
-    tet_material: &[u32],
+    tets: &Tets,
     dt_prev: Real,
     time: Real,
 ) -> ContactSums {
-    let Contact {
-        surface,
-        pairs,
+    update_surface_geometry(ci, &detection.surface, &tets.nodes, &nodes.x);
+    let ContactInteraction {
+        laws,
         state,
+        record_events,
+        events,
+        tet_mass,
         geom,
         current_boxes,
         inv_h,
         chunk_out,
         chunk_sums,
         chunk_handover,
-        record_events,
-        events,
         ..
-    } = contact;
-    let x = &nodes.x;
-    let v = &nodes.v;
-    // Current geometry, box and 1/(smallest height) of the surface tets, in one pass.
-    let n_surface = surface.len();
-    geom.resize(n_surface, None);
-    current_boxes.resize(n_surface, Aabb::of_points(&[Vec3::zeros()]));
-    inv_h.resize(n_surface, 0.0);
-    geom.par_iter_mut()
-        .zip(current_boxes.par_iter_mut())
-        .zip(inv_h.par_iter_mut())
-        .zip(surface.par_iter())
-        .with_min_len(256)
-        .for_each(|(((g, bx), ih), &e)| {
-            let xs = tet_nodes[e as usize].map(|n| x[n as usize]);
-            *bx = Aabb::of_points(&xs);
-            *g = TetGeom::new(xs);
-            *ih = g.as_ref().map_or(0.0, |g| {
-                g.height
-                    .iter()
-                    .fold(Real::INFINITY, |a, &h| a.min(h))
-                    .recip()
-            });
-        });
-    let n_chunks = pairs.len().div_ceil(CHUNK);
-    chunk_out.resize_with(n_chunks, Vec::new);
-    chunk_sums.resize(n_chunks, ContactSums::default());
-    chunk_handover.resize_with(n_chunks, Vec::new);
-    let props = &contact.props;
-    let laws = &contact.friction_laws;
-    let tet_mass = &contact.tet_mass;
-    let n_mat = contact.n_materials;
-    let (geom, inv_h, boxes) = (&*geom, &*inv_h, &*current_boxes);
-    let pairs_ref = &*pairs;
-    let surface_ref = &*surface;
+    } = ci;
+    let inputs = StepInputs {
+        surface: &detection.surface,
+        pairs: &detection.pairs,
+        geom,
+        boxes: current_boxes,
+        inv_h,
+        laws,
+        tet_mass,
+        tet_nodes: &tets.nodes,
+        tet_material: &tets.material,
+        v: &nodes.v,
+        dt_prev,
+        time,
+    };
+    let record_events = *record_events;
     state
         .par_chunks_mut(CHUNK)
         .zip(chunk_out.par_iter_mut())
@@ -515,202 +450,20 @@ pub fn add_contact_forces(
             let mut frame = Frame::new();
             for (k, ps) in st.iter_mut().enumerate() {
                 let pi = ci * CHUNK + k;
-                let [a, b] = pairs_ref[pi];
-                // Cheap rejection on current boxes.
-                if !boxes[a as usize].overlaps(&boxes[b as usize]) {
-                    ps.apart(sums, handover);
-                    continue;
-                }
-                let (Some(gc), Some(gt)) = (&geom[a as usize], &geom[b as usize]) else {
-                    ps.release(sums);
-                    continue;
-                };
-                // Separated (most candidates, most steps): one plane test on the witness axis,
-                // and nothing written unless the pair changes.
-                if let Some(axis) = separating_axis(gc, gt, ps.witness) {
-                    if ps.witness != axis {
-                        ps.witness = axis;
+                if let Some(mut po) = interact(&inputs, pi, ps, sums, handover, &mut frame) {
+                    if !ps.touching && record_events {
+                        // Reported in pair order below.
+                        po.pair |= NEW_FLAG;
                     }
-                    ps.apart(sums, handover);
-                    continue;
-                }
-                let (ea, eb) = (surface_ref[a as usize], surface_ref[b as usize]);
-                let pr = props[tet_material[ea as usize] as usize * n_mat
-                    + tet_material[eb as usize] as usize];
-                let r = overlapping_tet_tet(gc, gt, pr.penalty);
-                // Not overlapping after all (an edge–edge separation): all axes next step.
-                ps.witness = if r.touching { OVERLAPPED } else { 0 };
-                if !ps.armed {
-                    // Armed once there is no overlap energy to release (exactly touching
-                    // faces, e.g. blocks that start face to face, arm at once).
-                    let scale = pr.penalty * gc.volume.abs().min(gt.volume.abs());
-                    if !r.touching || r.energy <= 1e-12 * scale {
-                        ps.armed = true;
-                        if ps.joint != u32::MAX {
-                            handover.push(ps.joint);
-                        }
-                    }
-                    if !ps.armed {
-                        continue;
-                    }
-                }
-                if !r.touching {
-                    ps.release(sums);
-                    continue;
-                }
-                sums.max_overlap = sums.max_overlap.max(r.depth);
-                sums.max_overlap_ratio = sums
-                    .max_overlap_ratio
-                    .max(r.depth * inv_h[a as usize].max(inv_h[b as usize]));
-                let mut f = [Vec3::zeros(); 8];
-                f[..4].copy_from_slice(&r.fc);
-                f[4..].copy_from_slice(&r.ft);
-                let f_normal: Vec3 = r.fc.iter().sum();
-                let fn_mag = f_normal.norm();
-                let mut energy = r.energy;
-                if (pr.has_friction() || pr.damping > 0.0) && fn_mag > 0.0 {
-                    let n = f_normal / fn_mag;
-                    let nc = gc.bary(&r.point);
-                    let nt = gt.bary(&r.point);
-                    let (na, nb) = (tet_nodes[ea as usize], tet_nodes[eb as usize]);
-                    let mut dv = Vec3::zeros();
-                    for i in 0..4 {
-                        dv += v[na[i] as usize] * nc[i] - v[nb[i] as usize] * nt[i];
-                    }
-                    // k_n/3 per unit penalty: the thin-overlap stiffness of one face node. The
-                    // friction spring and the dashpot act at one point, so one node can feel
-                    // all of them; sized per node they stay within the critical time step.
-                    let stiff = 4.0 / 3.0 * r.area * (inv_h[a as usize] + inv_h[b as usize]);
-                    let mut fx = Vec3::zeros();
-                    // Normal dashpot first: Coulomb acts on the whole normal force.
-                    let mut normal = fn_mag;
-                    if pr.damping > 0.0 {
-                        let kn = pr.penalty * stiff;
-                        let (mc, mt) = (tet_mass[ea as usize], tet_mass[eb as usize]);
-                        // Reduced mass of one node of each tet.
-                        let m_red = 0.25 * mc * mt / (mc + mt);
-                        let c = 2.0 * pr.damping * (kn * m_red).sqrt();
-                        let vn = n.dot(&dv);
-                        // Never pull harder than the contact pushes.
-                        let fd = (-c * vn).max(-fn_mag);
-                        fx += n * fd;
-                        normal += fd;
-                    }
-                    let du = dv * dt_prev;
-                    let mut e_spring = 0.0;
-                    if pr.has_friction() {
-                        let du_t = du - n * n.dot(&du);
-                        ps.slip += du_t.norm();
-                        // μ: the rule's constant, or its compiled law of this pair's state.
-                        let mu = if pr.friction_law == NO_FRICTION_LAW {
-                            pr.friction
-                        } else {
-                            let dv_t = dv - n * n.dot(&dv);
-                            let inputs = FrictionInputs {
-                                slip_rate: dv_t.norm(),
-                                slip: ps.slip,
-                                pressure: normal / r.area,
-                                normal_force: normal,
-                                area: r.area,
-                                time,
-                                mu: pr.friction,
-                            };
-                            let [mu] = laws[pr.friction_law as usize]
-                                .evaluate_in(&mut frame, &inputs.to_slots());
-                            if mu.is_finite() && mu >= 0.0 {
-                                mu
-                            } else {
-                                sums.law_failure.get_or_insert(FrictionLawFailure {
-                                    law: pr.friction_law,
-                                    tets: [ea, eb],
-                                    point: r.point,
-                                    inputs,
-                                    friction: mu,
-                                });
-                                0.0
-                            }
-                        };
-                        let kt = pr.tangential_penalty * stiff;
-                        // Keep the stored force's magnitude on the new tangent plane.
-                        let old = ps.spring;
-                        let mut ft = old - n * n.dot(&old);
-                        let m_old = old.norm();
-                        let m_new = ft.norm();
-                        if m_new > 0.0 {
-                            ft *= m_old / m_new;
-                        }
-                        ft -= du_t * kt;
-                        let limit = mu * normal;
-                        let mag = ft.norm();
-                        if mag > limit {
-                            ft *= limit / mag;
-                        }
-                        ps.spring = ft;
-                        e_spring = 0.5 * ft.norm_squared() / kt;
-                        energy += e_spring;
-                        sums.friction_force += ft.norm();
-                        fx += ft;
-                    } else {
-                        ps.spring = Vec3::zeros();
-                    }
-                    // Dissipated = −(work of these forces) − (change of the spring energy), the
-                    // work in the central difference's trapezoid form ½(f_{n−1} + f_n)·Δu_n.
-                    sums.dissipated += -0.5 * (ps.f_prev + fx).dot(&du) - (e_spring - ps.e_prev);
-                    ps.f_prev = fx;
-                    ps.e_prev = e_spring;
-                    for i in 0..4 {
-                        f[i] += fx * nc[i];
-                        f[4 + i] -= fx * nt[i];
-                    }
-                } else {
-                    // Still touching: keep the touching flag and the slip path.
-                    let (was, slip) = (ps.touching, ps.slip);
-                    ps.release(sums);
-                    ps.touching = was;
-                    ps.slip = slip;
-                }
-                sums.energy += energy;
-                sums.active += 1;
-                sums.normal_force += fn_mag;
-                sums.max_pressure = sums.max_pressure.max(fn_mag / r.area);
-                if !ps.touching && *record_events {
-                    // Reported in pair order below.
                     ps.touching = true;
-                    out.push(PairOut {
-                        pair: pi as u32 | NEW_FLAG,
-                        tets: [ea, eb],
-                        nodes: pair_nodes(tet_nodes, ea, eb),
-                        f,
-                        point: r.point,
-                        pressure: fn_mag / r.area,
-                    });
-                } else {
-                    ps.touching = true;
-                    out.push(PairOut {
-                        pair: pi as u32,
-                        tets: [ea, eb],
-                        nodes: pair_nodes(tet_nodes, ea, eb),
-                        f,
-                        point: r.point,
-                        pressure: fn_mag / r.area,
-                    });
+                    out.push(po);
                 }
             }
         });
     // Add to the nodes in pair order (deterministic).
     let mut total = ContactSums::default();
     for (out, s) in chunk_out.iter().zip(chunk_sums.iter()) {
-        total.energy += s.energy;
-        total.dissipated += s.dissipated;
-        total.active += s.active;
-        total.normal_force += s.normal_force;
-        total.friction_force += s.friction_force;
-        total.max_overlap = total.max_overlap.max(s.max_overlap);
-        total.max_overlap_ratio = total.max_overlap_ratio.max(s.max_overlap_ratio);
-        total.max_pressure = total.max_pressure.max(s.max_pressure);
-        if total.law_failure.is_none() {
-            total.law_failure = s.law_failure;
-        }
+        total.add(s);
         for po in out {
             for k in 0..8 {
                 nodes.f[po.nodes[k] as usize] += po.f[k];
@@ -724,29 +477,195 @@ pub fn add_contact_forces(
             }
         }
     }
-    for h in chunk_handover.iter() {
-        contact.handover.extend_from_slice(h);
+    ci.handover.clear();
+    for h in ci.chunk_handover.iter() {
+        ci.handover.extend_from_slice(h);
     }
-    contact.last = total;
+    ci.last = total;
     total
 }
 
-#[inline(always)]
-fn pair_nodes(tet_nodes: &[[u32; 4]], ea: u32, eb: u32) -> [u32; 8] {
-    let (a, b) = (tet_nodes[ea as usize], tet_nodes[eb as usize]);
-    [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]]
+/// Current geometry, box and 1/(smallest height) of the surface tets, in one pass.
+fn update_surface_geometry(
+    ci: &mut ContactInteraction,
+    surface: &[u32],
+    tet_nodes: &[[u32; 4]],
+    x: &[Vec3],
+) {
+    ci.geom
+        .par_iter_mut()
+        .zip(ci.current_boxes.par_iter_mut())
+        .zip(ci.inv_h.par_iter_mut())
+        .zip(surface.par_iter())
+        .with_min_len(256)
+        .for_each(|(((g, bx), ih), &e)| {
+            let xs = tet_nodes[e as usize].map(|n| x[n as usize]);
+            *bx = Aabb::of_points(&xs);
+            *g = TetGeom::new(xs);
+            *ih = g.as_ref().map_or(0.0, |g| {
+                g.height
+                    .iter()
+                    .fold(Real::INFINITY, |a, &h| a.min(h))
+                    .recip()
+            });
+        });
 }
 
-/// Marks a pair that started touching in this step (top bit of the pair index).
-const NEW_FLAG: u32 = 1 << 31;
+/// One candidate pair `pi` in one step: rejection (boxes, then the witness axis), arming,
+/// the potential force, friction and damping. Returns the forces of a touching pair; updates
+/// its history, `sums` and `handover`.
+#[inline(always)]
+fn interact(
+    inp: &StepInputs,
+    pi: usize,
+    ps: &mut PairState,
+    sums: &mut ContactSums,
+    handover: &mut Vec<u32>,
+    frame: &mut Frame,
+) -> Option<PairOut> {
+    let [a, b] = inp.pairs[pi];
+    // Cheap rejection on current boxes.
+    if !inp.boxes[a as usize].overlaps(&inp.boxes[b as usize]) {
+        ps.apart(sums, handover);
+        return None;
+    }
+    let (Some(gc), Some(gt)) = (&inp.geom[a as usize], &inp.geom[b as usize]) else {
+        ps.release(sums);
+        return None;
+    };
+    // Separated (most candidates, most steps): one plane test on the witness axis, and
+    // nothing written unless the pair changes.
+    if let Some(axis) = separating_axis(gc, gt, ps.witness) {
+        if ps.witness != axis {
+            ps.witness = axis;
+        }
+        ps.apart(sums, handover);
+        return None;
+    }
+    let (ea, eb) = (inp.surface[a as usize], inp.surface[b as usize]);
+    let pr = inp
+        .laws
+        .props_of(inp.tet_material[ea as usize], inp.tet_material[eb as usize]);
+    let r = overlapping_tet_tet(gc, gt, pr.penalty);
+    // Not overlapping after all (an edge–edge separation): all axes next step.
+    ps.witness = if r.touching { OVERLAPPED } else { 0 };
+    if !ps.armed {
+        // Armed once there is no overlap energy to release (exactly touching faces, e.g.
+        // blocks that start face to face, arm at once).
+        let scale = pr.penalty * gc.volume.abs().min(gt.volume.abs());
+        if !r.touching || r.energy <= 1e-12 * scale {
+            ps.armed = true;
+            if ps.joint != u32::MAX {
+                handover.push(ps.joint);
+            }
+        }
+        if !ps.armed {
+            return None;
+        }
+    }
+    if !r.touching {
+        ps.release(sums);
+        return None;
+    }
+    let (inv_ha, inv_hb) = (inp.inv_h[a as usize], inp.inv_h[b as usize]);
+    sums.max_overlap = sums.max_overlap.max(r.depth);
+    sums.max_overlap_ratio = sums.max_overlap_ratio.max(r.depth * inv_ha.max(inv_hb));
+    let mut f = [Vec3::zeros(); 8];
+    f[..4].copy_from_slice(&r.fc);
+    f[4..].copy_from_slice(&r.ft);
+    let f_normal: Vec3 = r.fc.iter().sum();
+    let fn_mag = f_normal.norm();
+    let mut energy = r.energy;
+    let (na, nb) = (inp.tet_nodes[ea as usize], inp.tet_nodes[eb as usize]);
+    if (pr.has_friction() || pr.damping > 0.0) && fn_mag > 0.0 {
+        let n = f_normal / fn_mag;
+        let nc = gc.bary(&r.point);
+        let nt = gt.bary(&r.point);
+        let mut dv = Vec3::zeros();
+        for i in 0..4 {
+            dv += inp.v[na[i] as usize] * nc[i] - inp.v[nb[i] as usize] * nt[i];
+        }
+        // k_n/3 per unit penalty: the thin-overlap stiffness of one face node. The friction
+        // spring and the dashpot act at one point, so one node can feel all of them; sized
+        // per node they stay within the critical time step.
+        let stiff = 4.0 / 3.0 * r.area * (inv_ha + inv_hb);
+        let mut fx = Vec3::zeros();
+        // Normal dashpot first: Coulomb acts on the whole normal force.
+        let mut normal = fn_mag;
+        if pr.damping > 0.0 {
+            let masses = (inp.tet_mass[ea as usize], inp.tet_mass[eb as usize]);
+            let fd = friction::normal_dashpot(&pr, stiff, masses, &n, &dv, fn_mag);
+            fx += n * fd;
+            normal += fd;
+        }
+        let du = dv * inp.dt_prev;
+        let mut e_spring = 0.0;
+        if pr.has_friction() {
+            let touch = friction::Touch {
+                n,
+                dv,
+                du,
+                normal,
+                stiff,
+                area: r.area,
+                point: r.point,
+                tets: [ea, eb],
+                time: inp.time,
+                laws: &inp.laws.friction_laws,
+            };
+            let ft = friction::coulomb_friction(&pr, ps, &touch, frame, sums);
+            e_spring = 0.5 * ft.norm_squared() / (pr.tangential_penalty * stiff);
+            energy += e_spring;
+            sums.friction_force += ft.norm();
+            fx += ft;
+        } else {
+            ps.spring = Vec3::zeros();
+        }
+        // Dissipated = −(work of these forces) − (change of the spring energy), the work in
+        // the central difference's trapezoid form ½(f_{n−1} + f_n)·Δu_n.
+        sums.dissipated += -0.5 * (ps.f_prev + fx).dot(&du) - (e_spring - ps.e_prev);
+        ps.f_prev = fx;
+        ps.e_prev = e_spring;
+        for i in 0..4 {
+            f[i] += fx * nc[i];
+            f[4 + i] -= fx * nt[i];
+        }
+    } else {
+        // Still touching: keep the touching flag and the slip path.
+        let (was, slip) = (ps.touching, ps.slip);
+        ps.release(sums);
+        ps.touching = was;
+        ps.slip = slip;
+    }
+    sums.energy += energy;
+    sums.active += 1;
+    sums.normal_force += fn_mag;
+    sums.max_pressure = sums.max_pressure.max(fn_mag / r.area);
+    Some(PairOut {
+        pair: pi as u32,
+        tets: [ea, eb],
+        nodes: [na[0], na[1], na[2], na[3], nb[0], nb[1], nb[2], nb[3]],
+        f,
+        point: r.point,
+        pressure: fn_mag / r.area,
+    })
+}
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    /// One candidate pair from stage 4 and stage 5's state for it.
+    struct Fixture {
+        cd: ContactDetection,
+        ci: ContactInteraction,
+        nodes: Nodes,
+        tets: Tets,
+    }
+
     /// A target tet with its face z = 0 on top and a contactor whose bottom face sinks 1 mm
     /// into it, friction μ = 0.5 (nodes 0–3 target, 4–7 contactor).
-    fn two_tets() -> (Contact, Nodes, Vec<[u32; 4]>, Vec<u32>) {
+    fn two_tets() -> Fixture {
         let mut nodes = Nodes::default();
         let pts = [
             Vec3::new(0.0, 0.0, 0.0),
@@ -762,38 +681,46 @@ mod tests {
             nodes.push(p, (i / 4) as u32);
             nodes.m[i] = 1.0;
         }
-        let mut contact = Contact::default();
-        contact.rules.push(ContactRule {
+        let mut ci = ContactInteraction::default();
+        ci.laws.rules.push(ContactRule::from(PotentialContact {
             penalty: Some(1e6),
             friction: 0.5,
             ..Default::default()
-        });
-        contact.resolve(&[1e5]);
-        contact.surface = vec![0, 1];
-        contact.pairs = vec![[1, 0]];
-        contact.state = vec![PairState::default()];
-        contact.tet_mass = vec![1.0, 1.0];
-        (contact, nodes, vec![[0, 1, 2, 3], [4, 5, 6, 7]], vec![0, 0])
+        }));
+        ci.laws.resolve(&[1e5]);
+        ci.tet_mass = vec![1.0, 1.0];
+        let mut cd = ContactDetection::default();
+        cd.surface = vec![0, 1];
+        cd.pairs = vec![[1, 0]];
+        let new = PairOrigin::New {
+            neighbours: false,
+            joint: u32::MAX,
+        };
+        ci.carry_history(&[new], cd.surface.len());
+        let tets = Tets {
+            nodes: vec![[0, 1, 2, 3], [4, 5, 6, 7]],
+            material: vec![0, 0],
+            ..Default::default()
+        };
+        Fixture {
+            cd,
+            ci,
+            nodes,
+            tets,
+        }
     }
 
     /// Move the contactor by `d` per step for `steps` steps (velocity d/dt, as the central
     /// difference gives it to stage 5).
-    fn slide(
-        c: &mut Contact,
-        nodes: &mut Nodes,
-        tets: &[[u32; 4]],
-        mat: &[u32],
-        d: Vec3,
-        steps: usize,
-    ) {
+    fn slide(fx: &mut Fixture, d: Vec3, steps: usize) {
         let dt = 1e-3;
         for _ in 0..steps {
             for n in 4..8 {
-                nodes.x[n] += d;
-                nodes.v[n] = d / dt;
+                fx.nodes.x[n] += d;
+                fx.nodes.v[n] = d / dt;
             }
-            add_contact_forces(c, nodes, tets, mat, dt, 0.0);
-            nodes.f.iter_mut().for_each(|f| *f = Vec3::zeros());
+            add_contact_forces(&mut fx.ci, &fx.cd, &mut fx.nodes, &fx.tets, dt, 0.0);
+            fx.nodes.f.iter_mut().for_each(|f| *f = Vec3::zeros());
         }
     }
 
@@ -803,39 +730,25 @@ mod tests {
     /// where it started; a normal motion adds nothing; the slip is 0 once the pair releases.
     #[test]
     fn slip_accumulates_the_path_length_and_resets_on_release() {
-        let (mut c, mut nodes, tets, mat) = two_tets();
+        let mut fx = two_tets();
         let dx = Vec3::new(1e-4, 0.0, 0.0);
-        slide(&mut c, &mut nodes, &tets, &mat, dx, 10);
-        let forth = c.state[0].slip;
-        slide(&mut c, &mut nodes, &tets, &mat, -dx, 10);
-        let back = c.state[0].slip;
+        slide(&mut fx, dx, 10);
+        let forth = fx.ci.state[0].slip;
+        slide(&mut fx, -dx, 10);
+        let back = fx.ci.state[0].slip;
         println!("slip after 10 steps forth {forth:e} m, and back {back:e} m");
-        assert!(c.state[0].touching);
+        assert!(fx.ci.state[0].touching);
         assert!((forth - 1e-3).abs() < 1e-9 * 1e-3, "{forth:e}");
         assert!((back - 2e-3).abs() < 1e-9 * 2e-3, "{back:e}");
-        assert!((nodes.x[4] - nodes.x0[4]).norm() < 1e-15);
-        slide(
-            &mut c,
-            &mut nodes,
-            &tets,
-            &mat,
-            Vec3::new(0.0, 0.0, -1e-5),
-            5,
-        );
+        assert!((fx.nodes.x[4] - fx.nodes.x0[4]).norm() < 1e-15);
+        slide(&mut fx, Vec3::new(0.0, 0.0, -1e-5), 5);
         assert!(
-            (c.state[0].slip - back).abs() < 1e-9 * back,
+            (fx.ci.state[0].slip - back).abs() < 1e-9 * back,
             "normal motion is no slip"
         );
         // Lift the contactor off: the pair releases and its slip path starts again from 0.
-        slide(
-            &mut c,
-            &mut nodes,
-            &tets,
-            &mat,
-            Vec3::new(0.0, 0.0, 1e-2),
-            1,
-        );
-        assert!(!c.state[0].touching);
-        assert_eq!(c.state[0].slip, 0.0);
+        slide(&mut fx, Vec3::new(0.0, 0.0, 1e-2), 1);
+        assert!(!fx.ci.state[0].touching);
+        assert_eq!(fx.ci.state[0].slip, 0.0);
     }
 }

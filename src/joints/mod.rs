@@ -413,6 +413,7 @@ impl Joints {
     /// count, so results stay bit-identical for any number of threads. On the 200k-tet
     /// jointed box, 16 blocks in 2 colours instead of 378 in 4 made stage 2 ~13 % faster.
     pub fn prepare(&mut self, n_nodes: usize) {
+        self.handed_over.resize(self.len(), false);
         self.consts = self.laws.iter().map(JointLaw::consts).collect();
         self.inv_size = self.size.iter().map(|h| 1.0 / h).collect();
         if self.colored == self.faces.len() {
@@ -495,6 +496,14 @@ impl Joints {
 
     /// Stiffness of the joint springs at each node, Σ max(p_n, p_t)/h·A/3 [N/m] (for the
     /// critical time step).
+    /// Broken joints whose faces contact took over (stage 5): stage 2 no longer evaluates
+    /// their friction.
+    pub fn hand_over(&mut self, joints: &[u32]) {
+        for &j in joints {
+            self.handed_over[j as usize] = true;
+        }
+    }
+
     pub fn nodal_stiffness(&self, n_nodes: usize) -> Vec<Real> {
         let mut k = vec![0.0; n_nodes];
         for j in 0..self.len() {

@@ -1,6 +1,8 @@
 //! The simulation state and the time step: the seven stages of Munjiza's FEM/DEM in order,
 //! each a free function of exactly the arrays it reads and writes, each timed.
 
+use crate::contact_detection::{self, ContactDetection};
+use crate::contact_interaction::{self, ContactInteraction};
 use crate::elements::{self, ElementsWorkspace};
 use crate::integration::{self, stable_dt, IntegrationSums, StepParams};
 use crate::loads::{self, Loads};
@@ -245,8 +247,10 @@ pub struct Simulation {
     pub break_events: Vec<crate::fracture::BreakEvent>,
     /// A user fracture criterion (stage 3), if any.
     pub fracture_criterion: Option<crate::fracture::FractureCriterion>,
-    /// Contact (stages 4–5): off until a contact law is set.
-    pub contact: crate::contact_interaction::Contact,
+    /// Contact detection (stage 4): surface, candidate pairs.
+    pub contact_detection: ContactDetection,
+    /// Contact interaction (stage 5): laws, pair history; off until a contact law is set.
+    pub contact: ContactInteraction,
     pub settings: Settings,
     pub time: Real,
     pub step: u64,
@@ -264,8 +268,6 @@ pub struct Simulation {
     ready: bool,
     elements_ws: ElementsWorkspace,
     integration_partials: Vec<IntegrationSums>,
-    /// Break events already handed to contact (its surface changes when joints break).
-    contact_seen_breaks: usize,
     contact_energy: Real,
     contact_dissipated: Real,
 }
@@ -499,12 +501,8 @@ impl Simulation {
         self.loads.apply_constraint_masks(&mut self.nodes);
         self.joints.prepare(self.nodes.len());
         if self.contact.is_enabled() {
-            let young: Vec<Real> = self.materials.iter().map(|m| m.young).collect();
-            self.contact.resolve(&young);
-            self.contact.tet_mass = (0..self.tets.len())
-                .map(|e| self.materials[self.tets.material[e] as usize].density * self.tets.vol0[e])
-                .collect();
-            self.contact.surface_stale = true;
+            self.contact.prepare(&self.materials, &self.tets);
+            self.contact_detection.prepare();
         }
         let info = self.stable_time_step()?;
         self.dt = info.dt;
@@ -556,11 +554,15 @@ impl Simulation {
         // Contact springs likewise: a thin overlap under face k of a tet is a spring
         // k_n = 4pA_k(1/H_c + 1/H_t) ≤ 8pA_k/H_k for equal heights, a third per face node.
         if self.contact.is_enabled() {
-            let p = self.contact.max_penalty();
+            let p = self.contact.laws.max_penalty();
             let w2 = (0..self.tets.len())
                 .into_par_iter()
                 .map(|e| {
-                    let k = contact_nodal_stiffness(&self.tets.dm_inv[e], self.tets.vol0[e], p);
+                    let k = contact_interaction::contact_nodal_stiffness(
+                        &self.tets.dm_inv[e],
+                        self.tets.vol0[e],
+                        p,
+                    );
                     self.tets.nodes[e]
                         .iter()
                         .map(|&n| 2.0 * k / self.nodes.m[n as usize])
@@ -646,36 +648,31 @@ impl Simulation {
         self.timers.seconds[Stage::Fracture as usize] += t.elapsed().as_secs_f64();
 
         if self.contact.is_enabled() {
-            if self.break_events.len() != self.contact_seen_breaks {
-                self.contact.surface_stale = true;
-                self.contact_seen_breaks = self.break_events.len();
-            }
             // 4. contact detection
             let t = Instant::now();
-            crate::contact_detection::update_pairs(
-                &mut self.contact,
+            self.contact_detection.joints_broke(self.break_events.len());
+            if contact_detection::update_pairs(
+                &mut self.contact_detection,
                 &self.nodes,
                 &self.tets,
                 &self.bodies,
                 &self.joints,
-            );
+            ) {
+                let cd = &self.contact_detection;
+                self.contact.carry_history(&cd.origins, cd.surface.len());
+            }
             self.timers.seconds[Stage::ContactDetection as usize] += t.elapsed().as_secs_f64();
             // 5. contact interaction
             let t = Instant::now();
-            let cs = crate::contact_interaction::add_contact_forces(
+            let cs = contact_interaction::add_contact_forces(
                 &mut self.contact,
+                &self.contact_detection,
                 &mut self.nodes,
-                &self.tets.nodes,
-                &self.tets.material,
+                &self.tets,
                 self.dt_prev,
                 self.time,
             );
-            for j in self.contact.handover.drain(..) {
-                if self.joints.handed_over.len() != self.joints.len() {
-                    self.joints.handed_over.resize(self.joints.len(), false);
-                }
-                self.joints.handed_over[j as usize] = true;
-            }
+            self.joints.hand_over(&self.contact.handover);
             self.contact_energy = cs.energy;
             self.contact_dissipated = cs.dissipated;
             self.timers.seconds[Stage::ContactInteraction as usize] += t.elapsed().as_secs_f64();
@@ -790,7 +787,7 @@ impl Simulation {
         &self,
         f: &crate::contact_interaction::FrictionLawFailure,
     ) -> String {
-        let law = &self.contact.friction_laws[f.law as usize];
+        let law = &self.contact.laws.friction_laws[f.law as usize];
         let body = |t: u32| &self.bodies[self.tets.body[t as usize] as usize].name;
         let inputs: Vec<String> = crate::contact_interaction::FrictionInputs::NAMES
             .iter()
@@ -865,19 +862,4 @@ impl Simulation {
     pub fn total_mass(&self) -> Real {
         self.nodes.m.iter().sum()
     }
-}
-
-/// Contact stiffness at a node of a tet for the critical step: (8/3)·p·max_k(A_k/H_k) [N/m],
-/// the stiffest face of the tet in a thin overlap with an equal partner. With ∇λ_k = g_k,
-/// H_k = 1/|g_k| and A_k = 3V|g_k|, so A_k/H_k = 3V|g_k|².
-fn contact_nodal_stiffness(dm_inv: &crate::math::Mat3, vol0: Real, p: Real) -> Real {
-    let g1 = dm_inv.row(0).transpose();
-    let g2 = dm_inv.row(1).transpose();
-    let g3 = dm_inv.row(2).transpose();
-    let g0 = -(g1 + g2 + g3);
-    let g2max = [g0, g1, g2, g3]
-        .iter()
-        .map(|g| g.norm_squared())
-        .fold(0.0, Real::max);
-    8.0 / 3.0 * p * 3.0 * vol0.abs() * g2max
 }

@@ -5,7 +5,7 @@ use super::api::keys_of;
 use super::opts::{err, vec3_to_array, Opts, RhaiResult};
 use super::types::{BodyHandle, MaterialValue, SimHandle};
 use super::ScriptContext;
-use crate::contact_interaction::{ContactRule, FRICTION_LAW};
+use crate::contact_interaction::{ContactLaw, ContactRule, PotentialContact, FRICTION_LAW};
 use crate::math::Vec3;
 use rhai::{Array, Dynamic, Engine, FnPtr, Map};
 use std::rc::Rc;
@@ -38,7 +38,7 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
     engine.register_fn(
         "contact_law",
         move |s: &mut SimHandle, law: &str, m: Map| -> RhaiResult<()> {
-            if law != "potential" {
+            if !ContactLaw::NAMES.contains(&law) {
                 return err(format!(
                     "contact_law(): unknown law \"{law}\"; the allowed laws are \"potential\" (Munjiza's potential contact force with Coulomb friction)"
                 ));
@@ -94,14 +94,13 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
                     Some((ids[0], ids[1]))
                 }
             };
-            st.sim.contact.rules.push(ContactRule {
-                materials,
+            st.sim.contact.laws.rules.push(ContactRule {
+                materials, law: ContactLaw::Potential(PotentialContact {
                 penalty: o.positive("penalty")?,
                 tangential_penalty: o.positive("tangential_penalty")?,
                 friction,
                 damping,
-                friction_law: compiled,
-            });
+                friction_law: compiled, }) });
             st.sim.invalidate();
             Ok(())
         },
@@ -112,7 +111,7 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
             let o = Opts::new("contact_detection", m, keys_of("sim.contact_detection"))?;
             let mut st = s.0.borrow_mut();
             if let Some(skin) = o.positive("skin")? {
-                st.sim.contact.skin = Some(skin);
+                st.sim.contact_detection.skin = Some(skin);
             }
             st.sim.invalidate();
             Ok(())
@@ -125,15 +124,15 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
     });
     engine.register_fn("contact", |s: &mut SimHandle| -> Map {
         let st = s.0.borrow();
-        let c = &st.sim.contact;
+        let (c, cd) = (&st.sim.contact, &st.sim.contact_detection);
         let mut m = Map::new();
-        m.insert("pairs".into(), (c.pairs.len() as i64).into());
+        m.insert("pairs".into(), (cd.pairs.len() as i64).into());
         m.insert("active".into(), (c.last.active as i64).into());
-        m.insert("surface_elements".into(), (c.surface.len() as i64).into());
+        m.insert("surface_elements".into(), (cd.surface.len() as i64).into());
         m.insert("normal_force".into(), c.last.normal_force.into());
         m.insert("friction_force".into(), c.last.friction_force.into());
         m.insert("energy".into(), c.last.energy.into());
-        m.insert("detections".into(), (c.detector.detections as i64).into());
+        m.insert("detections".into(), (cd.detector.detections as i64).into());
         m
     });
     engine.register_fn(

@@ -417,15 +417,15 @@ pub fn summary(
         e.friction
     ));
     if sim.contact.is_enabled() {
-        let c = &sim.contact;
+        let (c, cd) = (&sim.contact, &sim.contact_detection);
         s.push_str(&format!(
             "   {:<20} {:>14.6e}   ({} surface tets, {} candidate pairs, {} touching, {} detections)\n",
             "contact (elastic)",
             e.contact,
-            c.surface.len(),
-            c.pairs.len(),
+            cd.surface.len(),
+            cd.pairs.len(),
             c.last.active,
-            c.detector.detections
+            cd.detector.detections
         ));
     }
     if !sim.joints.is_empty() {
