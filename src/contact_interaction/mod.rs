@@ -272,6 +272,24 @@ impl ContactInteraction {
         self.chunk_handover.resize_with(n_chunks, Vec::new);
     }
 
+    /// This stage's share of the time-step limit: the stiffest contact spring a node can
+    /// feel over its mass, max over tets and their nodes of 2·k/m with k from
+    /// [`contact_nodal_stiffness`] at the largest penalty [1/s²]. Added to the elements' ω²
+    /// like the joint springs.
+    pub fn max_omega2(&self, tets: &Tets, mass: &[Real]) -> Real {
+        let p = self.laws.max_penalty();
+        (0..tets.len())
+            .into_par_iter()
+            .map(|e| {
+                let k = contact_nodal_stiffness(&tets.dm_inv[e], tets.vol0[e], p);
+                tets.nodes[e]
+                    .iter()
+                    .map(|&n| 2.0 * k / mass[n as usize])
+                    .fold(0.0, Real::max)
+            })
+            .reduce(|| 0.0, Real::max)
+    }
+
     /// Contact force on each of `n_nodes` nodes in the last step [N] (zero where none), summed
     /// in pair order. Built on demand (output, queries): stage 5 only adds to `nodes.f`.
     pub fn node_forces(&self, n_nodes: usize) -> Vec<Vec3> {

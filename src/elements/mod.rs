@@ -1,42 +1,33 @@
-//! Stage 1 — elements: stress in every constant-strain tetrahedron from its deformation, and
-//! the nodal internal forces.
+//! Stage 1 — elements: stress in every element from its deformation, and the nodal internal
+//! forces. Reads positions `x`, half-step velocities `v`, reference data and materials; adds
+//! to the nodal force accumulator `f`.
 //!
-//! Reads positions `x`, half-step velocities `v`, reference data and materials; adds to the
-//! nodal force accumulator `f`. Per tetrahedron (Munjiza 2004, §4.7):
+//! **The element seam.** Each element family is one module with everything fdem needs of it:
+//! reference data, force kernel, lumped mass and critical time step — today [`tet4`]
+//! (4-node constant-strain tetrahedron). The stage-level functions here
+//! ([`add_internal_forces`], [`lumped_masses`], [`critical_time_step`]) dispatch to the
+//! families; a new family (2-node bars, 3-node triangles) is its own module plus a line in
+//! each of them and its arrays in [`crate::state`] (docs/architecture.md lists the files).
 //!
-//! ```text
-//! F   = [x1−x0, x2−x0, x3−x0] · [X1−X0, X2−X0, X3−X0]⁻¹      (uniform in the tet)
-//! Ḟ   = [v1−v0, v2−v0, v3−v0] · [X1−X0, X2−X0, X3−X0]⁻¹
-//! P   = P_elastic(F) + P_viscous(F, Ḟ)                     (first Piola–Kirchhoff, Pa)
-//! H   = −V₀ · P · D_m⁻ᵀ ;  f_a = H e_a (a = 1..3),  f_0 = −(f_1 + f_2 + f_3)
-//! ```
-//!
-//! which is f = −∂U/∂x for a hyperelastic law (tested by finite differences) and sums to zero
-//! (no net force, no net moment from a symmetric Cauchy stress).
+//! The tet4 force is f = −∂U/∂x for a hyperelastic law (tested by finite differences) and sums
+//! to zero (no net force, no net moment from a symmetric Cauchy stress).
 //!
 //! Guarantees: deterministic for any thread count. Bodies whose tets own their nodes (jointed
 //! layout) write forces straight into their nodes; bodies that share nodes write each tet's 4
 //! forces into a slot buffer that is then gathered per node in a fixed order (no atomics).
 
-use crate::material::{munjiza_cauchy, Formulation, Material};
-use crate::math::{Mat3, Real, SyncPtr, Vec3};
+pub mod tet4;
+
+pub use tet4::{cofactor, deformation_gradient, internal_force_tet4, tet_result, TetResult};
+
+use crate::material::Material;
+use crate::math::{Real, SyncPtr, Vec3};
 use crate::state::{Body, Layout, Nodes, Tets};
 use rayon::prelude::*;
+use tet4::accumulate;
 
 /// Tets per parallel work item; fixed, so partial sums are the same for any thread count.
 pub const CHUNK: usize = 512;
-
-/// Nodal forces of one tetrahedron and, optionally, its energy terms.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct TetResult {
-    pub forces: [Vec3; 4],
-    /// V₀·ψ(F) [J] (only when energies are requested).
-    pub strain_energy: Real,
-    /// Viscous power V₀·P_v:Ḟ [W] (≥ 0; always computed when the material is viscous).
-    pub viscous_power: Real,
-    /// det F ≤ 0: the element is inverted.
-    pub inverted: bool,
-}
 
 /// Per-step sums over all elements.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -44,81 +35,6 @@ pub struct ElementSums {
     pub strain_energy: Real,
     pub viscous_power: Real,
     pub inverted: usize,
-}
-
-/// The tet4 force kernel: F, P, and f = −V₀·P·D_m⁻ᵀ.
-#[inline(always)]
-pub fn internal_force_tet4(
-    xs: &[Vec3; 4],
-    vs: &[Vec3; 4],
-    dm_inv: &Mat3,
-    vol0: Real,
-    mat: &Material,
-    want_energy: bool,
-) -> TetResult {
-    let ds = Mat3::from_columns(&[xs[1] - xs[0], xs[2] - xs[0], xs[3] - xs[0]]);
-    let f = ds * dm_inv;
-    let mut viscous_power = 0.0;
-    let mut h = if mat.formulation == Formulation::Munjiza {
-        // Cauchy-stress law: V₀·P·D_m⁻ᵀ = V₀·J·σ·D_s⁻ᵀ = σ·cof(D_s)/6, since
-        // cof(D_s) = det(D_s)·D_s⁻ᵀ and det(D_s) = 6·V₀·J. No inverse, no division.
-        let sigma = munjiza_cauchy(&f, f.determinant(), mat.mu, mat.bulk());
-        -(sigma * cofactor(&ds)) / 6.0
-    } else {
-        -vol0 * mat.pk1(&f) * dm_inv.transpose()
-    };
-    if mat.viscosity > 0.0 {
-        let dv = Mat3::from_columns(&[vs[1] - vs[0], vs[2] - vs[0], vs[3] - vs[0]]);
-        let f_dot = dv * dm_inv;
-        let pv = mat.pk1_viscous(&f, &f_dot);
-        viscous_power = vol0 * pv.dot(&f_dot);
-        h -= vol0 * pv * dm_inv.transpose();
-    }
-    let f1 = h.column(0).into_owned();
-    let f2 = h.column(1).into_owned();
-    let f3 = h.column(2).into_owned();
-    let mut r = TetResult {
-        forces: [-(f1 + f2 + f3), f1, f2, f3],
-        viscous_power,
-        strain_energy: 0.0,
-        inverted: false,
-    };
-    if want_energy {
-        r.strain_energy = vol0 * mat.energy_density(&f);
-        // NaN counts as inverted.
-        r.inverted = f.determinant().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater);
-    }
-    r
-}
-
-/// Cofactor matrix cof(A) = det(A)·A⁻ᵀ (defined for singular A too).
-#[inline(always)]
-pub fn cofactor(a: &Mat3) -> Mat3 {
-    let (c0, c1, c2) = (a.column(0), a.column(1), a.column(2));
-    Mat3::from_columns(&[c1.cross(&c2), c2.cross(&c0), c0.cross(&c1)])
-}
-
-/// Run the kernel on tet `e`, reading its nodes' x and v.
-#[inline(always)]
-pub fn tet_result(
-    tets: &Tets,
-    mats: &[Material],
-    x: &[Vec3],
-    v: &[Vec3],
-    e: usize,
-    want_energy: bool,
-) -> TetResult {
-    let n = tets.nodes[e];
-    let xs = n.map(|i| x[i as usize]);
-    let vs = n.map(|i| v[i as usize]);
-    internal_force_tet4(
-        &xs,
-        &vs,
-        &tets.dm_inv[e],
-        tets.vol0[e],
-        &mats[tets.material[e] as usize],
-        want_energy,
-    )
 }
 
 /// Scratch owned by the elements stage, sized once at setup (no allocation per step).
@@ -230,6 +146,17 @@ fn owns_nodes_in_order(b: &Body, tets: &Tets) -> bool {
             .clone()
             .enumerate()
             .all(|(le, e)| (0..4).all(|c| tets.nodes[e][c] as usize == b.nodes.start + 4 * le + c))
+}
+
+/// Lumped masses of every element at its nodes [kg] (`nodes.m` is set, not added to).
+pub fn lumped_masses(nodes: &mut Nodes, tets: &Tets, materials: &[Material]) {
+    tet4::lumped_masses(nodes, tets, materials);
+}
+
+/// This stage's share of the time-step limit: the smallest critical step of the central
+/// difference over all elements [s], and the element that sets it.
+pub fn critical_time_step(tets: &Tets, materials: &[Material]) -> (Real, usize) {
+    tet4::critical_time_step(tets, materials)
 }
 
 /// Stage 1: add the internal (elastic + viscous) forces of every tetrahedron to `nodes.f`.
@@ -361,19 +288,6 @@ pub fn add_internal_forces(
         add_partials(&mut total, &ws.partials);
     }
     total
-}
-
-#[inline(always)]
-fn accumulate(s: &mut ElementSums, r: &TetResult) {
-    s.strain_energy += r.strain_energy;
-    s.viscous_power += r.viscous_power;
-    s.inverted += r.inverted as usize;
-}
-
-/// Deformation gradient of tet `e` at the current positions.
-pub fn deformation_gradient(tets: &Tets, x: &[Vec3], e: usize) -> Mat3 {
-    let n = tets.nodes[e].map(|i| x[i as usize]);
-    Mat3::from_columns(&[n[1] - n[0], n[2] - n[0], n[3] - n[0]]) * tets.dm_inv[e]
 }
 
 #[cfg(test)]

@@ -17,8 +17,6 @@
 //! Energy terms are summed over fixed-size chunks in a fixed order, so they are identical
 //! for any thread count.
 
-pub mod stable_dt;
-
 use crate::math::{Real, Vec3};
 use crate::state::Nodes;
 use rayon::prelude::*;

@@ -504,6 +504,20 @@ impl Joints {
         }
     }
 
+    /// This stage's share of the time-step limit: the joint springs add stiffness at their
+    /// nodes, so by Weyl's inequality and a Gershgorin bound on the joint part
+    /// ω² ≤ ω_elements² + max_n 2·Σk_joint/m_n. Returns (max_n 2·Σk/m_n [1/s²], that node).
+    pub fn max_omega2(&self, mass: &[Real]) -> (Real, usize) {
+        self.nodal_stiffness(mass.len())
+            .iter()
+            .zip(mass)
+            .enumerate()
+            .map(|(n, (k, m))| (2.0 * k / m, n))
+            .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a })
+    }
+
+    /// Σ of the joint spring stiffnesses at every node, k = max(p_n, p_t)/h · A/3 per joint
+    /// node [N/m].
     pub fn nodal_stiffness(&self, n_nodes: usize) -> Vec<Real> {
         let mut k = vec![0.0; n_nodes];
         for j in 0..self.len() {

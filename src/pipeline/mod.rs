@@ -4,12 +4,12 @@
 use crate::contact_detection::{self, ContactDetection};
 use crate::contact_interaction::{self, ContactInteraction};
 use crate::elements::{self, ElementsWorkspace};
-use crate::integration::{self, stable_dt, IntegrationSums, StepParams};
+use crate::integration::{self, IntegrationSums, StepParams};
 use crate::loads::{self, Loads};
 use crate::material::Material;
 use crate::math::{Real, Vec3};
 use crate::mesh::{boundary_faces, BoundaryFace, Mesh, Region};
-use crate::state::{self, Body, Layout, MaterialId, Nodes, Tets};
+use crate::state::{Body, Layout, MaterialId, Nodes, Tets};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -342,13 +342,11 @@ impl Simulation {
             }
         };
         for (e, t) in tet_nodes.iter().enumerate() {
-            let p = mesh.tet_points(e);
-            let dm = crate::math::edge_matrix(&p[0], &p[1], &p[2], &p[3]);
+            let (dm_inv, vol0) =
+                elements::tet4::reference(&mesh.tet_points(e)).expect("checked non-degenerate");
             self.tets.nodes.push(*t);
-            self.tets
-                .dm_inv
-                .push(dm.try_inverse().expect("checked non-degenerate"));
-            self.tets.vol0.push(dm.determinant() / 6.0);
+            self.tets.dm_inv.push(dm_inv);
+            self.tets.vol0.push(vol0);
             self.tets.material.push(material);
             self.tets.body.push(id as u32);
         }
@@ -494,7 +492,7 @@ impl Simulation {
                 "the model has no bodies: add one with sim.add_body(..)".into(),
             ));
         }
-        state::lumped_masses(&mut self.nodes, &self.tets, &self.materials);
+        elements::lumped_masses(&mut self.nodes, &self.tets, &self.materials);
         self.elements_ws = ElementsWorkspace::new(&self.bodies, &self.tets);
         self.integration_partials =
             Vec::with_capacity(self.nodes.len().div_ceil(integration::CHUNK));
@@ -513,62 +511,21 @@ impl Simulation {
 
     /// Critical time step over all tets and the dt to use.
     pub fn stable_time_step(&self) -> Result<TimeStepInfo, SimError> {
-        let (critical_tets, tet) = (0..self.tets.len())
-            .into_par_iter()
-            .map(|e| {
-                (
-                    stable_dt::tet_critical_dt(
-                        &self.tets.dm_inv[e],
-                        &self.materials[self.tets.material[e] as usize],
-                    ),
-                    e,
-                )
-            })
-            .reduce(
-                || (Real::INFINITY, usize::MAX),
-                |a, b| {
-                    if b.0 < a.0 || (b.0 == a.0 && b.1 < a.1) {
-                        b
-                    } else {
-                        a
-                    }
-                },
-            );
+        let (critical_tets, tet) = elements::critical_time_step(&self.tets, &self.materials);
         // Joint springs add stiffness at their nodes: by Weyl's inequality and a Gershgorin
         // bound on the joint part, ω² ≤ ω_tets² + max_n 2·Σk_joint/m_n.
         let mut critical = critical_tets;
         let mut joints_note = None;
         let mut contact_lowered = false;
         if !self.joints.is_empty() {
-            let k = self.joints.nodal_stiffness(self.nodes.len());
-            let (w2, node) = k
-                .iter()
-                .zip(&self.nodes.m)
-                .enumerate()
-                .map(|(n, (k, m))| (2.0 * k / m, n))
-                .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a });
+            let (w2, node) = self.joints.max_omega2(&self.nodes.m);
             let w_tets = 2.0 / critical_tets;
             critical = 2.0 / (w_tets * w_tets + w2).sqrt();
             joints_note = Some((node, critical_tets));
         }
-        // Contact springs likewise: a thin overlap under face k of a tet is a spring
-        // k_n = 4pA_k(1/H_c + 1/H_t) ≤ 8pA_k/H_k for equal heights, a third per face node.
+        // Contact springs likewise (stage 5's bound).
         if self.contact.is_enabled() {
-            let p = self.contact.laws.max_penalty();
-            let w2 = (0..self.tets.len())
-                .into_par_iter()
-                .map(|e| {
-                    let k = contact_interaction::contact_nodal_stiffness(
-                        &self.tets.dm_inv[e],
-                        self.tets.vol0[e],
-                        p,
-                    );
-                    self.tets.nodes[e]
-                        .iter()
-                        .map(|&n| 2.0 * k / self.nodes.m[n as usize])
-                        .fold(0.0, Real::max)
-                })
-                .reduce(|| 0.0, Real::max);
+            let w2 = self.contact.max_omega2(&self.tets, &self.nodes.m);
             let w = 2.0 / critical;
             critical = 2.0 / (w * w + w2).sqrt();
             if joints_note.is_none() {

@@ -1,6 +1,5 @@
 //! Structure-of-arrays state: nodes, tetrahedra, bodies.
 
-use crate::material::Material;
 use crate::math::{Mat3, Real, Vec3};
 use crate::mesh::BoundaryFace;
 use std::ops::Range;
@@ -107,13 +106,3 @@ pub struct Body {
 
 /// Handle to a material in a simulation.
 pub type MaterialId = u32;
-
-pub(crate) fn lumped_masses(nodes: &mut Nodes, tets: &Tets, materials: &[Material]) {
-    nodes.m.iter_mut().for_each(|m| *m = 0.0);
-    for e in 0..tets.len() {
-        let mq = materials[tets.material[e] as usize].density * tets.vol0[e] / 4.0;
-        for &n in &tets.nodes[e] {
-            nodes.m[n as usize] += mq;
-        }
-    }
-}
