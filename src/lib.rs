@@ -29,6 +29,7 @@ pub mod loads;
 pub mod material;
 pub mod math;
 pub mod mesh;
+pub mod params;
 pub mod pipeline;
 pub mod script;
 pub mod state;

@@ -15,6 +15,7 @@ use std::path::Path;
 const ORDER: &[&str] = &[
     // foundation
     "math",
+    "params",
     "mesh",
     "material",
     "state",

@@ -273,8 +273,9 @@ expect_within("steps", sim.step, 5, 5);
     let (ok, out, err) = run_text("allkeys", text, &[]);
     assert!(ok, "{out}\n{err}");
     // The run covered every option map of the API table.
-    for f in fdem::script::api::API.iter().filter(|f| !f.keys.is_empty()) {
-        for k in f.keys {
+    for f in fdem::script::api::API.iter() {
+        let law_keys = f.laws.iter().flat_map(|l| l.params.iter());
+        for k in f.keys.iter().chain(law_keys) {
             assert!(
                 text.contains(&format!("{}:", k.name)),
                 "key '{}' of {} is not exercised",

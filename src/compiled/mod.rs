@@ -20,7 +20,26 @@
 //! `abs`, `min`, `max`, `sin`, `cos`, `tan`, `atan`, `floor`, `ceil`. Anything else is
 //! refused with the construct and its line named.
 
+use crate::params::Param;
 use rhai::{Expr, Map, Position, Stmt, StmtBlock, AST};
+
+/// The `params` key of every script law: constants folded in at compile time.
+pub const PARAMS_KEY: Param = Param::other(
+    "params",
+    "map of numbers",
+    "",
+    "#{}",
+    "The law's parameters, read as `p.<name>` (constants).",
+);
+
+/// The `source` key of every script law.
+pub const SOURCE_KEY: Param = Param::other(
+    "source",
+    "string",
+    "",
+    "this script",
+    "Where the function is defined: this script, or a stdlib module such as \"stdlib/joint_laws\" or \"stdlib/friction_laws\".",
+);
 
 /// Local variable slots available to a function (inputs included).
 pub const MAX_SLOTS: usize = 48;

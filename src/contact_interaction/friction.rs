@@ -22,6 +22,13 @@ crate::compiled::law_signature! {
     pub const FRICTION_LAW = "friction law" -> ["friction"];
 }
 
+/// Keys of `friction_law: #{ … }`.
+pub const FRICTION_LAW_PARAMS: &[crate::params::Param] = &[
+    crate::params::Param::other("function", "string", "", "required", "Name of the Rhai function `fn name(c, p)` returning μ ≥ 0 (`#{ friction: μ }` or the number). Inputs, per touching pair and step: c.slip_rate (tangential relative speed at the contact point) [m/s], c.slip (slip path since the pair started touching) [m], c.pressure (|F_n|/A) [Pa], c.normal_force [N], c.area [m²], c.time [s], c.mu (the rule's `friction`) [-]."),
+    crate::compiled::PARAMS_KEY,
+    crate::compiled::SOURCE_KEY,
+];
+
 /// A friction law that returned an invalid μ, with what it was given.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrictionLawFailure {

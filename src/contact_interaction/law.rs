@@ -7,12 +7,62 @@
 
 use crate::compiled::CompiledLaw;
 use crate::math::Real;
+use crate::params::{find, value_of, DefaultValue, Given, LawParams, Param, Range};
 use std::sync::Arc;
 
 /// Default normal penalty of the potential law: this factor × the larger Young's modulus of
 /// the two materials [-] (docs/theory/contact.md: overlaps stay below ~1 % of the element
 /// height at impact speeds of a few m/s).
 pub const DEFAULT_PENALTY_FACTOR: Real = 10.0;
+
+/// Parameters of the `"potential"` law.
+pub const POTENTIAL_PARAMS: &[Param] = &[
+    Param::float(
+        "penalty",
+        "Pa",
+        DefaultValue::Scaled {
+            factor: DEFAULT_PENALTY_FACTOR,
+            of: "Young's modulus E of the stiffer material",
+        },
+        Range::POSITIVE,
+        "Normal penalty p: contact energy p∫(φ_c + φ_t) dV over the overlap. Overlap depth ≈ H·σ/(8p) under contact pressure σ (H the element height); the critical time step falls as p grows.",
+    ),
+    Param::float(
+        "tangential_penalty",
+        "Pa",
+        DefaultValue::Text("= penalty"),
+        Range::POSITIVE,
+        "Friction spring: stiffness (4/3)·p_t·A·(1/h_c + 1/h_t) per pair (A contact area, h element heights).",
+    ),
+    Param::float(
+        "friction",
+        "-",
+        DefaultValue::Value(0.0),
+        Range::NON_NEGATIVE,
+        "Coulomb coefficient μ (static = kinetic). With `friction_law`: the law's input `c.mu`.",
+    ),
+    Param::other(
+        "friction_law",
+        "map",
+        "",
+        "none (μ = friction)",
+        "μ as a Rhai function of each pair's slip rate, slip, pressure, …, compiled to native code: `#{ function, params, source }` (below; docs/theory/contact.md).",
+    ),
+    Param::float(
+        "damping",
+        "-",
+        DefaultValue::Value(0.0),
+        Range::new(0.0, 1.0, false, false),
+        "Normal damping ratio ζ: a dashpot 2ζ√(k_n·m*) on the normal approach speed (for settling; dissipation is booked with friction).",
+    ),
+];
+
+/// The contact laws by registry name, with their parameters.
+pub const CONTACT_LAWS: &[LawParams] = &[LawParams {
+    name: "potential",
+    summary: "Munjiza's potential contact force with Coulomb friction.",
+    params: POTENTIAL_PARAMS,
+}];
 
 /// A contact law with its parameters.
 #[derive(Clone, Debug)]
@@ -22,9 +72,6 @@ pub enum ContactLaw {
 }
 
 impl ContactLaw {
-    /// Registry names of the contact laws, in the order of the variants.
-    pub const NAMES: [&'static str; 1] = ["potential"];
-
     pub fn name(&self) -> &'static str {
         match self {
             ContactLaw::Potential(_) => "potential",
@@ -53,6 +100,27 @@ pub struct PotentialContact {
     /// μ as a compiled function of the pair's kinematics (signature
     /// [`super::FRICTION_LAW`]); None: the constant `friction`.
     pub friction_law: Option<Arc<CompiledLaw>>,
+}
+
+impl PotentialContact {
+    /// The law from the values of [`POTENTIAL_PARAMS`] (checked, with their defaults) and
+    /// its friction law, if any.
+    pub fn from_params(
+        given: Given,
+        friction_law: Option<Arc<CompiledLaw>>,
+    ) -> Result<Self, String> {
+        let checked = |name: &str| -> Result<Option<Real>, String> {
+            let p = find(POTENTIAL_PARAMS, name).expect("a potential-law key");
+            given(p)?.map(|x| p.check(x)).transpose()
+        };
+        Ok(PotentialContact {
+            penalty: checked("penalty")?,
+            tangential_penalty: checked("tangential_penalty")?,
+            friction: value_of(POTENTIAL_PARAMS, "friction", given)?,
+            damping: value_of(POTENTIAL_PARAMS, "damping", given)?,
+            friction_law,
+        })
+    }
 }
 
 /// A contact rule from the script: rules without `materials` apply to every pair of

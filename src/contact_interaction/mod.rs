@@ -40,10 +40,10 @@ pub mod friction;
 pub mod law;
 pub mod potential;
 
-pub use friction::{FrictionInputs, FrictionLawFailure, FRICTION_LAW};
+pub use friction::{FrictionInputs, FrictionLawFailure, FRICTION_LAW, FRICTION_LAW_PARAMS};
 pub use law::{
-    ContactLaw, ContactLaws, ContactProps, ContactRule, PotentialContact, DEFAULT_PENALTY_FACTOR,
-    NO_FRICTION_LAW,
+    ContactLaw, ContactLaws, ContactProps, ContactRule, PotentialContact, CONTACT_LAWS,
+    DEFAULT_PENALTY_FACTOR, NO_FRICTION_LAW,
 };
 
 use crate::compiled::Frame;

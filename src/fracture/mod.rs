@@ -69,6 +69,15 @@ crate::compiled::law_signature! {
     pub const CRITERION = "fracture criterion" -> ["broken"];
 }
 
+/// Keys of `sim.fracture_criterion(#{ … })`.
+pub const CRITERION_PARAMS: &[crate::params::Param] = &[
+    crate::params::Param::other("function", "string", "", "required", "Name of the Rhai function `fn name(j, p)` returning true to break (compiled to native code). Inputs j.damage (largest over the joint's points), j.opening, j.slip (means), j.max_opening, j.max_slip (largest so far), j.x, j.y, j.z (centroid), j.size, j.time."),
+    crate::compiled::PARAMS_KEY,
+    crate::compiled::SOURCE_KEY,
+    crate::params::Param::other("when", "string", "", "\"damaged\"", "\"damaged\": asked only for fully damaged joints, which break when it agrees (e.g. an extra opening needed); \"always\": asked for every intact joint every `every` steps, which break when it says so (or at D = 1)."),
+    crate::params::Param::other("every", "int", "steps", "1", "With when: \"always\": how often the criterion is evaluated (it costs one compiled call per joint)."),
+];
+
 /// A fracture criterion written in Rhai and compiled ([`CRITERION`]).
 #[derive(Clone, Debug)]
 pub struct FractureCriterion {

@@ -14,6 +14,7 @@
 //! scripts/tension_bar.rhai: it grows with h·f_t²/(p·G_I)).
 
 use crate::math::{Real, Vec3};
+use crate::params::{value, value_of, DefaultValue, Given, LawParams, Param, Range};
 
 /// Munjiza's softening curve parameters (Munjiza 2004, eq. 7.12; a = 0.63, b = 1.8, c = 6).
 pub const Z_A: Real = 0.63;
@@ -84,6 +85,74 @@ pub enum Calibration {
     Exact,
     /// δt = 3G/f as in the Y codes: Munjiza's curve then dissipates 3·0.38631·G = 1.159·G.
     YCompatible,
+}
+
+/// Default penalties of every joint law: p_n = this factor × Young's modulus of the body [-].
+pub const DEFAULT_PENALTY_FACTOR: Real = 10.0;
+
+const NORMAL_PENALTY: Param = Param::float(
+    "normal_penalty",
+    "Pa",
+    DefaultValue::Scaled {
+        factor: DEFAULT_PENALTY_FACTOR,
+        of: "Young's modulus E of the body",
+    },
+    Range::POSITIVE,
+    "p_n: initial normal stiffness p_n/h per unit area (h = mean edge of the face); opening at peak δp = 2h·f_t/p_n. Joints add compliance: 1/E_eff ≈ 1/E + K/p_n, K ≈ 2.8 for cubic-cell box meshes (measured; K depends on the mesh).",
+);
+const TANGENTIAL_PENALTY: Param = Param::float(
+    "tangential_penalty",
+    "Pa",
+    DefaultValue::Text("= normal_penalty"),
+    Range::POSITIVE,
+    "p_t: initial shear stiffness p_t/h.",
+);
+
+/// Parameters of the cohesive laws (`"cohesive/munjiza"`, `"cohesive/linear"`).
+pub const COHESIVE_PARAMS: &[Param] = &[
+    Param::float("tensile_strength", "Pa", DefaultValue::Required, Range::POSITIVE, "f_t: peak normal traction."),
+    Param::float("cohesion", "Pa", DefaultValue::Required, Range::POSITIVE, "c: shear strength at zero normal stress; Mohr–Coulomb f_s = c − σn·tan φ under compression."),
+    Param::float("friction_angle", "°", DefaultValue::Value(30.0), Range::new(0.0, 90.0, false, true), "φ of the Mohr–Coulomb shear strength."),
+    Param::float("g_i", "J/m²", DefaultValue::Required, Range::POSITIVE, "Mode I fracture energy."),
+    Param::float("g_ii", "J/m²", DefaultValue::Required, Range::POSITIVE, "Mode II fracture energy."),
+    NORMAL_PENALTY,
+    TANGENTIAL_PENALTY,
+    Param::float("residual_friction", "-", DefaultValue::Text("tan(friction_angle)"), Range::NON_NEGATIVE, "Coulomb friction μ of broken joints in compression."),
+    Param::other("calibration", "string", "", "\"exact\"", "\"exact\": softening length δt = G/(f·∫z), the joint dissipates G; \"y_compatible\": δt = 3G/f as in the Y codes (dissipates 1.159·G with Munjiza's curve)."),
+];
+
+/// Parameters of `"tied"`.
+pub const TIED_PARAMS: &[Param] = &[NORMAL_PENALTY, TANGENTIAL_PENALTY];
+
+/// Parameters of `"script"`: the function, its constants, where it is, and the penalties.
+pub const SCRIPT_LAW_PARAMS: &[Param] = &[
+    Param::other("function", "string", "", "required", "Name of the Rhai function `fn name(j, p)` that is the law (compiled to native code; see docs/theory/joints.md)."),
+    crate::compiled::PARAMS_KEY,
+    crate::compiled::SOURCE_KEY,
+    NORMAL_PENALTY,
+    TANGENTIAL_PENALTY,
+];
+
+/// The joint laws by registry name, with their parameters.
+pub const JOINT_LAWS: &[LawParams] = &[
+    LawParams { name: "cohesive/munjiza", summary: "Munjiza's softening z(D), a = 0.63, b = 1.8, c = 6, with Mohr–Coulomb shear (Munjiza 2004 eq. 7.11–7.12; Mahabadi et al. 2012).", params: COHESIVE_PARAMS },
+    LawParams { name: "cohesive/linear", summary: "Linear softening z(D) = 1 − D, otherwise as cohesive/munjiza.", params: COHESIVE_PARAMS },
+    LawParams { name: "tied", summary: "Linear penalty springs that never break.", params: TIED_PARAMS },
+    LawParams { name: "script", summary: "A law written in Rhai, compiled once to native code.", params: SCRIPT_LAW_PARAMS },
+];
+
+/// The penalties (p_n, p_t) [Pa] a joint law was given ([`TIED_PARAMS`]; None: the default,
+/// resolved per body by [`penalties_or_default`]).
+pub fn given_penalties(given: Given) -> Result<(Option<Real>, Option<Real>), String> {
+    let get = |p: &Param| given(p)?.map(|x| p.check(x)).transpose();
+    Ok((get(&TIED_PARAMS[0])?, get(&TIED_PARAMS[1])?))
+}
+
+/// The penalties (p_n, p_t) [Pa] of a joint law on a body of Young's modulus `young` [Pa]:
+/// the given ones, or the defaults of [`COHESIVE_PARAMS`] (p_n = 10·E, p_t = p_n).
+pub fn penalties_or_default(given: (Option<Real>, Option<Real>), young: Real) -> (Real, Real) {
+    let pn = given.0.unwrap_or(DEFAULT_PENALTY_FACTOR * young);
+    (pn, given.1.unwrap_or(pn))
 }
 
 /// Parameters of a cohesive joint law (SI units).
@@ -197,6 +266,31 @@ pub struct CohesiveConsts {
 }
 
 impl Cohesive {
+    /// A cohesive law from the values of [`COHESIVE_PARAMS`] (checked, with their defaults;
+    /// the penalties are left 0 for [`penalties_or_default`], the calibration is given
+    /// apart because it is not a number).
+    pub fn from_params(
+        softening: Softening,
+        calibration: Calibration,
+        given: Given,
+    ) -> Result<Self, String> {
+        let v = |name| value_of(COHESIVE_PARAMS, name, given);
+        let tan_friction = v("friction_angle")?.to_radians().tan();
+        Ok(Cohesive {
+            softening,
+            calibration,
+            tensile_strength: v("tensile_strength")?,
+            cohesion: v("cohesion")?,
+            tan_friction,
+            g_i: v("g_i")?,
+            g_ii: v("g_ii")?,
+            normal_penalty: 0.0,
+            tangential_penalty: 0.0,
+            residual_friction: value(COHESIVE_PARAMS, "residual_friction", given, Real::NAN)?
+                .unwrap_or(tan_friction),
+        })
+    }
+
     /// Opening and slip at peak: δp = 2h·f/p.
     pub fn peak_opening(&self, h: Real) -> Real {
         2.0 * h * self.tensile_strength / self.normal_penalty

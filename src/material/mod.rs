@@ -22,6 +22,39 @@
 //! [Pa·s] the `viscosity` (Munjiza's 2μ_v); P_v = J σ_v F⁻ᵀ (small strain: P_v = η sym(Ḟ)).
 
 use crate::math::{Mat3, Real};
+use crate::params::{value_of, DefaultValue, Given, Param, Range};
+
+/// Parameters of every elastic law (`material(law, #{ … })`).
+pub const MATERIAL_PARAMS: &[Param] = &[
+    Param::float(
+        "density",
+        "kg/m³",
+        DefaultValue::Required,
+        Range::POSITIVE,
+        "Mass density ρ.",
+    ),
+    Param::float(
+        "young",
+        "Pa",
+        DefaultValue::Required,
+        Range::POSITIVE,
+        "Young's modulus E.",
+    ),
+    Param::float(
+        "poisson",
+        "-",
+        DefaultValue::Required,
+        Range::new(-1.0, 0.5, true, true),
+        "Poisson's ratio ν.",
+    ),
+    Param::float(
+        "viscosity",
+        "Pa·s",
+        DefaultValue::Value(0.0),
+        Range::NON_NEGATIVE,
+        "Viscous damping η: σ_v = η·D, D the rate of deformation.",
+    ),
+];
 
 /// The strain/stress formulation of an elastic material.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -110,6 +143,19 @@ pub struct Material {
 
 impl Material {
     /// Build from E, ν, ρ; checks 0 < E, −1 < ν < 0.5, ρ > 0, η ≥ 0.
+    /// A material of `formulation` from the values of [`MATERIAL_PARAMS`] (checked, with
+    /// their defaults).
+    pub fn from_params(formulation: Formulation, given: Given) -> Result<Self, String> {
+        let v = |name| value_of(MATERIAL_PARAMS, name, given);
+        Material::new(
+            formulation,
+            v("density")?,
+            v("young")?,
+            v("poisson")?,
+            v("viscosity")?,
+        )
+    }
+
     pub fn new(
         formulation: Formulation,
         density: Real,
@@ -117,17 +163,11 @@ impl Material {
         poisson: Real,
         viscosity: Real,
     ) -> Result<Self, String> {
-        if !(density > 0.0 && density.is_finite()) {
-            return Err(format!("density must be > 0 kg/m³, got {density}"));
-        }
-        if !(young > 0.0 && young.is_finite()) {
-            return Err(format!("young must be > 0 Pa, got {young}"));
-        }
-        if !(poisson > -1.0 && poisson < 0.5) {
-            return Err(format!("poisson must lie in (-1, 0.5), got {poisson}"));
-        }
-        if !(viscosity >= 0.0 && viscosity.is_finite()) {
-            return Err(format!("viscosity must be ≥ 0 Pa·s, got {viscosity}"));
+        for (p, x) in MATERIAL_PARAMS
+            .iter()
+            .zip([density, young, poisson, viscosity])
+        {
+            p.check(x)?;
         }
         let lambda = young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson));
         let mu = young / (2.0 * (1.0 + poisson));

@@ -1,18 +1,14 @@
 //! The script API as data: every function, its parameters, units and defaults. `fdem doc`
 //! prints it, `docs/script-reference.md` is generated from it (a test keeps them equal), and
-//! option maps are validated against it, so an allowed key is always a documented key.
+//! option maps are validated against it, so an allowed key is always a documented key. Laws
+//! declare their parameters beside themselves in the core ([`crate::params`]); this table
+//! points to them.
 
-/// One key of an options map.
-#[derive(Clone, Copy, Debug)]
-pub struct Key {
-    pub name: &'static str,
-    /// Rhai type expected: "float", "int", "bool", "string", "vec3", "table|float", "closure", "shape".
-    pub kind: &'static str,
-    pub unit: &'static str,
-    /// Default value, or "required".
-    pub default: &'static str,
-    pub doc: &'static str,
-}
+use crate::params::{LawParams, Param};
+
+/// One key of an options map: a [`Param`] (laws declare theirs beside themselves; the keys
+/// of other functions are declared here).
+pub type Key = Param;
 
 /// One script function.
 #[derive(Clone, Copy, Debug)]
@@ -22,6 +18,9 @@ pub struct FnDoc {
     pub signature: &'static str,
     pub summary: &'static str,
     pub keys: &'static [Key],
+    /// For functions whose first argument names a law (`joint_law("tied", …)`): the laws
+    /// and their own keys, which are allowed besides `keys`.
+    pub laws: &'static [LawParams],
     /// API section.
     pub section: &'static str,
 }
@@ -33,13 +32,7 @@ const fn key(
     default: &'static str,
     doc: &'static str,
 ) -> Key {
-    Key {
-        name,
-        kind,
-        unit,
-        default,
-        doc,
-    }
+    Param::other(name, kind, unit, default, doc)
 }
 
 pub const SECTIONS: &[(&str, &str)] = &[
@@ -62,25 +55,6 @@ pub const SIMULATION_KEYS: &[Key] = &[
     key("energy_every", "int", "steps", "50", "Sample the energy account every this many steps, and on the last step of every run (written to energy.csv). Inverted elements are detected on samples and at the end of every run; non-finite values every step."),
     key("stress_output", "string", "", "\"cauchy\"", "Extra stress field written to VTK besides the Cauchy stress: \"cauchy\", \"pk1\" or \"pk2\"."),
     key("vtk_encoding", "string", "", "\"raw\"", "Appended data of `.vtu` files: \"raw\" (fast; ParaView, VTK, meshio) or \"base64\" (for readers without raw support, e.g. vtkio)."),
-];
-
-pub const MATERIAL_KEYS: &[Key] = &[
-    key("density", "float", "kg/m³", "required", "Mass density ρ."),
-    key("young", "float", "Pa", "required", "Young's modulus E."),
-    key(
-        "poisson",
-        "float",
-        "-",
-        "required",
-        "Poisson's ratio ν, in (−1, 0.5).",
-    ),
-    key(
-        "viscosity",
-        "float",
-        "Pa·s",
-        "0",
-        "Viscous damping η: σ_v = η·D, D the rate of deformation.",
-    ),
 ];
 
 pub const BOX_KEYS: &[Key] = &[
@@ -377,27 +351,6 @@ pub const RUN_KEYS: &[Key] = &[
     key("stop_when", "closure", "", "-", "Stop as soon as `|s| …` returns true (checked after each `check_every` steps). Needs one of the limits above too."),
     key("check_every", "int", "steps", "1", "How often `stop_when` is evaluated."),
 ];
-pub const JOINT_LAW_KEYS: &[Key] = &[
-    key("tensile_strength", "float", "Pa", "required (cohesive)", "f_t: peak normal traction."),
-    key("cohesion", "float", "Pa", "required (cohesive)", "c: shear strength at zero normal stress; Mohr–Coulomb f_s = c − σn·tan φ under compression."),
-    key("friction_angle", "float", "°", "30", "φ of the Mohr–Coulomb shear strength."),
-    key("g_i", "float", "J/m²", "required (cohesive)", "Mode I fracture energy."),
-    key("g_ii", "float", "J/m²", "required (cohesive)", "Mode II fracture energy."),
-    key("normal_penalty", "float", "Pa", "10 × young of the body", "p_n: initial normal stiffness p_n/h per unit area (h = mean edge of the face); opening at peak δp = 2h·f_t/p_n. Joints add compliance: 1/E_eff ≈ 1/E + K/p_n, K ≈ 2.8 for cubic-cell box meshes (measured; K depends on the mesh)."),
-    key("tangential_penalty", "float", "Pa", "normal_penalty", "p_t: initial shear stiffness p_t/h."),
-    key("residual_friction", "float", "-", "tan(friction_angle)", "Coulomb friction μ of broken joints in compression."),
-    key("calibration", "string", "", "\"exact\"", "\"exact\": softening length δt = G/(f·∫z), the joint dissipates G; \"y_compatible\": δt = 3G/f as in the Y codes (dissipates 1.159·G with Munjiza's curve)."),
-    key("function", "string", "", "required (script)", "Name of the Rhai function `fn name(j, p)` that is the law (compiled to native code; see docs/theory/joints.md)."),
-    key("params", "map of numbers", "", "#{}", "The law's parameters, read as `p.<name>` (constants)."),
-    key("source", "string", "", "this script", "Where the function is defined: this script, or a stdlib module such as \"stdlib/joint_laws\"."),
-];
-pub const FRACTURE_CRITERION_KEYS: &[Key] = &[
-    key("function", "string", "", "required", "Name of the Rhai function `fn name(j, p)` returning true to break (compiled to native code). Inputs j.damage (largest over the joint's points), j.opening, j.slip (means), j.max_opening, j.max_slip (largest so far), j.x, j.y, j.z (centroid), j.size, j.time."),
-    key("params", "map of numbers", "", "#{}", "Parameters read as `p.<name>`."),
-    key("source", "string", "", "this script", "Where the function is defined: this script or a stdlib module."),
-    key("when", "string", "", "\"damaged\"", "\"damaged\": asked only for fully damaged joints, which break when it agrees (e.g. an extra opening needed); \"always\": asked for every intact joint every `every` steps, which break when it says so (or at D = 1)."),
-    key("every", "int", "steps", "1", "With when: \"always\": how often the criterion is evaluated (it costs one compiled call per joint)."),
-];
 pub const INSERT_JOINTS_KEYS: &[Key] = &[
     key(
         "within",
@@ -429,19 +382,13 @@ pub const INSERT_JOINTS_KEYS: &[Key] = &[
         "With `within`: only faces whose centroid lies in this region.",
     ),
 ];
-pub const CONTACT_LAW_KEYS: &[Key] = &[
-    key("penalty", "float", "Pa", "E of the stiffer material", "Normal penalty p: contact energy p∫(φ_c + φ_t) dV over the overlap. Overlap depth ≈ H·σ/(8p) under contact pressure σ (H the element height); the critical time step falls as p grows."),
-    key("tangential_penalty", "float", "Pa", "= penalty", "Friction spring: stiffness 4·p_t·A·(1/h_c + 1/h_t) per pair (A contact area, h element heights)."),
-    key("friction", "float", "-", "0", "Coulomb coefficient μ (static = kinetic). With `friction_law`: the law's input `c.mu`."),
-    key("friction_law", "map", "", "none (μ = friction)", "μ as a Rhai function of each pair's slip rate, slip, pressure, …, compiled to native code: `#{ function, params, source }` (below; docs/theory/contact.md)."),
-    key("damping", "float", "-", "0", "Normal damping ratio ζ in [0, 1]: a dashpot 2ζ√(k_n·m*) on the normal approach speed (for settling; dissipation is booked with friction)."),
-    key("between", "[material, material]", "", "all pairs", "Apply to this pair of materials only (later calls override earlier ones)."),
-];
-pub const FRICTION_LAW_KEYS: &[Key] = &[
-    key("function", "string", "", "required", "Name of the Rhai function `fn name(c, p)` returning μ ≥ 0 (`#{ friction: μ }` or the number). Inputs, per touching pair and step: c.slip_rate (tangential relative speed at the contact point) [m/s], c.slip (slip path since the pair started touching) [m], c.pressure (|F_n|/A) [Pa], c.normal_force [N], c.area [m²], c.time [s], c.mu (the rule's `friction`) [-]."),
-    key("params", "map of numbers", "", "#{}", "Parameters read as `p.<name>` (constants)."),
-    key("source", "string", "", "this script", "Where the function is defined: this script, or a stdlib module such as \"stdlib/friction_laws\"."),
-];
+pub const CONTACT_LAW_KEYS: &[Key] = &[key(
+    "between",
+    "[material, material]",
+    "",
+    "all pairs",
+    "Apply to this pair of materials only (later calls override earlier ones).",
+)];
 pub const CONTACT_DETECTION_KEYS: &[Key] = &[
     key("skin", "float", "m", "¼ of the mean surface element size", "Boxes are inflated by skin/2; detection runs again only when a node has moved more than skin/2 since the last one (no contact can be missed)."),
 ];
@@ -460,127 +407,159 @@ pub const VELOCITY_KEYS: &[Key] = &[
 pub const API: &[FnDoc] = &[
     // ── Parameters and checks
     FnDoc { section: "Parameters and checks", name: "params", signature: "params(#{ name: default, … }) -> map",
-        summary: "Declare the script's parameters with defaults. `fdem run … --set name=value` overrides them (the value is parsed with the default's type); an unknown name is an error that lists the parameters.", keys: &[] },
+        summary: "Declare the script's parameters with defaults. `fdem run … --set name=value` overrides them (the value is parsed with the default's type); an unknown name is an error that lists the parameters.", keys: &[], laws: &[] },
     FnDoc { section: "Parameters and checks", name: "expect_within", signature: "expect_within(label, value, low, high)",
-        summary: "Self-check: fail the script (with its line) unless low ≤ value ≤ high. Skipped by `fdem check`.", keys: &[] },
+        summary: "Self-check: fail the script (with its line) unless low ≤ value ≤ high. Skipped by `fdem check`.", keys: &[], laws: &[] },
     FnDoc { section: "Parameters and checks", name: "expect_near", signature: "expect_near(label, value, reference, rel_tol)",
-        summary: "Self-check: fail unless |value − reference| ≤ rel_tol·|reference|. Skipped by `fdem check`.", keys: &[] },
+        summary: "Self-check: fail unless |value − reference| ≤ rel_tol·|reference|. Skipped by `fdem check`.", keys: &[], laws: &[] },
     // ── Simulation
-    FnDoc { section: "Simulation", name: "simulation", signature: "simulation(#{ … }) -> Simulation", summary: "Create an empty model.", keys: SIMULATION_KEYS },
+    FnDoc { section: "Simulation", name: "simulation", signature: "simulation(#{ … }) -> Simulation", summary: "Create an empty model.", keys: SIMULATION_KEYS, laws: &[] },
     FnDoc { section: "Simulation", name: "sim.integrator", signature: "sim.integrator(\"central_difference\", #{ … })",
-        summary: "Time-integration options (stage 7). The chosen dt is printed with the element that sets the critical step.", keys: INTEGRATOR_KEYS },
-    FnDoc { section: "Simulation", name: "sim.damping", signature: "sim.damping(#{ … })", summary: "Mass-proportional damping for quasi-static stages; set 0 to switch it off between runs.", keys: DAMPING_KEYS },
+        summary: "Time-integration options (stage 7). The chosen dt is printed with the element that sets the critical step.", keys: INTEGRATOR_KEYS, laws: &[] },
+    FnDoc { section: "Simulation", name: "sim.damping", signature: "sim.damping(#{ … })", summary: "Mass-proportional damping for quasi-static stages; set 0 to switch it off between runs.", keys: DAMPING_KEYS, laws: &[] },
     FnDoc { section: "Simulation", name: "sim.run", signature: "sim.run(#{ … })",
-        summary: "Advance the model. Runs are staged: each continues from where the last stopped. Needs max_time, duration or steps.", keys: RUN_KEYS },
+        summary: "Advance the model. Runs are staged: each continues from where the last stopped. Needs max_time, duration or steps.", keys: RUN_KEYS, laws: &[] },
     // ── Materials
     FnDoc { section: "Materials", name: "material", signature: "material(law, #{ … }) -> Material",
-        summary: "An elastic material. `law`: \"elastic/small_strain\" (Hooke, linear strain; not objective), \"elastic/st_venant_kirchhoff\" (Green–Lagrange strain, PK2 stress), \"elastic/munjiza\" (left Cauchy–Green, Cauchy stress; Munjiza 2004 eq. 4.220), \"elastic/neo_hookean\" (compressible). Properties: `young`, `poisson`, `density`, `viscosity`, `law`.", keys: MATERIAL_KEYS },
+        summary: "An elastic material. `law`: \"elastic/small_strain\" (Hooke, linear strain; not objective), \"elastic/st_venant_kirchhoff\" (Green–Lagrange strain, PK2 stress), \"elastic/munjiza\" (left Cauchy–Green, Cauchy stress; Munjiza 2004 eq. 4.220), \"elastic/neo_hookean\" (compressible). Properties: `young`, `poisson`, `density`, `viscosity`, `law`.", keys: crate::material::MATERIAL_PARAMS, laws: &[] },
     // ── Geometry
-    FnDoc { section: "Geometry and meshes", name: "box", signature: "box(#{ … }) -> Shape", summary: "Axis-aligned box. Meshable and usable as a region.", keys: BOX_KEYS },
-    FnDoc { section: "Geometry and meshes", name: "sphere", signature: "sphere(#{ … }) -> Shape", summary: "Sphere (region).", keys: SPHERE_KEYS },
-    FnDoc { section: "Geometry and meshes", name: "cylinder", signature: "cylinder(#{ … }) -> Shape", summary: "Finite cylinder (region).", keys: CYLINDER_KEYS },
-    FnDoc { section: "Geometry and meshes", name: "half_space", signature: "half_space(#{ … }) -> Shape", summary: "Half-space (region).", keys: HALF_SPACE_KEYS },
+    FnDoc { section: "Geometry and meshes", name: "box", signature: "box(#{ … }) -> Shape", summary: "Axis-aligned box. Meshable and usable as a region.", keys: BOX_KEYS, laws: &[] },
+    FnDoc { section: "Geometry and meshes", name: "sphere", signature: "sphere(#{ … }) -> Shape", summary: "Sphere (region).", keys: SPHERE_KEYS, laws: &[] },
+    FnDoc { section: "Geometry and meshes", name: "cylinder", signature: "cylinder(#{ … }) -> Shape", summary: "Finite cylinder (region).", keys: CYLINDER_KEYS, laws: &[] },
+    FnDoc { section: "Geometry and meshes", name: "half_space", signature: "half_space(#{ … }) -> Shape", summary: "Half-space (region).", keys: HALF_SPACE_KEYS, laws: &[] },
     FnDoc { section: "Geometry and meshes", name: "shape.mesh", signature: "shape.mesh(#{ … }) -> Mesh",
-        summary: "Mesh a shape into tetrahedra. Boxes: structured, 6 Kuhn tetrahedra per cell (conforming). Cylinders: an O-grid cross-section (square core, four blocks mapped onto the circle) extruded along the axis, prisms cut into 3 tetrahedra; sets `bottom`, `top`, `side`. Spheres: a cube grid mapped onto the ball, 6 tetrahedra per cell; set `surface`. Curved faces have their nodes on the surface (volume error O(size²)). Half-spaces are regions only.", keys: MESH_KEYS },
-    FnDoc { section: "Geometry and meshes", name: "tet_mesh", signature: "tet_mesh(#{ … }) -> Mesh", summary: "A mesh from explicit nodes and tetrahedra.", keys: TET_MESH_KEYS },
-    FnDoc { section: "Geometry and meshes", name: "mesh.translate", signature: "mesh.translate([dx, dy, dz]) -> Mesh", summary: "Move the mesh (in place; also returns it) [m].", keys: &[] },
-    FnDoc { section: "Geometry and meshes", name: "mesh.rotate", signature: "mesh.rotate(#{ … }) -> Mesh", summary: "Rotate the mesh (in place; also returns it).", keys: ROTATE_KEYS },
+        summary: "Mesh a shape into tetrahedra. Boxes: structured, 6 Kuhn tetrahedra per cell (conforming). Cylinders: an O-grid cross-section (square core, four blocks mapped onto the circle) extruded along the axis, prisms cut into 3 tetrahedra; sets `bottom`, `top`, `side`. Spheres: a cube grid mapped onto the ball, 6 tetrahedra per cell; set `surface`. Curved faces have their nodes on the surface (volume error O(size²)). Half-spaces are regions only.", keys: MESH_KEYS, laws: &[] },
+    FnDoc { section: "Geometry and meshes", name: "tet_mesh", signature: "tet_mesh(#{ … }) -> Mesh", summary: "A mesh from explicit nodes and tetrahedra.", keys: TET_MESH_KEYS, laws: &[] },
+    FnDoc { section: "Geometry and meshes", name: "mesh.translate", signature: "mesh.translate([dx, dy, dz]) -> Mesh", summary: "Move the mesh (in place; also returns it) [m].", keys: &[], laws: &[] },
+    FnDoc { section: "Geometry and meshes", name: "mesh.rotate", signature: "mesh.rotate(#{ … }) -> Mesh", summary: "Rotate the mesh (in place; also returns it).", keys: ROTATE_KEYS, laws: &[] },
     FnDoc { section: "Geometry and meshes", name: "gmsh", signature: "gmsh(path [, #{ … }]) -> Mesh",
-        summary: "Import a Gmsh mesh: a `.msh` file (MSH 4.1 ASCII or binary, 2.2 ASCII) or a `.geo` file meshed by the `gmsh` executable (`gmsh -3`; it must be installed). `path` is relative to the script's directory. 4-node tetrahedra become the mesh; physical groups become named sets (volumes → element sets; surfaces → face sets and node sets; curves and points → node sets; unnamed groups are `physical_<tag>`). Nodes used by no tetrahedron are dropped and left-handed tetrahedra reordered, each with a warning; other 3D element types, surface triangles that are not tetrahedron faces, and mesh problems (degenerate, duplicate or folded tetrahedra, non-manifold faces) are errors naming the element and its place. See docs/meshing.md.", keys: GMSH_KEYS },
-    FnDoc { section: "Geometry and meshes", name: "mesh.sets", signature: "mesh.sets() -> array", summary: "Names of the mesh's sets (sorted). `body.sets()` gives those of a body.", keys: &[] },
+        summary: "Import a Gmsh mesh: a `.msh` file (MSH 4.1 ASCII or binary, 2.2 ASCII) or a `.geo` file meshed by the `gmsh` executable (`gmsh -3`; it must be installed). `path` is relative to the script's directory. 4-node tetrahedra become the mesh; physical groups become named sets (volumes → element sets; surfaces → face sets and node sets; curves and points → node sets; unnamed groups are `physical_<tag>`). Nodes used by no tetrahedron are dropped and left-handed tetrahedra reordered, each with a warning; other 3D element types, surface triangles that are not tetrahedron faces, and mesh problems (degenerate, duplicate or folded tetrahedra, non-manifold faces) are errors naming the element and its place. See docs/meshing.md.", keys: GMSH_KEYS, laws: &[] },
+    FnDoc { section: "Geometry and meshes", name: "mesh.sets", signature: "mesh.sets() -> array", summary: "Names of the mesh's sets (sorted). `body.sets()` gives those of a body.", keys: &[], laws: &[] },
     FnDoc { section: "Geometry and meshes", name: "mesh.scale", signature: "mesh.scale(factor | [sx, sy, sz] [, center]) -> Mesh",
-        summary: "Scale about `center` (default the origin), in place; also returns the mesh. Factors must be non-zero; a negative product mirrors the mesh, and node order is then reversed so volumes stay positive. Sets are kept.", keys: &[] },
+        summary: "Scale about `center` (default the origin), in place; also returns the mesh. Factors must be non-zero; a negative product mirrors the mesh, and node order is then reversed so volumes stay positive. Sets are kept.", keys: &[], laws: &[] },
     FnDoc { section: "Geometry and meshes", name: "mesh.mirror", signature: "mesh.mirror(#{ … }) -> Mesh",
-        summary: "Mirror across a plane, in place; also returns the mesh. Node order is reversed so volumes stay positive; sets (also face sets) name the mirrored elements, nodes and faces.", keys: MIRROR_KEYS },
+        summary: "Mirror across a plane, in place; also returns the mesh. Node order is reversed so volumes stay positive; sets (also face sets) name the mirrored elements, nodes and faces.", keys: MIRROR_KEYS, laws: &[] },
     FnDoc { section: "Geometry and meshes", name: "array", signature: "array(mesh, #{ … }) -> array of Mesh",
-        summary: "Copies of a mesh on a regular grid (the first at the mesh's own place, x varying fastest), each with the mesh's sets. Add them as separate bodies: `let m = array(brick, #{ count: [4, 1, 3], spacing: [0.2, 0.0, 0.1] }); for i in 0..m.len() { sim.add_body(\"brick_\" + i, m[i], rock); }`.", keys: ARRAY_KEYS },
-    FnDoc { section: "Geometry and meshes", name: "mesh.copy", signature: "mesh.copy() -> Mesh", summary: "An independent copy. Properties: `n_nodes`, `n_tets`, `volume` [m³].", keys: &[] },
+        summary: "Copies of a mesh on a regular grid (the first at the mesh's own place, x varying fastest), each with the mesh's sets. Add them as separate bodies: `let m = array(brick, #{ count: [4, 1, 3], spacing: [0.2, 0.0, 0.1] }); for i in 0..m.len() { sim.add_body(\"brick_\" + i, m[i], rock); }`.", keys: ARRAY_KEYS, laws: &[] },
+    FnDoc { section: "Geometry and meshes", name: "mesh.copy", signature: "mesh.copy() -> Mesh", summary: "An independent copy. Properties: `n_nodes`, `n_tets`, `volume` [m³].", keys: &[], laws: &[] },
     // ── Generators
     FnDoc { section: "Generators", name: "disc", signature: "disc(#{ … }) -> Mesh",
-        summary: "A disc (short cylinder) centred on `center`: the mesh of `cylinder(..).mesh(..)`. Sets `bottom`, `top` (the faces at −axis and +axis), `side`, element set `all`.", keys: DISC_KEYS },
+        summary: "A disc (short cylinder) centred on `center`: the mesh of `cylinder(..).mesh(..)`. Sets `bottom`, `top` (the faces at −axis and +axis), `side`, element set `all`.", keys: DISC_KEYS, laws: &[] },
     FnDoc { section: "Generators", name: "hollow_cylinder", signature: "hollow_cylinder(#{ … }) -> Mesh",
-        summary: "A tube: a periodic annular (r, θ) grid extruded along the axis, prisms cut into 3 tetrahedra. Sets `inner`, `outer`, `bottom`, `top`.", keys: HOLLOW_CYLINDER_KEYS },
+        summary: "A tube: a periodic annular (r, θ) grid extruded along the axis, prisms cut into 3 tetrahedra. Sets `inner`, `outer`, `bottom`, `top`.", keys: HOLLOW_CYLINDER_KEYS, laws: &[] },
     FnDoc { section: "Generators", name: "notched_beam", signature: "notched_beam(#{ … }) -> Mesh",
-        summary: "The three-point-bending specimen: a beam with a notch from the bottom at mid-span, structured boxes (6 Kuhn tetrahedra each, mirrored about mid-span) refined towards the notch. Face + node sets `top`, `bottom`, `notch`, `left_end`, `right_end`, `front`, `back`; node sets `load_line` (top, mid-span), `support_left`, `support_right`, `supports` (bottom, at ±span/2).", keys: NOTCHED_BEAM_KEYS },
+        summary: "The three-point-bending specimen: a beam with a notch from the bottom at mid-span, structured boxes (6 Kuhn tetrahedra each, mirrored about mid-span) refined towards the notch. Face + node sets `top`, `bottom`, `notch`, `left_end`, `right_end`, `front`, `back`; node sets `load_line` (top, mid-span), `support_left`, `support_right`, `supports` (bottom, at ±span/2).", keys: NOTCHED_BEAM_KEYS, laws: &[] },
     FnDoc { section: "Generators", name: "arch", signature: "arch(#{ … }) -> Assembly",
-        summary: "Voussoirs of a circular arch, each a structured (r, θ, y) grid of prisms cut into tetrahedra. Block 0 is the springer at +x, the last block the springer at −x; with the default centre a semicircular arch springs from z = 0. Sets per block: `intrados`, `extrados`, `joint_right` (towards +x), `joint_left`, `front`, `back`, and `springing` on the springers. Neighbouring voussoirs share their joint faces exactly.", keys: ARCH_KEYS },
+        summary: "Voussoirs of a circular arch, each a structured (r, θ, y) grid of prisms cut into tetrahedra. Block 0 is the springer at +x, the last block the springer at −x; with the default centre a semicircular arch springs from z = 0. Sets per block: `intrados`, `extrados`, `joint_right` (towards +x), `joint_left`, `front`, `back`, and `springing` on the springers. Neighbouring voussoirs share their joint faces exactly.", keys: ARCH_KEYS, laws: &[] },
     FnDoc { section: "Generators", name: "wall", signature: "wall(#{ … }) -> Assembly",
-        summary: "Bricks in running bond with straight ends (half bricks at the ends of odd courses), each brick a Kuhn box mesh. Sets per brick: `top`, `bottom`, `left`, `right`, `front`, `back`. Bricks of course 0 are springers. With zero gaps neighbouring bricks share faces triangle for triangle.", keys: WALL_KEYS },
+        summary: "Bricks in running bond with straight ends (half bricks at the ends of odd courses), each brick a Kuhn box mesh. Sets per brick: `top`, `bottom`, `left`, `right`, `front`, `back`. Bricks of course 0 are springers. With zero gaps neighbouring bricks share faces triangle for triangle.", keys: WALL_KEYS, laws: &[] },
     FnDoc { section: "Generators", name: "dome", signature: "dome(#{ … }) -> Assembly",
-        summary: "Voussoir blocks of a spherical dome with an oculus, in courses from the base (course 0, springers) to the crown, running bond. Each block is a spherical-shell patch meshed structured in (θ, φ, r). Sets per block: `intrados`, `extrados`, `bed_lower`, `bed_upper`, `head_left` (smaller longitude), `head_right`, and `base` on course 0. Neighbouring blocks share faces exactly.", keys: DOME_KEYS },
+        summary: "Voussoir blocks of a spherical dome with an oculus, in courses from the base (course 0, springers) to the crown, running bond. Each block is a spherical-shell patch meshed structured in (θ, φ, r). Sets per block: `intrados`, `extrados`, `bed_lower`, `bed_upper`, `head_left` (smaller longitude), `head_right`, and `base` on course 0. Neighbouring blocks share faces exactly.", keys: DOME_KEYS, laws: &[] },
     FnDoc { section: "Generators", name: "assembly.block", signature: "assembly.block(i) -> #{ index, course, springer, mesh }",
-        summary: "Block i of an assembly: its index in its course, its course, whether it rests on a support, and its mesh (also `assembly.mesh(i)`). Properties: `n_blocks` (also `len()`), `n_courses`, `n_tets`, `volume` [m³], `kind`; `assembly.quality()` as `mesh.quality()`.", keys: &[] },
+        summary: "Block i of an assembly: its index in its course, its course, whether it rests on a support, and its mesh (also `assembly.mesh(i)`). Properties: `n_blocks` (also `len()`), `n_courses`, `n_tets`, `volume` [m³], `kind`; `assembly.quality()` as `mesh.quality()`.", keys: &[], laws: &[] },
     FnDoc { section: "Generators", name: "sim.add_blocks", signature: "sim.add_blocks(assembly, material [, #{ … }]) -> Array of Body",
-        summary: "Add every block of an assembly as a body, in block order (body i is `assembly.block(i)`). Glue them with `sim.insert_joints(#{ between: bodies, law })`.", keys: ADD_BLOCKS_KEYS },
+        summary: "Add every block of an assembly as a body, in block order (body i is `assembly.block(i)`). Glue them with `sim.insert_joints(#{ between: bodies, law })`.", keys: ADD_BLOCKS_KEYS, laws: &[] },
     FnDoc { section: "Generators", name: "mesh.quality", signature: "mesh.quality() -> #{ min_dihedral, max_dihedral, max_aspect_ratio, mean_aspect_ratio }",
-        summary: "Element quality: smallest and largest dihedral angle [°] and aspect ratio (longest edge over inradius, 1 for the regular tetrahedron).", keys: &[] },
+        summary: "Element quality: smallest and largest dihedral angle [°] and aspect ratio (longest edge over inradius, 1 for the regular tetrahedron).", keys: &[], laws: &[] },
     // ── Bodies
     FnDoc { section: "Bodies and selections", name: "sim.add_body", signature: "sim.add_body(name, mesh, material [, #{ … }]) -> Body",
-        summary: "Place a mesh in the model. The mesh is checked: inverted, degenerate or duplicate tetrahedra, non-manifold faces, tetrahedra folding over a neighbour and nodes used by no tetrahedron are errors naming the element and its place. When the first run starts, bodies whose tetrahedra intersect are an error naming both bodies and the elements (touching is fine). Properties: `name`, `n_tets`, `n_nodes`, `volume` [m³], `mass` [kg], `layout`.", keys: ADD_BODY_KEYS },
-    FnDoc { section: "Bodies and selections", name: "body.copy", signature: "body.copy(name) -> Body", summary: "Add a copy of the body (same mesh, material and layout, at its current reference placement).", keys: &[] },
-    FnDoc { section: "Bodies and selections", name: "body.translate", signature: "body.translate([dx, dy, dz])", summary: "Move a body before the first step [m].", keys: &[] },
-    FnDoc { section: "Bodies and selections", name: "body.rotate", signature: "body.rotate(#{ … })", summary: "Rotate a body before the first step.", keys: ROTATE_KEYS },
-    FnDoc { section: "Bodies and selections", name: "body.nodes", signature: "body.nodes([shape]) -> Nodes", summary: "The body's nodes, or those inside a region (surface included, tolerance 1e-9 × model size).", keys: &[] },
+        summary: "Place a mesh in the model. The mesh is checked: inverted, degenerate or duplicate tetrahedra, non-manifold faces, tetrahedra folding over a neighbour and nodes used by no tetrahedron are errors naming the element and its place. When the first run starts, bodies whose tetrahedra intersect are an error naming both bodies and the elements (touching is fine). Properties: `name`, `n_tets`, `n_nodes`, `volume` [m³], `mass` [kg], `layout`.", keys: ADD_BODY_KEYS, laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.copy", signature: "body.copy(name) -> Body", summary: "Add a copy of the body (same mesh, material and layout, at its current reference placement).", keys: &[], laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.translate", signature: "body.translate([dx, dy, dz])", summary: "Move a body before the first step [m].", keys: &[], laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.rotate", signature: "body.rotate(#{ … })", summary: "Rotate a body before the first step.", keys: ROTATE_KEYS, laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.nodes", signature: "body.nodes([shape]) -> Nodes", summary: "The body's nodes, or those inside a region (surface included, tolerance 1e-9 × model size).", keys: &[], laws: &[] },
     FnDoc { section: "Bodies and selections", name: "body.set", signature: "body.set(name) -> Faces | Elements | Nodes",
-        summary: "A named set of the body's mesh (from Gmsh physical groups) as a selection: a surface group gives its faces (`faces.nodes()` their nodes), a volume group its elements, a curve or point group its nodes. An unknown name is an error listing the body's sets.", keys: &[] },
+        summary: "A named set of the body's mesh (from Gmsh physical groups) as a selection: a surface group gives its faces (`faces.nodes()` their nodes), a volume group its elements, a curve or point group its nodes. An unknown name is an error listing the body's sets.", keys: &[], laws: &[] },
     FnDoc { section: "Bodies and selections", name: "body.node_set", signature: "body.node_set(name), body.element_set(name), body.face_set(name)",
-        summary: "A named set of one kind, for names used by several kinds. `node_set` gives every copy of the set's nodes (in a jointed body each tetrahedron has its own), so `sim.fix(body.node_set(\"base\"))` holds every tetrahedron touching the base; a face set's `nodes()` holds only the nodes of its faces' own tetrahedra.", keys: &[] },
-    FnDoc { section: "Bodies and selections", name: "sim.nodes", signature: "sim.nodes(shape) -> Nodes", summary: "Nodes of all bodies inside a region.", keys: &[] },
-    FnDoc { section: "Bodies and selections", name: "body.elements", signature: "body.elements([shape]) -> Elements", summary: "The body's tetrahedra, or those whose centroid is inside a region.", keys: &[] },
-    FnDoc { section: "Bodies and selections", name: "body.boundary", signature: "body.boundary([#{ … }]) -> Faces", summary: "Outer boundary faces of the body, optionally filtered. `faces.nodes()` gives their nodes, `faces.area` their area [m²].", keys: BOUNDARY_KEYS },
-    FnDoc { section: "Bodies and selections", name: "set + set", signature: "nodes + nodes -> Nodes", summary: "Union of node sets (also for elements). All sets have `len()`.", keys: &[] },
+        summary: "A named set of one kind, for names used by several kinds. `node_set` gives every copy of the set's nodes (in a jointed body each tetrahedron has its own), so `sim.fix(body.node_set(\"base\"))` holds every tetrahedron touching the base; a face set's `nodes()` holds only the nodes of its faces' own tetrahedra.", keys: &[], laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "sim.nodes", signature: "sim.nodes(shape) -> Nodes", summary: "Nodes of all bodies inside a region.", keys: &[], laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.elements", signature: "body.elements([shape]) -> Elements", summary: "The body's tetrahedra, or those whose centroid is inside a region.", keys: &[], laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.boundary", signature: "body.boundary([#{ … }]) -> Faces", summary: "Outer boundary faces of the body, optionally filtered. `faces.nodes()` gives their nodes, `faces.area` their area [m²].", keys: BOUNDARY_KEYS, laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "set + set", signature: "nodes + nodes -> Nodes", summary: "Union of node sets (also for elements). All sets have `len()`.", keys: &[], laws: &[] },
     // ── Joints and fracture
     FnDoc { section: "Joints and fracture", name: "joint_law", signature: "joint_law(law, #{ … }) -> JointLaw",
-        summary: "A joint law. `law`: \"cohesive/munjiza\" (Munjiza's softening z(D), a = 0.63, b = 1.8, c = 6), \"cohesive/linear\" (linear softening), \"tied\" (linear penalty springs that never break; only the penalty keys), \"script\" (a law written in Rhai: `function`, `params`, `source` and the penalties; compiled once to native code).", keys: JOINT_LAW_KEYS },
+        summary: "A joint law by name; each law takes its own keys (a key of another law is an error that says which laws take it).", keys: &[], laws: crate::joints::law::JOINT_LAWS },
     FnDoc { section: "Joints and fracture", name: "sim.insert_joints", signature: "sim.insert_joints(#{ … }) -> int",
-        summary: "Insert joints on every internal face of jointed bodies (`within`, optionally inside a region) or on the coincident faces of different bodies (`between`); returns how many. Faces that already have a joint are skipped.", keys: INSERT_JOINTS_KEYS },
+        summary: "Insert joints on every internal face of jointed bodies (`within`, optionally inside a region) or on the coincident faces of different bodies (`between`); returns how many. Faces that already have a joint are skipped.", keys: INSERT_JOINTS_KEYS, laws: &[] },
     FnDoc { section: "Joints and fracture", name: "sim.fracture_criterion", signature: "sim.fracture_criterion(#{ … })",
-        summary: "A user rule for when joints break, written in Rhai and compiled like the joint laws. A joint broken by it before full damage releases its stored energy as fracture dissipation.", keys: FRACTURE_CRITERION_KEYS },
+        summary: "A user rule for when joints break, written in Rhai and compiled like the joint laws. A joint broken by it before full damage releases its stored energy as fracture dissipation.", keys: crate::fracture::CRITERION_PARAMS, laws: &[] },
     FnDoc { section: "Joints and fracture", name: "sim.on_joint_broken", signature: "sim.on_joint_broken(|s, joint| …)",
-        summary: "Called after each step for every joint that broke (all its points reached D = 1): `joint` is #{ id, time, centroid, mode (\"I\", \"II\", \"mixed\"), body }. Every run also writes `cracks.csv`.", keys: &[] },
+        summary: "Called after each step for every joint that broke (all its points reached D = 1): `joint` is #{ id, time, centroid, mode (\"I\", \"II\", \"mixed\"), body }. Every run also writes `cracks.csv`.", keys: &[], laws: &[] },
     FnDoc { section: "Joints and fracture", name: "s.fragments", signature: "s.fragments() -> #{ count, volumes, masses }",
-        summary: "Fragments: connected components of tetrahedra over intact joints and shared nodes, with their volumes [m³] and masses [kg]. Also `s.broken_joints()` and `s.n_joints`.", keys: &[] },
+        summary: "Fragments: connected components of tetrahedra over intact joints and shared nodes, with their volumes [m³] and masses [kg]. Also `s.broken_joints()` and `s.n_joints`.", keys: &[], laws: &[] },
     // ── Loads
     // ── Contact
     FnDoc { section: "Contact", name: "sim.contact_law", signature: "sim.contact_law(\"potential\", #{ … })",
-        summary: "Switch contact on (between all bodies, fragments and crack faces) or set it for one pair of materials. Broken joints hand their faces over to contact.", keys: CONTACT_LAW_KEYS },
+        summary: "Switch contact on (between all bodies, fragments and crack faces) or set it for one pair of materials. Broken joints hand their faces over to contact.", keys: CONTACT_LAW_KEYS, laws: crate::contact_interaction::CONTACT_LAWS },
     FnDoc { section: "Contact", name: "friction_law", signature: "sim.contact_law(\"potential\", #{ friction_law: #{ … }, … })",
-        summary: "A friction law written in Rhai: μ of each touching pair, every step, from its kinematics, compiled once to native code like the joint laws. The value must be finite and ≥ 0, or the run stops naming the function and its inputs. Example: `fn mu(c, p) { p.mu0 + p.k * c.slip_rate }` with `friction_law: #{ function: \"mu\", params: #{ mu0: 0.5, k: 2.0 } }`.", keys: FRICTION_LAW_KEYS },
-    FnDoc { section: "Contact", name: "sim.contact_detection", signature: "sim.contact_detection(#{ … })", summary: "Options of the NBS contact detection (stage 4).", keys: CONTACT_DETECTION_KEYS },
-    FnDoc { section: "Contact", name: "sim.on_new_contact_pair", signature: "sim.on_new_contact_pair(|s, pair| …)", summary: "Call a closure for every pair of elements that starts touching, with `#{ time, point, bodies, elements }`.", keys: &[] },
-    FnDoc { section: "Contact", name: "s.contact", signature: "s.contact() -> #{ … }", summary: "Contact in the last step: `pairs` (candidates), `active` (touching), `surface_elements`, `normal_force` and `friction_force` (sums of magnitudes over pairs) [N], `energy` [J], `detections`.", keys: &[] },
-    FnDoc { section: "Contact", name: "s.contact_force", signature: "s.contact_force(body) -> [fx, fy, fz]", summary: "Total contact force on a body in the last step [N].", keys: &[] },
-    FnDoc { section: "Loads and constraints", name: "sim.gravity", signature: "sim.gravity([gx, gy, gz])", summary: "Gravitational acceleration [m/s²] on every node.", keys: &[] },
-    FnDoc { section: "Loads and constraints", name: "sim.fix", signature: "sim.fix(nodes [, \"xyz\"])", summary: "Fix all (or the listed) displacement components of the nodes.", keys: &[] },
+        summary: "A friction law written in Rhai: μ of each touching pair, every step, from its kinematics, compiled once to native code like the joint laws. The value must be finite and ≥ 0, or the run stops naming the function and its inputs. Example: `fn mu(c, p) { p.mu0 + p.k * c.slip_rate }` with `friction_law: #{ function: \"mu\", params: #{ mu0: 0.5, k: 2.0 } }`.", keys: crate::contact_interaction::FRICTION_LAW_PARAMS, laws: &[] },
+    FnDoc { section: "Contact", name: "sim.contact_detection", signature: "sim.contact_detection(#{ … })", summary: "Options of the NBS contact detection (stage 4).", keys: CONTACT_DETECTION_KEYS, laws: &[] },
+    FnDoc { section: "Contact", name: "sim.on_new_contact_pair", signature: "sim.on_new_contact_pair(|s, pair| …)", summary: "Call a closure for every pair of elements that starts touching, with `#{ time, point, bodies, elements }`.", keys: &[], laws: &[] },
+    FnDoc { section: "Contact", name: "s.contact", signature: "s.contact() -> #{ … }", summary: "Contact in the last step: `pairs` (candidates), `active` (touching), `surface_elements`, `normal_force` and `friction_force` (sums of magnitudes over pairs) [N], `energy` [J], `detections`.", keys: &[], laws: &[] },
+    FnDoc { section: "Contact", name: "s.contact_force", signature: "s.contact_force(body) -> [fx, fy, fz]", summary: "Total contact force on a body in the last step [N].", keys: &[], laws: &[] },
+    FnDoc { section: "Loads and constraints", name: "sim.gravity", signature: "sim.gravity([gx, gy, gz])", summary: "Gravitational acceleration [m/s²] on every node.", keys: &[], laws: &[] },
+    FnDoc { section: "Loads and constraints", name: "sim.fix", signature: "sim.fix(nodes [, \"xyz\"])", summary: "Fix all (or the listed) displacement components of the nodes.", keys: &[], laws: &[] },
     FnDoc { section: "Loads and constraints", name: "sim.prescribe_velocity", signature: "sim.prescribe_velocity(nodes, [vx, vy, vz] | #{ … })",
-        summary: "Impose the velocity of components [m/s]; each a number or a `table` of time. The reaction is reported by `s.reaction(nodes)`.", keys: VELOCITY_KEYS },
-    FnDoc { section: "Loads and constraints", name: "sim.nodal_force", signature: "sim.nodal_force(nodes, [fx, fy, fz] [, table])", summary: "Force on each node [N], optionally scaled by a table of time.", keys: &[] },
+        summary: "Impose the velocity of components [m/s]; each a number or a `table` of time. The reaction is reported by `s.reaction(nodes)`.", keys: VELOCITY_KEYS, laws: &[] },
+    FnDoc { section: "Loads and constraints", name: "sim.nodal_force", signature: "sim.nodal_force(nodes, [fx, fy, fz] [, table])", summary: "Force on each node [N], optionally scaled by a table of time.", keys: &[], laws: &[] },
     FnDoc { section: "Loads and constraints", name: "sim.traction", signature: "sim.traction(faces, [tx, ty, tz] [, table])",
-        summary: "Surface traction [Pa] on the reference area of faces (dead load), lumped as area/3 to each face node; optionally scaled by a table.", keys: &[] },
-    FnDoc { section: "Loads and constraints", name: "sim.initial_velocity", signature: "sim.initial_velocity(nodes, [vx, vy, vz])", summary: "Set the velocity of nodes now [m/s] (before the first step: the initial condition).", keys: &[] },
-    FnDoc { section: "Loads and constraints", name: "table", signature: "table([[t0, v0], [t1, v1], …]) -> Table", summary: "Piecewise-linear function of time, held constant beyond its ends. Times must increase.", keys: &[] },
-    FnDoc { section: "Loads and constraints", name: "read_table", signature: "read_table(path [, scale]) -> Table", summary: "A table from a text file of two columns (t, value), separated by commas or spaces; `#` lines and a non-numeric header are skipped. Values are multiplied by `scale`.", keys: &[] },
+        summary: "Surface traction [Pa] on the reference area of faces (dead load), lumped as area/3 to each face node; optionally scaled by a table.", keys: &[], laws: &[] },
+    FnDoc { section: "Loads and constraints", name: "sim.initial_velocity", signature: "sim.initial_velocity(nodes, [vx, vy, vz])", summary: "Set the velocity of nodes now [m/s] (before the first step: the initial condition).", keys: &[], laws: &[] },
+    FnDoc { section: "Loads and constraints", name: "table", signature: "table([[t0, v0], [t1, v1], …]) -> Table", summary: "Piecewise-linear function of time, held constant beyond its ends. Times must increase. `table.eval(t)` is its value at time t.", keys: &[], laws: &[] },
+    FnDoc { section: "Loads and constraints", name: "read_table", signature: "read_table(path [, scale]) -> Table", summary: "A table from a text file of two columns (t, value), separated by commas or spaces; `#` lines and a non-numeric header are skipped. Values are multiplied by `scale`.", keys: &[], laws: &[] },
     // ── Hooks and output
-    FnDoc { section: "Hooks, monitors and output", name: "sim.every", signature: "sim.every(#{ … }, |s| …)", summary: "Call a closure periodically during runs (e.g. `|s| s.write_vtk()`).", keys: EVERY_KEYS },
+    FnDoc { section: "Hooks, monitors and output", name: "sim.every", signature: "sim.every(#{ … }, |s| …)", summary: "Call a closure periodically during runs (e.g. `|s| s.write_vtk()`).", keys: EVERY_KEYS, laws: &[] },
     FnDoc { section: "Hooks, monitors and output", name: "sim.monitor", signature: "sim.monitor(name, #{ … }, |s| value) -> Monitor",
-        summary: "Record a number during runs; written to `<out_dir>/<name>.csv` after every run. Monitor methods: `last()`, `peak()` (largest value), `min()`, `max()`, `len()`, `values()`, `times()`, `write_csv()`.", keys: MONITOR_KEYS },
+        summary: "Record a number during runs; written to `<out_dir>/<name>.csv` after every run. Monitor methods: `last()`, `peak()` (largest value), `min()`, `max()`, `len()`, `values()`, `times()`, `write_csv()`.", keys: MONITOR_KEYS, laws: &[] },
     FnDoc { section: "Hooks, monitors and output", name: "sim.write_vtk", signature: "sim.write_vtk()",
-        summary: "Write a ParaView frame `<name>_NNNNNN.vtu` and update `<name>.pvd`: displacement, velocity (points); Cauchy stress, von Mises, principal stresses, body, material, and with joints `damage` (largest joint damage on the tet's faces) and `fragment` (cells). Once a joint has broken it also writes the crack surface `<name>_cracks_NNNNNN.vtu` + `<name>_cracks.pvd`: one triangle per broken joint with `time` of breaking, `mode` (1 = I, 2 = II, 3 = mixed), `body`, `joint`.", keys: &[] },
+        summary: "Write a ParaView frame `<name>_NNNNNN.vtu` and update `<name>.pvd`: displacement, velocity (points); Cauchy stress, von Mises, principal stresses, body, material, and with joints `damage` (largest joint damage on the tet's faces) and `fragment` (cells). Once a joint has broken it also writes the crack surface `<name>_cracks_NNNNNN.vtu` + `<name>_cracks.pvd`: one triangle per broken joint with `time` of breaking, `mode` (1 = I, 2 = II, 3 = mixed), `body`, `joint`.", keys: &[], laws: &[] },
     // ── Queries
-    FnDoc { section: "Queries", name: "s.time", signature: "s.time, s.step, s.dt, s.n_nodes, s.n_tets", summary: "Simulated time [s], steps done, time step [s], sizes.", keys: &[] },
-    FnDoc { section: "Queries", name: "s.kinetic_energy", signature: "s.kinetic_energy(), s.strain_energy()", summary: "Current kinetic and strain energy [J].", keys: &[] },
-    FnDoc { section: "Queries", name: "s.energy", signature: "s.energy() -> map", summary: "Energy account at the last sample [J]: kinetic, strain, joint (elastic energy of the joints), external_work, gravity_work, force_work, reaction_work, damping (mass-proportional + viscous), fracture (dissipated by joints), initial, balance_error, relative_error.", keys: &[] },
-    FnDoc { section: "Queries", name: "s.displacement", signature: "s.displacement(nodes) -> [x, y, z]", summary: "Mean displacement of the nodes [m]. Also `s.position(nodes)` [m] and `s.velocity(nodes)` [m/s] (means).", keys: &[] },
-    FnDoc { section: "Queries", name: "s.reaction", signature: "s.reaction(nodes) -> [x, y, z]", summary: "Sum of the constraint forces on the nodes in the last step [N].", keys: &[] },
-    FnDoc { section: "Queries", name: "s.mean_stress", signature: "s.mean_stress(elements) -> [[..], [..], [..]]", summary: "Volume-weighted mean Cauchy stress of the elements [Pa]; `s.max_von_mises(elements)` the largest von Mises stress [Pa].", keys: &[] },
+    FnDoc { section: "Queries", name: "s.time", signature: "s.time, s.step, s.dt, s.n_nodes, s.n_tets", summary: "Simulated time [s], steps done, time step [s], sizes.", keys: &[], laws: &[] },
+    FnDoc { section: "Queries", name: "s.kinetic_energy", signature: "s.kinetic_energy(), s.strain_energy()", summary: "Current kinetic and strain energy [J].", keys: &[], laws: &[] },
+    FnDoc { section: "Queries", name: "s.energy", signature: "s.energy() -> map", summary: "Energy account at the last sample [J]: kinetic, strain, joint (elastic energy of the joints), external_work, gravity_work, force_work, reaction_work, damping (mass-proportional + viscous), fracture (dissipated by joints), initial, balance_error, relative_error.", keys: &[], laws: &[] },
+    FnDoc { section: "Queries", name: "s.displacement", signature: "s.displacement(nodes) -> [x, y, z]", summary: "Mean displacement of the nodes [m]. Also `s.position(nodes)` [m] and `s.velocity(nodes)` [m/s] (means).", keys: &[], laws: &[] },
+    FnDoc { section: "Queries", name: "s.reaction", signature: "s.reaction(nodes) -> [x, y, z]", summary: "Sum of the constraint forces on the nodes in the last step [N].", keys: &[], laws: &[] },
+    FnDoc { section: "Queries", name: "s.mean_stress", signature: "s.mean_stress(elements) -> [[..], [..], [..]]", summary: "Volume-weighted mean Cauchy stress of the elements [Pa]; `s.max_von_mises(elements)` the largest von Mises stress [Pa].", keys: &[], laws: &[] },
 ];
+
+/// The documentation of a function (`name` as in [`FnDoc::name`]). A name that is not
+/// documented is a bug in the binding that asks, so it panics naming it
+/// (`tests/api.rs` checks every name the bindings ask for).
+pub fn doc_of(name: &str) -> &'static FnDoc {
+    API.iter().find(|f| f.name == name).unwrap_or_else(|| {
+        panic!("script function '{name}' is not documented in src/script/api.rs")
+    })
+}
 
 /// The documented keys of a function.
 pub fn keys_of(name: &str) -> &'static [Key] {
-    API.iter()
-        .find(|f| f.name == name)
-        .map(|f| f.keys)
-        .unwrap_or(&[])
+    doc_of(name).keys
+}
+
+/// The keys of `func(law, #{ … })` for one law: the law's own and the function's common
+/// ones. An unknown law is an error listing the laws.
+pub fn law_keys(func: &str, law: &str) -> Result<Vec<Key>, String> {
+    let d = doc_of(func);
+    match d.laws.iter().find(|l| l.name == law) {
+        Some(l) => Ok(l.params.iter().chain(d.keys).copied().collect()),
+        None => {
+            let names: Vec<String> = d.laws.iter().map(|l| format!("\"{}\"", l.name)).collect();
+            Err(format!(
+                "unknown law \"{law}\"; the allowed laws are {}",
+                names.join(", ")
+            ))
+        }
+    }
+}
+
+/// For a key that `func` does not allow with `law`: the other laws that take it.
+pub fn laws_taking(func: &str, key: &str) -> Vec<&'static str> {
+    doc_of(func)
+        .laws
+        .iter()
+        .filter(|l| l.params.iter().any(|p| p.name == key))
+        .map(|l| l.name)
+        .collect()
 }
 
 /// The reference as Markdown (what `fdem doc` prints and docs/script-reference.md holds).
@@ -594,18 +573,34 @@ Units are SI. Vectors are arrays `[x, y, z]`; integers are accepted where a floa
         out.push_str(&format!("\n## {section}\n\n{intro}\n"));
         for f in API.iter().filter(|f| f.section == *section) {
             out.push_str(&format!("\n### `{}`\n\n{}\n", f.signature, f.summary));
+            for l in f.laws {
+                out.push_str(&format!("\n**`\"{}\"`**: {}\n", l.name, l.summary));
+                key_table(&mut out, l.params);
+            }
             if !f.keys.is_empty() {
-                out.push_str(
-                    "\n| key | type | unit | default | meaning |\n|---|---|---|---|---|\n",
-                );
-                for k in f.keys {
-                    out.push_str(&format!(
-                        "| `{}` | {} | {} | {} | {} |\n",
-                        k.name, k.kind, k.unit, k.default, k.doc
-                    ));
+                if !f.laws.is_empty() {
+                    out.push_str("\nEvery law also takes:\n");
                 }
+                key_table(&mut out, f.keys);
             }
         }
     }
     out
+}
+
+fn key_table(out: &mut String, keys: &[Key]) {
+    out.push_str(
+        "\n| key | type | unit | default | range | meaning |\n|---|---|---|---|---|---|\n",
+    );
+    for k in keys {
+        out.push_str(&format!(
+            "| `{}` | {} | {} | {} | {} | {} |\n",
+            k.name,
+            k.kind,
+            k.unit,
+            k.default_text(),
+            k.range.text(),
+            k.doc
+        ));
+    }
 }

@@ -38,26 +38,13 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
     engine.register_fn(
         "contact_law",
         move |s: &mut SimHandle, law: &str, m: Map| -> RhaiResult<()> {
-            if !ContactLaw::NAMES.contains(&law) {
-                return err(format!(
-                    "contact_law(): unknown law \"{law}\"; the allowed laws are \"potential\" (Munjiza's potential contact force with Coulomb friction)"
-                ));
-            }
-            let o = Opts::new("contact_law", m, keys_of("sim.contact_law"))?;
-            let friction = o.float("friction")?.unwrap_or(0.0);
-            if friction.is_nan() || friction < 0.0 {
-                return err(format!("contact_law(): 'friction' must be ≥ 0, got {friction}"));
-            }
+            let o = Opts::for_law("contact_law", "sim.contact_law", law, m)?;
             let compiled = match o.get("friction_law") {
                 None => None,
                 Some(d) => Some(friction_law(&ctx, d)?),
             };
-            let damping = o.float("damping")?.unwrap_or(0.0);
-            if !(0.0..=1.0).contains(&damping) {
-                return err(format!(
-                    "contact_law(): 'damping' is a ratio of critical damping in [0, 1], got {damping}"
-                ));
-            }
+            let potential = PotentialContact::from_params(&|p| o.given(p), compiled)
+                .map_err(|e| o.error(e))?;
             let mut st = s.0.borrow_mut();
             if st.sim.step > 0 {
                 return err("contact_law(): contact must be set before the first step");
@@ -95,12 +82,9 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
                 }
             };
             st.sim.contact.laws.rules.push(ContactRule {
-                materials, law: ContactLaw::Potential(PotentialContact {
-                penalty: o.positive("penalty")?,
-                tangential_penalty: o.positive("tangential_penalty")?,
-                friction,
-                damping,
-                friction_law: compiled, }) });
+                materials,
+                law: ContactLaw::Potential(potential),
+            });
             st.sim.invalidate();
             Ok(())
         },

@@ -4,7 +4,7 @@ use super::api::keys_of;
 use super::opts::{err, vec3_to_array, Opts, RhaiResult};
 use super::types::{BodyHandle, JointLawValue, SimHandle};
 use super::ScriptContext;
-use crate::joints::law::{Calibration, Cohesive, Softening};
+use crate::joints::law::{given_penalties, Calibration, Cohesive, Softening};
 use crate::joints::JointLaw;
 use crate::math::Real;
 use rhai::{Array, Dynamic, Engine, FnPtr, Map};
@@ -43,8 +43,7 @@ pub fn register(engine: &mut Engine) {
         let tol = st.sim.length_tolerance();
         // Penalties default to 10 × the Young's modulus of the (softest) body involved.
         let resolve = |young: f64| {
-            let pn = law.penalties.0.unwrap_or(10.0 * young);
-            let pt = law.penalties.1.unwrap_or(pn);
+            let (pn, pt) = crate::joints::law::penalties_or_default(law.penalties, young);
             match (&law.cohesive, &law.script) {
                 (Some(c), _) => JointLaw::Cohesive(Cohesive { normal_penalty: pn, tangential_penalty: pt, ..c.clone() }),
                 (None, Some(l)) => JointLaw::Script { law: l.clone(), normal_penalty: pn, tangential_penalty: pt },
@@ -119,19 +118,6 @@ pub fn register(engine: &mut Engine) {
 
 /// `joint_law("script", #{ function, params, source })`: compile a Rhai function to a law.
 fn script_law(ctx: &ScriptContext, o: &Opts) -> RhaiResult<JointLawValue> {
-    for k in [
-        "tensile_strength",
-        "cohesion",
-        "friction_angle",
-        "g_i",
-        "g_ii",
-        "residual_friction",
-        "calibration",
-    ] {
-        if o.has(k) {
-            return err(format!("joint_law(\"script\"): key '{k}' belongs to the built-in cohesive laws; a script law takes function, params, source and the penalties"));
-        }
-    }
     let function = o.string("function")?.map_or_else(
         || err("joint_law(\"script\"): missing required key 'function'"),
         Ok,
@@ -145,40 +131,31 @@ fn script_law(ctx: &ScriptContext, o: &Opts) -> RhaiResult<JointLawValue> {
         name: format!("script:{function}"),
         cohesive: None,
         script: Some(std::sync::Arc::new(law)),
-        penalties: (
-            o.positive("normal_penalty")?,
-            o.positive("tangential_penalty")?,
-        ),
+        penalties: penalties(o)?,
     })
 }
 
-/// `joint_law(kind, #{ … })`.
+/// The penalties a joint law was given (None: the default, resolved per body).
+fn penalties(o: &Opts) -> RhaiResult<(Option<Real>, Option<Real>)> {
+    given_penalties(&|p| o.given(p)).map_err(|e| o.error(e))
+}
+
+/// `joint_law(kind, #{ … })`: the keys are the law's own ([`crate::joints::law::JOINT_LAWS`]).
 fn joint_law(ctx: &ScriptContext, kind: &str, m: Map) -> RhaiResult<JointLawValue> {
-    let o = Opts::new("joint_law", m, keys_of("joint_law"))?;
-    let positive = |k: &str| -> RhaiResult<Real> {
-        o.positive(k)?.map_or_else(
-            || err(format!("joint_law(\"{kind}\"): missing required key '{k}'")),
-            Ok,
-        )
+    let o = Opts::for_law("joint_law", "joint_law", kind, m)?;
+    let softening = match kind {
+        "cohesive/munjiza" => Softening::Munjiza,
+        "cohesive/linear" => Softening::Linear,
+        "script" => return script_law(ctx, &o),
+        _ => {
+            return Ok(JointLawValue {
+                name: "tied".into(),
+                cohesive: None,
+                script: None,
+                penalties: penalties(&o)?,
+            })
+        }
     };
-    let penalties = (
-        o.positive("normal_penalty")?,
-        o.positive("tangential_penalty")?,
-    );
-    let (softening, name) = match kind {
-            "cohesive/munjiza" => (Softening::Munjiza, "cohesive/munjiza"),
-            "cohesive/linear" => (Softening::Linear, "cohesive/linear"),
-            "script" => return script_law(ctx, &o),
-            "tied" => {
-                for k in ["tensile_strength", "cohesion", "friction_angle", "g_i", "g_ii", "residual_friction", "calibration"] {
-                    if o.has(k) {
-                        return err(format!("joint_law(\"tied\"): key '{k}' belongs to the cohesive laws; \"tied\" takes normal_penalty and tangential_penalty"));
-                    }
-                }
-                return Ok(JointLawValue { name: "tied".into(), cohesive: None, script: None, penalties });
-            }
-            _ => return err(format!("joint_law(): unknown law \"{kind}\"; available: cohesive/munjiza, cohesive/linear, tied")),
-        };
     let calibration = match o.string("calibration")?.as_deref() {
         None | Some("exact") => Calibration::Exact,
         Some("y_compatible") => Calibration::YCompatible,
@@ -188,31 +165,13 @@ fn joint_law(ctx: &ScriptContext, kind: &str, m: Map) -> RhaiResult<JointLawValu
             ))
         }
     };
-    let friction_angle = o.float("friction_angle")?.unwrap_or(30.0);
-    if !(0.0..90.0).contains(&friction_angle) {
-        return err(format!(
-            "joint_law(): friction_angle must lie in [0, 90) degrees, got {friction_angle}"
-        ));
-    }
-    let cohesive = Cohesive {
-        softening,
-        calibration,
-        tensile_strength: positive("tensile_strength")?,
-        cohesion: positive("cohesion")?,
-        tan_friction: friction_angle.to_radians().tan(),
-        g_i: positive("g_i")?,
-        g_ii: positive("g_ii")?,
-        normal_penalty: 0.0,
-        tangential_penalty: 0.0,
-        residual_friction: o
-            .float("residual_friction")?
-            .unwrap_or(friction_angle.to_radians().tan()),
-    };
+    let cohesive =
+        Cohesive::from_params(softening, calibration, &|p| o.given(p)).map_err(|e| o.error(e))?;
     Ok(JointLawValue {
-        name: name.into(),
+        name: kind.into(),
         cohesive: Some(cohesive),
         script: None,
-        penalties,
+        penalties: penalties(&o)?,
     })
 }
 

@@ -3,6 +3,7 @@
 
 use super::api::Key;
 use crate::math::{Real, Vec3};
+use crate::params::Param;
 use rhai::{Array, Dynamic, EvalAltResult, FnPtr, Map};
 
 pub type RhaiResult<T> = Result<T, Box<EvalAltResult>>;
@@ -93,6 +94,32 @@ impl Opts {
         Ok(Opts { func, within, map })
     }
 
+    /// The options of `func(law, #{ … })`: the keys of that law (and the function's common
+    /// ones). A key of another law of the function says which laws take it.
+    /// `doc` is the function's name in `api.rs` (`sim.contact_law`), `func` as messages say it.
+    pub fn for_law(func: &'static str, doc: &str, law: &str, map: Map) -> RhaiResult<Self> {
+        let keys = super::api::law_keys(doc, law).map_err(|e| format!("{func}(): {e}"))?;
+        for k in map.keys() {
+            if keys.iter().any(|key| key.name == k.as_str()) {
+                continue;
+            }
+            let others = super::api::laws_taking(doc, k);
+            if !others.is_empty() {
+                let allowed: Vec<&str> = keys.iter().map(|k| k.name).collect();
+                return err(format!(
+                    "{func}(\"{law}\"): key '{k}' belongs to {}; \"{law}\" takes {}",
+                    others
+                        .iter()
+                        .map(|o| format!("\"{o}\""))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    allowed.join(", ")
+                ));
+            }
+        }
+        Self::build(func, None, map, &keys)
+    }
+
     fn place(func: &str, within: Option<&str>) -> String {
         match within {
             None => format!("{func}()"),
@@ -142,6 +169,15 @@ impl Opts {
             Some(x) if x <= 0.0 => err(format!("{}: key '{k}' must be > 0, got {x}", self.at())),
             o => Ok(o),
         }
+    }
+    /// The number given for a law's parameter (unchecked: the law checks it), for
+    /// [`crate::params::Given`].
+    pub fn given(&self, p: &Param) -> Result<Option<Real>, String> {
+        self.float(p.name).map_err(|e| e.to_string())
+    }
+    /// A law's error, placed: "func(): message".
+    pub fn error(&self, msg: String) -> Box<EvalAltResult> {
+        format!("{}: {msg}", self.at()).into()
     }
     pub fn int(&self, k: &str) -> RhaiResult<Option<i64>> {
         match self.map.get(k) {
