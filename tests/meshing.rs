@@ -4,8 +4,12 @@
 //! ASCII, 4.1 binary and 2.2 ASCII and compare with an independent reader (Python meshio +
 //! numpy) and with geometry that cannot be faked: the outer surface of the unit box has area
 //! exactly 6, and the hole's triangles enclose exactly the volume the tetrahedra leave out.
-//! They FAIL when gmsh is missing (CI installs it). Hand-written small files test malformed
-//! input: every error names its line (or byte) and the problem.
+//! The tests that run gmsh are ignored by default (`#[ignore = "needs gmsh"]`, and the one that
+//! also runs meshio `#[ignore = "needs gmsh and python meshio"]`), so `cargo test --release`
+//! passes with only the Rust toolchain. CI installs gmsh and meshio and runs them with
+//! `cargo test --release -- --include-ignored`; run that way they FAIL, not skip, when a tool
+//! is missing. Hand-written small files test malformed input: every error names its line (or
+//! byte) and the problem; they and the message for a `.geo` file without gmsh always run.
 
 mod common;
 
@@ -126,6 +130,7 @@ fn area_and_flux(m: &Mesh, set: &str) -> (Real, Real) {
 }
 
 #[test]
+#[ignore = "needs gmsh and python meshio"]
 fn gmsh_box_with_hole_in_three_formats_matches_meshio_and_geometry() {
     require_gmsh();
     let dir = temp_dir("formats");
@@ -216,6 +221,7 @@ fn gmsh_box_with_hole_in_three_formats_matches_meshio_and_geometry() {
 /// A coarse binary file cut at every byte, and the ASCII one at every line: always an error
 /// with its place (never a panic), except the complete file.
 #[test]
+#[ignore = "needs gmsh"]
 fn truncated_gmsh_files_are_errors_at_every_cut() {
     require_gmsh();
     let dir = temp_dir("truncated");
@@ -666,6 +672,7 @@ fn mirror_and_scale_keep_volumes_positive_and_sets_on_the_same_faces() {
 // ─── Scripts ────────────────────────────────────────────────────────────────────
 
 #[test]
+#[ignore = "needs gmsh"]
 fn script_meshes_a_geo_file_and_selects_its_groups() {
     require_gmsh();
     let dir = temp_dir("script-geo");
