@@ -563,50 +563,68 @@ impl Simulation {
         Ok(info)
     }
 
-    /// Advance one time step through the seven stages.
+    /// Advance one time step through the seven stages, each timed; then the energy account.
     pub fn step(&mut self) -> Result<(), SimError> {
         self.prepare()?;
         let sample = self.step == 0
             || self.sample_next
             || self.step.is_multiple_of(self.settings.energy_every.max(1));
         self.sample_next = false;
-        let dt = self.dt;
-
-        // 1. elements
-        let t = Instant::now();
-        let el = elements::add_internal_forces(
-            &mut self.nodes,
-            &self.tets,
-            &self.bodies,
-            &self.materials,
-            &mut self.elements_ws,
-            sample,
-        );
-        self.timers.seconds[Stage::Elements as usize] += t.elapsed().as_secs_f64();
-
-        // 2. joints
-        let t = Instant::now();
-        let js = crate::joints::add_joint_forces(&mut self.joints, &mut self.nodes, sample);
-        self.timers.seconds[Stage::Joints as usize] += t.elapsed().as_secs_f64();
-
-        // 3. fracture
-        let t = Instant::now();
-        let released = crate::fracture::break_joints(
-            &mut self.joints,
-            &self.nodes.x,
-            &self.tets.body,
-            self.time,
-            self.step,
-            js.newly_failed,
-            self.fracture_criterion.as_mut(),
-            &mut self.break_events,
-        );
+        let (dt, time) = (self.dt, self.time);
+        let el = timed(&mut self.timers, Stage::Elements, || {
+            elements::add_internal_forces(
+                &mut self.nodes,
+                &self.tets,
+                &self.bodies,
+                &self.materials,
+                &mut self.elements_ws,
+                sample,
+            )
+        });
+        let js = timed(&mut self.timers, Stage::Joints, || {
+            crate::joints::add_joint_forces(&mut self.joints, &mut self.nodes, sample)
+        });
+        let released = timed(&mut self.timers, Stage::Fracture, || {
+            crate::fracture::break_joints(
+                &mut self.joints,
+                &self.nodes.x,
+                &self.tets.body,
+                time,
+                self.step,
+                js.newly_failed,
+                self.fracture_criterion.as_mut(),
+                &mut self.break_events,
+            )
+        });
         self.accumulated.fracture += released;
-        self.timers.seconds[Stage::Fracture as usize] += t.elapsed().as_secs_f64();
-
         if self.contact.is_enabled() {
-            // 4. contact detection
-            let t = Instant::now();
+            self.contact_stages()?; // 4. contact detection, 5. contact interaction
+        }
+        timed(&mut self.timers, Stage::ExternalLoads, || {
+            loads::add_external_forces(&mut self.loads, &mut self.nodes, time, dt)
+        });
+        let params = StepParams {
+            dt,
+            dt_prev: self.dt_prev,
+            gravity: self.loads.gravity,
+            mass_damping: self.settings.mass_damping,
+            sample,
+        };
+        let is = timed(&mut self.timers, Stage::Integration, || {
+            integration::central_difference(&mut self.nodes, params, &mut self.integration_partials)
+        });
+        self.account(sample, &el, &js, &is)?;
+        self.dt_prev = dt;
+        self.time += dt;
+        self.step += 1;
+        Ok(())
+    }
+
+    /// Stages 4 and 5: stage 4 refreshes the candidate pairs and hands stage 5 the remap of
+    /// its pair history; stage 5 adds the contact forces, and the joints whose faces contact
+    /// took over stop acting. A friction law's invalid result stops the run.
+    fn contact_stages(&mut self) -> Result<(), SimError> {
+        timed(&mut self.timers, Stage::ContactDetection, || {
             self.contact_detection.joints_broke(self.break_events.len());
             if contact_detection::update_pairs(
                 &mut self.contact_detection,
@@ -618,9 +636,8 @@ impl Simulation {
                 let cd = &self.contact_detection;
                 self.contact.carry_history(&cd.origins, cd.surface.len());
             }
-            self.timers.seconds[Stage::ContactDetection as usize] += t.elapsed().as_secs_f64();
-            // 5. contact interaction
-            let t = Instant::now();
+        });
+        let cs = timed(&mut self.timers, Stage::ContactInteraction, || {
             let cs = contact_interaction::add_contact_forces(
                 &mut self.contact,
                 &self.contact_detection,
@@ -630,40 +647,30 @@ impl Simulation {
                 self.time,
             );
             self.joints.hand_over(&self.contact.handover);
-            self.contact_energy = cs.energy;
-            self.contact_dissipated = cs.dissipated;
-            self.timers.seconds[Stage::ContactInteraction as usize] += t.elapsed().as_secs_f64();
-            if let Some(failure) = &cs.law_failure {
-                return Err(SimError::Law(self.describe_friction_failure(failure)));
-            }
+            cs
+        });
+        self.contact_energy = cs.energy;
+        self.contact_dissipated = cs.dissipated;
+        match &cs.law_failure {
+            Some(failure) => Err(SimError::Law(self.describe_friction_failure(failure))),
+            None => Ok(()),
         }
+    }
 
-        // 6. external loads
-        let t = Instant::now();
-        loads::add_external_forces(&mut self.loads, &mut self.nodes, self.time, dt);
-        self.timers.seconds[Stage::ExternalLoads as usize] += t.elapsed().as_secs_f64();
-
-        // 7. integration
-        let t = Instant::now();
-        let params = StepParams {
-            dt,
-            dt_prev: self.dt_prev,
-            gravity: self.loads.gravity,
-            mass_damping: self.settings.mass_damping,
-            sample,
-        };
-        let is = integration::central_difference(
-            &mut self.nodes,
-            params,
-            &mut self.integration_partials,
-        );
-        self.timers.seconds[Stage::Integration as usize] += t.elapsed().as_secs_f64();
-
-        // The account at t_n: path-dependent terms summed up to t_n with the trapezoidal rule
-        // (this step's "before" share is the last piece); kinetic energy in the form the
-        // central difference conserves; gravity work a state function of x_n; force work a
-        // trapezoid in displacement up to x_n. The viscous power is evaluated once per step
-        // (with v(t − dt/2)) and split evenly between the two halves.
+    /// The energy account at t_n: path-dependent terms summed up to t_n with the trapezoidal
+    /// rule (this step's "before" share is the last piece); kinetic energy in the form the
+    /// central difference conserves; gravity work a state function of x_n; force work a
+    /// trapezoid in displacement up to x_n. The viscous power is evaluated once per step (with
+    /// v(t − dt/2)) and split evenly between the two halves. On samples, inverted elements or
+    /// a non-finite kinetic energy stop the run; non-finite positions or velocities always do.
+    fn account(
+        &mut self,
+        sample: bool,
+        el: &elements::ElementSums,
+        js: &crate::joints::JointSums,
+        is: &IntegrationSums,
+    ) -> Result<(), SimError> {
+        let dt = self.dt;
         let viscous = el.viscous_power * 0.5 * (self.dt_prev + dt);
         if sample {
             let a = &self.accumulated;
@@ -702,9 +709,6 @@ impl Simulation {
         self.accumulated.friction += self.contact_dissipated;
         self.accumulated.mass_damping += is.damping_before + is.damping_after;
         self.accumulated.reaction_work += is.reaction_work_before + is.reaction_work_after;
-        self.dt_prev = dt;
-        self.time += dt;
-        self.step += 1;
         Ok(())
     }
 
@@ -819,4 +823,13 @@ impl Simulation {
     pub fn total_mass(&self) -> Real {
         self.nodes.m.iter().sum()
     }
+}
+
+/// Run one stage and add its wall time to the stage's timer.
+#[inline(always)]
+fn timed<R>(timers: &mut StageTimers, stage: Stage, f: impl FnOnce() -> R) -> R {
+    let t = Instant::now();
+    let r = f();
+    timers.seconds[stage as usize] += t.elapsed().as_secs_f64();
+    r
 }
