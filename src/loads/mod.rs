@@ -7,8 +7,10 @@
 //! work of the applied forces, integrated with the trapezoidal rule in displacement:
 //! W += ½(F(t) + F(t−dt))·(x(t) − x(t−dt)) (exact for constant loads).
 
+mod table;
 mod time_function;
 
+pub use table::{parse_table, read_table, BadLine, TableError};
 pub use time_function::TimeFunction;
 
 use crate::math::{Real, Vec3};
@@ -75,6 +77,28 @@ impl PrescribedVelocity {
             .filter(|&k| self.components[k].is_some())
             .fold(0, |m, k| m | (1 << k))
     }
+}
+
+/// Displacement components named by letters ("z", "xz", "xyz") as a mask [x, y, z]. An
+/// error for any other letter, or for no letter at all.
+pub fn parse_components(spec: &str) -> Result<[bool; 3], String> {
+    let mut c = [false; 3];
+    for ch in spec.chars() {
+        match ch {
+            'x' => c[0] = true,
+            'y' => c[1] = true,
+            'z' => c[2] = true,
+            _ => {
+                return Err(format!(
+                    "components \"{spec}\" must use only the letters x, y, z"
+                ))
+            }
+        }
+    }
+    if c == [false; 3] {
+        return Err("no component given; use e.g. \"xyz\" or \"z\"".into());
+    }
+    Ok(c)
 }
 
 /// Everything stage 6 applies.

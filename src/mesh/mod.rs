@@ -20,7 +20,7 @@ pub use checks::{MeshProblem, ProblemKind};
 pub use generators::{box_mesh, divisions_for};
 pub use quality::Quality;
 pub use region::Region;
-pub use topology::{boundary_faces, BoundaryFace, TET_FACES};
+pub use topology::{boundary_faces, face_nodes, faces_area, BoundaryFace, FaceFilter, TET_FACES};
 
 use crate::math::{rotation_matrix, tet_volume, Mat3, Real, Vec3};
 use std::collections::BTreeMap;

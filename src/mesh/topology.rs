@@ -1,7 +1,9 @@
-//! Face topology: boundary faces of a tet mesh.
+//! Face topology: boundary faces of a tet mesh, and selections of faces (by normal and
+//! region) with their nodes and area.
 
+use super::region::Region;
 use super::Mesh;
-use crate::math::Vec3;
+use crate::math::{Real, Vec3};
 use std::collections::HashMap;
 
 /// Local node ids of the face opposite local node k, ordered so that the face normal
@@ -23,6 +25,68 @@ impl BoundaryFace {
         let [a, b, c] = self.nodes.map(|n| x[n as usize]);
         0.5 * (b - a).cross(&(c - a))
     }
+
+    /// Centroid of the face at positions `x` [m].
+    pub fn centroid(&self, x: &[Vec3]) -> Vec3 {
+        self.nodes.iter().map(|&n| x[n as usize]).sum::<Vec3>() / 3.0
+    }
+}
+
+/// Which boundary faces to keep: those whose outward normal lies within `tolerance` of
+/// `normal`, and whose centroid lies in `within` (each test only when given).
+/// The default keeps every face (and has the script's 1° tolerance).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FaceFilter {
+    /// Wanted outward normal direction (any length; normalised when tested). A zero vector
+    /// matches no face.
+    pub normal: Option<Vec3>,
+    /// Largest angle between a face's outward normal and `normal` [rad].
+    pub tolerance: Real,
+    /// Region that must hold the face centroid (surface included, see [`Region::contains`]).
+    pub within: Option<Region>,
+}
+
+impl Default for FaceFilter {
+    fn default() -> Self {
+        FaceFilter {
+            normal: None,
+            tolerance: 1.0_f64.to_radians(),
+            within: None,
+        }
+    }
+}
+
+impl FaceFilter {
+    /// Whether `face` passes, at positions `x` [m], with containment tolerance `length_tol` [m].
+    /// The angle test is cos θ ≥ cos(tolerance) − 1e-12, so a face exactly at the tolerance
+    /// angle is kept despite rounding.
+    pub fn accepts(&self, face: &BoundaryFace, x: &[Vec3], length_tol: Real) -> bool {
+        let ok_n = self.normal.is_none_or(|n| {
+            face.area_normal(x).normalize().dot(&n.normalize()) >= self.tolerance.cos() - 1e-12
+        });
+        let ok_r = self
+            .within
+            .as_ref()
+            .is_none_or(|r| r.contains(&face.centroid(x), length_tol));
+        ok_n && ok_r
+    }
+}
+
+/// The nodes of `faces`, each once, in id order.
+pub fn face_nodes(faces: &[BoundaryFace]) -> Vec<u32> {
+    let mut v: Vec<u32> = faces.iter().flat_map(|f| f.nodes).collect();
+    v.sort_unstable();
+    v.dedup();
+    v
+}
+
+/// Total area of `faces` at positions `x` [m²] (summed in the given order).
+pub fn faces_area(faces: &[BoundaryFace], x: &[Vec3]) -> Real {
+    let mut area = 0.0;
+    for f in faces {
+        area += f.area_normal(x).norm();
+    }
+    area
 }
 
 /// Faces that belong to exactly one tetrahedron, in (tet, local face) order.

@@ -1,5 +1,12 @@
 //! The simulation state and the time step: the seven stages of Munjiza's FEM/DEM in order,
 //! each a free function of exactly the arrays it reads and writes, each timed.
+//!
+//! Building the model is here (`add_material`, `add_body`, selections); edits between runs
+//! (moving bodies, constraints, loads) are in `edit.rs`, read-only queries of the state
+//! (energies, means over node sets, stresses, body masses, boundary faces) in `queries.rs`.
+
+mod edit;
+mod queries;
 
 use crate::contact_detection::{self, ContactDetection};
 use crate::contact_interaction::{self, ContactInteraction};
@@ -796,32 +803,6 @@ impl Simulation {
             return Err(SimError::Unstable(self.describe_instability(inverted)));
         }
         Ok(())
-    }
-
-    /// Kinetic energy ½Σm|v|² from the current half-step velocities [J].
-    pub fn kinetic_energy_now(&self) -> Real {
-        self.nodes
-            .m
-            .iter()
-            .zip(&self.nodes.v)
-            .map(|(m, v)| 0.5 * m * v.norm_squared())
-            .sum()
-    }
-
-    /// Strain energy of the current configuration [J].
-    pub fn strain_energy_now(&self) -> Real {
-        (0..self.tets.len())
-            .map(|e| {
-                let f = elements::deformation_gradient(&self.tets, &self.nodes.x, e);
-                self.tets.vol0[e]
-                    * self.materials[self.tets.material[e] as usize].energy_density(&f)
-            })
-            .sum()
-    }
-
-    /// Total mass of the model [kg] (valid after `prepare`).
-    pub fn total_mass(&self) -> Real {
-        self.nodes.m.iter().sum()
     }
 }
 

@@ -3,11 +3,18 @@
 //! A script is the model: it builds geometry, materials, loads, hooks, and runs stages.
 
 pub mod api;
-mod bindings;
+mod bindings_bodies;
 mod bindings_contact;
 mod bindings_generators;
+mod bindings_geometry;
+mod bindings_hooks;
 mod bindings_joints;
+mod bindings_loads;
+mod bindings_materials;
 mod bindings_mesh_io;
+mod bindings_params;
+mod bindings_queries;
+mod bindings_simulation;
 pub mod opts;
 mod runner;
 pub mod types;
@@ -88,7 +95,21 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     let c = ctx.clone();
     engine.on_print(move |s| c.say(s));
     engine.on_debug(|s, src, pos| eprintln!("{}:{}: {s}", src.unwrap_or("script"), pos));
-    bindings::register(&mut engine, ctx.clone());
+    // One `register` per section of the API (api.rs), each in its own bindings_*.rs file.
+    // A binding converts Rhai values, calls the core (Simulation, mesh, loads) and turns its
+    // errors into script errors; it computes nothing itself.
+    types::register(&mut engine);
+    bindings_params::register(&mut engine, ctx.clone());
+    bindings_geometry::register(&mut engine);
+    bindings_simulation::register(&mut engine, ctx.clone());
+    bindings_materials::register(&mut engine);
+    bindings_bodies::register(&mut engine);
+    bindings_loads::register(&mut engine);
+    bindings_queries::register(&mut engine);
+    bindings_hooks::register(&mut engine);
+    bindings_joints::register(&mut engine);
+    bindings_contact::register(&mut engine, ctx.clone());
+    bindings_generators::register(&mut engine);
     bindings_joints::register_script_laws(&mut engine, ctx.clone());
     bindings_mesh_io::register(&mut engine, ctx.clone());
     // stdlib modules are compiled by this engine (they may call host functions).

@@ -20,6 +20,19 @@ pub fn to_float(d: &Dynamic) -> Option<Real> {
         .or_else(|| d.as_int().ok().map(|i| i as Real))
 }
 
+/// A number (int or float) argument; the error names it by `what`.
+pub fn num(d: &Dynamic, what: &str) -> RhaiResult<Real> {
+    to_float(d).map_or_else(
+        || {
+            err(format!(
+                "{what}: expected a number, got {} ({d})",
+                d.type_name()
+            ))
+        },
+        Ok,
+    )
+}
+
 pub fn to_vec3(d: &Dynamic) -> Option<Vec3> {
     let a = d.read_lock::<Array>()?;
     if a.len() != 3 {

@@ -1,12 +1,12 @@
 //! Values that scripts hold: the simulation, bodies, selections, shapes, meshes, materials,
-//! tables and monitors.
+//! tables and monitors; [`register`] gives them their Rhai names and `to_string`.
 
 use crate::io::VtkSeries;
 use crate::loads::TimeFunction;
 use crate::material::{Material, StressMeasure};
 use crate::mesh::{BoundaryFace, Mesh, Region};
 use crate::pipeline::Simulation;
-use rhai::FnPtr;
+use rhai::{Engine, FnPtr};
 use std::cell::RefCell;
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -118,4 +118,47 @@ pub fn union(a: &[u32], b: &[u32]) -> Vec<u32> {
     v.sort_unstable();
     v.dedup();
     v
+}
+
+/// Register the script value types under their Rhai names, with `to_string` (what `print`
+/// shows).
+pub fn register(engine: &mut Engine) {
+    engine
+        .register_type_with_name::<SimHandle>("Simulation")
+        .register_type_with_name::<BodyHandle>("Body")
+        .register_type_with_name::<NodeSet>("Nodes")
+        .register_type_with_name::<ElementSet>("Elements")
+        .register_type_with_name::<FaceSet>("Faces")
+        .register_type_with_name::<Shape>("Shape")
+        .register_type_with_name::<MeshValue>("Mesh")
+        .register_type_with_name::<MaterialValue>("Material")
+        .register_type_with_name::<Table>("Table")
+        .register_type_with_name::<MonitorHandle>("Monitor");
+    engine.register_fn("to_string", |b: &mut BodyHandle| {
+        format!("Body '{}'", b.sim.0.borrow().sim.bodies[b.id].name)
+    });
+    engine.register_fn("to_string", |n: &mut NodeSet| {
+        format!("Nodes({})", n.0.len())
+    });
+    engine.register_fn("to_string", |n: &mut ElementSet| {
+        format!("Elements({})", n.0.len())
+    });
+    engine.register_fn("to_string", |f: &mut FaceSet| {
+        format!("Faces({}, area {:e} m²)", f.faces.len(), f.area)
+    });
+    engine.register_fn("to_string", |m: &mut MeshValue| {
+        format!("Mesh({} nodes, {} tets)", m.0.nodes.len(), m.0.tets.len())
+    });
+    engine.register_fn("to_string", |m: &mut MaterialValue| {
+        format!("Material({})", m.material.formulation.name())
+    });
+    engine.register_fn("to_string", |s: &mut Shape| {
+        format!("Shape({})", s.0.kind())
+    });
+    engine.register_fn("to_string", |s: &mut SimHandle| {
+        format!("Simulation '{}'", s.0.borrow().name)
+    });
+    engine.register_fn("to_string", |m: &mut MonitorHandle| {
+        format!("Monitor '{}'", m.0.borrow().name)
+    });
 }

@@ -1,0 +1,107 @@
+//! Edits of a model between runs: moving bodies in their reference placement, constraints,
+//! prescribed velocities, applied forces and initial velocities. Each is what the script
+//! functions of the same name do, callable from Rust.
+
+use super::{SimError, Simulation};
+use crate::loads::{NodalForces, PrescribedVelocity, TimeFunction};
+use crate::math::{edge_matrix, rotation_matrix, Real, Vec3};
+use crate::mesh::BoundaryFace;
+
+impl Simulation {
+    /// Translate body `body` by `d` [m]: its reference and current node positions and its
+    /// mesh move together, so the body stays unstrained. Only before the first step (the
+    /// reference configuration would change under a running model); an error otherwise.
+    pub fn translate_body(&mut self, body: usize, d: Vec3) -> Result<(), SimError> {
+        self.move_body(body, |p| p + d)
+    }
+
+    /// Rotate body `body` by `angle` [rad] about the axis through `center` [m] along `axis`
+    /// (any non-zero length; right-hand rule). Like [`Self::translate_body`], only before the
+    /// first step; the tets' reference data (D_m⁻¹) are rebuilt, volumes are unchanged.
+    pub fn rotate_body(
+        &mut self,
+        body: usize,
+        axis: Vec3,
+        angle: Real,
+        center: Vec3,
+    ) -> Result<(), SimError> {
+        let r = rotation_matrix(&axis, angle);
+        self.move_body(body, |p| center + r * (p - center))
+    }
+
+    /// Apply the rigid motion `f` to a body's reference placement (nodes x₀ = x, its mesh) and
+    /// rebuild its tets' D_m⁻¹. `f` must keep every tet non-degenerate (a rigid motion does).
+    fn move_body(&mut self, body: usize, f: impl Fn(Vec3) -> Vec3) -> Result<(), SimError> {
+        if self.step > 0 {
+            return Err(SimError::Invalid("bodies can be moved only before the first step (their reference configuration would change)".into()));
+        }
+        for n in self.bodies[body].nodes.clone() {
+            let p = f(self.nodes.x0[n]);
+            self.nodes.x0[n] = p;
+            self.nodes.x[n] = p;
+        }
+        for p in &mut self.bodies[body].mesh.nodes {
+            *p = f(*p);
+        }
+        // dm_inv changes under rotation: rebuild the tets' reference data.
+        for e in self.bodies[body].tets.clone() {
+            let p = self.tets.nodes[e].map(|n| self.nodes.x0[n as usize]);
+            let dm = edge_matrix(&p[0], &p[1], &p[2], &p[3]);
+            self.tets.dm_inv[e] = dm
+                .try_inverse()
+                .expect("rigid motion keeps tets non-degenerate");
+        }
+        self.invalidate();
+        Ok(())
+    }
+
+    /// Fix the displacement components of `nodes` marked in `components` [x, y, z] (a
+    /// prescribed velocity of zero from now on); their current velocity components are set
+    /// to zero too.
+    pub fn fix(&mut self, nodes: &[u32], components: [bool; 3]) {
+        self.loads.prescribed.push(PrescribedVelocity {
+            nodes: nodes.to_vec(),
+            components: components.map(|c| c.then_some(TimeFunction::Constant(0.0))),
+        });
+        for &i in nodes {
+            for (k, _) in components.iter().enumerate().filter(|(_, &c)| c) {
+                self.nodes.v[i as usize][k] = 0.0;
+            }
+        }
+        self.invalidate();
+    }
+
+    /// Prescribe the velocity [m/s] of the given components of `nodes`, each a function of
+    /// time (None leaves a component free). A later prescription wins per component; the
+    /// constraint force is reported in `nodes.reaction`.
+    pub fn prescribe_velocity(&mut self, nodes: &[u32], components: [Option<TimeFunction>; 3]) {
+        self.loads.prescribed.push(PrescribedVelocity {
+            nodes: nodes.to_vec(),
+            components,
+        });
+        self.invalidate();
+    }
+
+    /// Apply the force `force` [N] to each of `nodes`, scaled by `scale(t)`.
+    pub fn add_nodal_force(&mut self, nodes: &[u32], force: Vec3, scale: TimeFunction) {
+        self.loads.forces.push(NodalForces::new(
+            nodes.to_vec(),
+            vec![force; nodes.len()],
+            scale,
+        ));
+    }
+
+    /// Apply the traction `traction` [Pa] on the reference area of `faces` (a dead load,
+    /// lumped as area/3 to each face node), scaled by `scale(t)`.
+    pub fn add_traction(&mut self, faces: &[BoundaryFace], traction: Vec3, scale: TimeFunction) {
+        let forces = NodalForces::traction(faces, &self.nodes.x0, traction, scale);
+        self.loads.forces.push(forces);
+    }
+
+    /// Set the velocity of `nodes` to `v` [m/s] now (an initial condition before a run).
+    pub fn set_velocity(&mut self, nodes: &[u32], v: Vec3) {
+        for &i in nodes {
+            self.nodes.v[i as usize] = v;
+        }
+    }
+}

@@ -1,0 +1,110 @@
+//! Script bindings of the section "Parameters and checks": `params` (with the `--set`
+//! overrides of the command line) and the self-checks `expect_within`, `expect_near`.
+
+use super::opts::{err, num, suggest, RhaiResult};
+use super::ScriptContext;
+use crate::math::Real;
+use rhai::{Dynamic, Engine, Map};
+use std::rc::Rc;
+
+pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
+    let c = ctx.clone();
+    engine.register_fn("params", move |defaults: Map| params(&c, defaults));
+    let c = ctx.clone();
+    engine.register_fn(
+        "expect_within",
+        move |label: &str, value: Dynamic, lo: Dynamic, hi: Dynamic| -> RhaiResult<()> {
+            if c.options.check_only {
+                return Ok(());
+            }
+            let (v, lo, hi) = (num(&value, label)?, num(&lo, "low")?, num(&hi, "high")?);
+            if v >= lo && v <= hi {
+                c.say(&format!(
+                    "check ok: {label} = {v:.6e} in [{lo:.6e}, {hi:.6e}]"
+                ));
+                Ok(())
+            } else {
+                err(format!(
+                    "self-check failed: {label} = {v:.6e}, expected within [{lo:.6e}, {hi:.6e}]"
+                ))
+            }
+        },
+    );
+    let c = ctx;
+    engine.register_fn("expect_near", move |label: &str, value: Dynamic, reference: Dynamic, tol: Dynamic| -> RhaiResult<()> {
+        if c.options.check_only {
+            return Ok(());
+        }
+        let (v, r, tol) = (num(&value, label)?, num(&reference, "reference")?, num(&tol, "rel_tol")?);
+        let rel = (v - r).abs() / r.abs().max(Real::MIN_POSITIVE);
+        if rel <= tol {
+            c.say(&format!("check ok: {label} = {v:.6e} vs {r:.6e} (rel. error {rel:.2e} ≤ {tol:.1e})"));
+            Ok(())
+        } else {
+            err(format!("self-check failed: {label} = {v:.6e}, reference {r:.6e}: relative error {rel:.3e} > {tol:.1e}"))
+        }
+    });
+}
+
+/// `params(#{ … })`: the defaults with every `--set name=value` applied.
+fn params(c: &ScriptContext, defaults: Map) -> RhaiResult<Map> {
+    if c.params_called.replace(true) {
+        return err("params() may be called only once per script");
+    }
+    let mut out = defaults.clone();
+    for (k, raw) in &c.options.overrides {
+        let Some(default) = defaults.get(k.as_str()) else {
+            let mut names: Vec<&str> = defaults.keys().map(|k| k.as_str()).collect();
+            names.sort_unstable();
+            let hint = suggest(k, &names)
+                .map(|s| format!(" (did you mean '{s}'?)"))
+                .unwrap_or_default();
+            return err(format!(
+                "--set {k}={raw}: the script has no parameter '{k}'{hint}; its parameters are: {}",
+                names.join(", ")
+            ));
+        };
+        out.insert(k.as_str().into(), override_value(k, raw, default)?);
+    }
+    Ok(out)
+}
+
+/// The text `raw` of `--set k=raw` parsed with the type of the parameter's default.
+fn override_value(k: &str, raw: &str, default: &Dynamic) -> RhaiResult<Dynamic> {
+    Ok(if default.is_bool() {
+        match raw {
+            "true" => true.into(),
+            "false" => false.into(),
+            _ => {
+                return err(format!(
+                    "--set {k}={raw}: '{k}' is a bool (default {default}); use true or false"
+                ))
+            }
+        }
+    } else if default.is_int() {
+        match raw.parse::<i64>() {
+            Ok(i) => i.into(),
+            Err(_) => {
+                return err(format!(
+                    "--set {k}={raw}: '{k}' is an integer (default {default})"
+                ))
+            }
+        }
+    } else if default.is_float() {
+        match raw.parse::<f64>() {
+            Ok(x) => x.into(),
+            Err(_) => {
+                return err(format!(
+                    "--set {k}={raw}: '{k}' is a number (default {default})"
+                ))
+            }
+        }
+    } else if default.is_string() {
+        raw.to_string().into()
+    } else {
+        return err(format!(
+            "--set {k}={raw}: parameter '{k}' has type {} which --set cannot override",
+            default.type_name()
+        ));
+    })
+}
