@@ -8,6 +8,7 @@ mod bindings_contact;
 mod bindings_generators;
 mod bindings_joints;
 mod bindings_mesh_io;
+pub mod numbers;
 pub mod opts;
 mod runner;
 pub mod types;
@@ -91,6 +92,7 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     bindings::register(&mut engine, ctx.clone());
     bindings_joints::register_script_laws(&mut engine, ctx.clone());
     bindings_mesh_io::register(&mut engine, ctx.clone());
+    numbers::register(&mut engine);
     // stdlib modules are compiled by this engine (they may call host functions).
     let mut stdlib = StaticModuleResolver::new();
     for (name, src) in STDLIB {
