@@ -4,7 +4,7 @@ use crate::material::{Formulation, Material};
 use crate::math::Vec3;
 use crate::mesh::box_mesh;
 use crate::pipeline::{Simulation, Stage};
-use crate::script::{self, RunOptions};
+use crate::script::{self, numbers::sig, RunOptions};
 use crate::state::Layout;
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -158,12 +158,12 @@ pub fn main() {
                             let ready = st.sim.prepare();
                             let sim = &st.sim;
                             println!(
-                                "ok: model '{}': {} bodies, {} tets, {} nodes, mass {:.6e} kg",
+                                "ok: model '{}': {} bodies, {} tets, {} nodes, mass {} kg",
                                 st.name,
                                 sim.bodies.len(),
                                 sim.tets.len(),
                                 sim.nodes.len(),
-                                sim.total_mass()
+                                sig(sim.total_mass(), 6)
                             );
                             match (ready, &sim.dt_info) {
                                 (Err(e), _) => {

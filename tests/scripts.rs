@@ -39,6 +39,10 @@ fn every_bundled_script_runs_in_quick_mode_and_passes_its_self_checks() {
         );
         assert!(stdout.contains("check ok:"), "{name} has no self-check");
         assert!(!stdout.contains("check failed"));
+        // What the script prints is for people (`fmt(..)`, not 17-digit floats).
+        for line in stdout.lines() {
+            assert!(!has_long_decimals(line), "{name} prints: {line}");
+        }
         assert!(
             out_dir.join("energy.csv").exists(),
             "{name} wrote no energy.csv"
@@ -56,6 +60,115 @@ fn every_bundled_script_runs_in_quick_mode_and_passes_its_self_checks() {
             String::from_utf8_lossy(&check.stderr)
         );
         assert!(String::from_utf8_lossy(&check.stdout).contains("ok: model"));
+    }
+}
+
+/// A run of 10 or more digits after a decimal point (`157.00000000001262`).
+fn has_long_decimals(line: &str) -> bool {
+    line.split('.')
+        .skip(1)
+        .any(|after| after.chars().take_while(char::is_ascii_digit).count() >= 10)
+}
+
+/// Numbers are printed for people: `fmt(x, digits [, unit])` in scripts, the run summary and
+/// `fdem check` show a few significant digits, never a float's full round-trip form.
+#[test]
+fn printed_numbers_are_for_people() {
+    let dir = temp_dir("numbers");
+    let path = dir.join("numbers.rhai");
+    let text = r#"let sim = simulation(#{});
+let steel = material("elastic/munjiza", #{ density: 7850.0, young: 200.0e9, poisson: 0.3 });
+let b = sim.add_body("b", box(#{ min: [0.0, 0.0, 0.0], max: [0.1, 0.1, 0.1] }).mesh(#{ size: 0.05 }), steel);
+sim.fix(b.nodes(half_space(#{ point: [0.0, 0.0, 0.0], normal: [0.0, 0.0, -1.0] })));
+sim.gravity([0.0, 0.0, -9.81]);
+print(`raw ${157.00000000001262} ${0.1 + 0.2}`);
+print(`mass ${fmt(b.mass, 4, "kg")}`);
+print(`fmt: ${fmt(157.00000000001262, 4)} | ${fmt(1.0013e-3, 5, "m")} | ${fmt(-1.0e-12, 3)} | ${fmt(1.0e12, 3)} | ${fmt(0.0, 3)} | ${fmt(42, 3, "joints")} | ${fmt([0.009000000000000001, 0.0009999999999999998], 3, "m³")}`);
+sim.run(#{ steps: 20 });
+"#;
+    std::fs::write(&path, text).unwrap();
+    let out = fdem()
+        .arg("run")
+        .arg(&path)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The detector works: Rhai's own float interpolation is what `fmt` replaces.
+    assert!(
+        stdout.contains("raw 157.00000000001262 0.30000000000000004"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("mass 7.85 kg\n"), "{stdout}");
+    assert!(
+        stdout.contains(
+            "fmt: 157 | 0.0010013 m | -1e-12 | 1e12 | 0 | 42 joints | [0.009, 0.001] m³\n"
+        ),
+        "{stdout}"
+    );
+    let summary = &stdout[stdout
+        .find("── numbers: 20 steps to t = ")
+        .expect("a run summary")..];
+    for line in summary.lines() {
+        assert!(!has_long_decimals(line), "summary line: {line}");
+    }
+    for label in ["kinetic", "strain", "external work", "balance error"] {
+        let line = summary
+            .lines()
+            .find(|l| l.trim_start().starts_with(label))
+            .unwrap_or_else(|| panic!("no '{label}' in\n{summary}"));
+        assert!(!line.contains("e0"), "{line}");
+    }
+    // The energy column stays aligned: every value ends in the same column.
+    let ends: Vec<usize> = [
+        "kinetic",
+        "strain",
+        "external work",
+        "dissipated",
+        "balance error",
+    ]
+    .iter()
+    .map(|label| {
+        let line = summary
+            .lines()
+            .find(|l| l.trim_start().starts_with(label))
+            .unwrap();
+        line.split("   (").next().unwrap().chars().count()
+    })
+    .collect();
+    assert!(ends.windows(2).all(|w| w[0] == w[1]), "{ends:?}\n{summary}");
+    // `fdem check` reports the mass the same way.
+    let check = fdem().arg("check").arg(&path).output().unwrap();
+    let check = String::from_utf8_lossy(&check.stdout);
+    assert!(check.contains(", mass 7.85 kg\n"), "{check}");
+    // Bad digits and non-numbers are errors that say what fmt takes.
+    for (call, expected) in [
+        ("fmt(1.5, 0)", "fmt(): digits must be 1 to 17, got 0"),
+        (
+            "fmt(1.5, 18, \"m\")",
+            "fmt(): digits must be 1 to 17, got 18",
+        ),
+        (
+            "fmt(\"a\", 3)",
+            "fmt(): expected a number or an array of numbers, got string (a)",
+        ),
+        (
+            "fmt([1.0, \"a\"], 3)",
+            "fmt(): expected a number or an array of numbers, got string (a)",
+        ),
+    ] {
+        let (ok, _, err) = run_script(&dir, "bad_fmt", &format!("print({call});\n"), &[]);
+        assert!(!ok, "{call}");
+        assert!(
+            err.contains("bad_fmt.rhai:1:7: error: ") && err.contains(expected),
+            "{call}: {err}"
+        );
     }
 }
 

@@ -36,7 +36,7 @@ const fn key(
 }
 
 pub const SECTIONS: &[(&str, &str)] = &[
-    ("Parameters and checks", "Script parameters overridable with `--set`, and self-checks."),
+    ("Parameters and checks", "Script parameters overridable with `--set`, self-checks, and numbers formatted for printing."),
     ("Simulation", "The model: create it, set integration options, run it in stages."),
     ("Materials", "Elastic laws of the tetrahedra (stage 1). Equations in docs/theory/elements.md."),
     ("Geometry and meshes", "Shapes (also used as selection regions), meshing, transformations."),
@@ -412,6 +412,8 @@ pub const API: &[FnDoc] = &[
         summary: "Self-check: fail the script (with its line) unless low ≤ value ≤ high. Skipped by `fdem check`.", keys: &[], laws: &[] },
     FnDoc { section: "Parameters and checks", name: "expect_near", signature: "expect_near(label, value, reference, rel_tol)",
         summary: "Self-check: fail unless |value − reference| ≤ rel_tol·|reference|. Skipped by `fdem check`.", keys: &[], laws: &[] },
+    FnDoc { section: "Parameters and checks", name: "fmt", signature: "fmt(x, digits [, unit]) -> string",
+        summary: "A number for printing: `x` (a float, an int or an array of them) with `digits` (1 to 17) significant digits, trailing zeros dropped, in fixed notation when 0.001 ≤ |x| < 10⁶ after rounding and in scientific notation otherwise (`1.5e-7`, `2.4e12`); `unit`, if given, follows after a space. ``print(`mass ${fmt(beam.mass, 4, \"kg\")}`)`` prints `mass 157 kg`, where `${beam.mass}` prints `157.00000000000065`. Only for output to read: files written by the engine keep every digit.", keys: &[], laws: &[] },
     // ── Simulation
     FnDoc { section: "Simulation", name: "simulation", signature: "simulation(#{ … }) -> Simulation", summary: "Create an empty model.", keys: SIMULATION_KEYS, laws: &[] },
     FnDoc { section: "Simulation", name: "sim.integrator", signature: "sim.integrator(\"central_difference\", #{ … })",

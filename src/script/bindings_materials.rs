@@ -23,14 +23,8 @@ pub fn register(engine: &mut Engine) {
                 ));
             };
             let o = Opts::new("material", m, keys_of("material"))?;
-            let material = Material::new(
-                formulation,
-                o.req_float("density")?,
-                o.req_float("young")?,
-                o.req_float("poisson")?,
-                o.float("viscosity")?.unwrap_or(0.0),
-            )
-            .map_err(|e| format!("material(): {e}"))?;
+            let material =
+                Material::from_params(formulation, &|p| o.given(p)).map_err(|e| o.error(e))?;
             Ok(MaterialValue {
                 uid: MATERIAL_UID.fetch_add(1, Ordering::Relaxed),
                 material,

@@ -1,6 +1,7 @@
 //! Script bindings of the section "Parameters and checks": `params` (with the `--set`
 //! overrides of the command line) and the self-checks `expect_within`, `expect_near`.
 
+use super::numbers::sig;
 use super::opts::{err, num, suggest, RhaiResult};
 use super::ScriptContext;
 use crate::math::Real;
@@ -20,30 +21,55 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
             let (v, lo, hi) = (num(&value, label)?, num(&lo, "low")?, num(&hi, "high")?);
             if v >= lo && v <= hi {
                 c.say(&format!(
-                    "check ok: {label} = {v:.6e} in [{lo:.6e}, {hi:.6e}]"
+                    "check ok: {label} = {} in [{}, {}]",
+                    sig(v, 7),
+                    sig(lo, 7),
+                    sig(hi, 7)
                 ));
                 Ok(())
             } else {
                 err(format!(
-                    "self-check failed: {label} = {v:.6e}, expected within [{lo:.6e}, {hi:.6e}]"
+                    "self-check failed: {label} = {}, expected within [{}, {}]",
+                    sig(v, 7),
+                    sig(lo, 7),
+                    sig(hi, 7)
                 ))
             }
         },
     );
     let c = ctx;
-    engine.register_fn("expect_near", move |label: &str, value: Dynamic, reference: Dynamic, tol: Dynamic| -> RhaiResult<()> {
-        if c.options.check_only {
-            return Ok(());
-        }
-        let (v, r, tol) = (num(&value, label)?, num(&reference, "reference")?, num(&tol, "rel_tol")?);
-        let rel = (v - r).abs() / r.abs().max(Real::MIN_POSITIVE);
-        if rel <= tol {
-            c.say(&format!("check ok: {label} = {v:.6e} vs {r:.6e} (rel. error {rel:.2e} ≤ {tol:.1e})"));
-            Ok(())
-        } else {
-            err(format!("self-check failed: {label} = {v:.6e}, reference {r:.6e}: relative error {rel:.3e} > {tol:.1e}"))
-        }
-    });
+    engine.register_fn(
+        "expect_near",
+        move |label: &str, value: Dynamic, reference: Dynamic, tol: Dynamic| -> RhaiResult<()> {
+            if c.options.check_only {
+                return Ok(());
+            }
+            let (v, r, tol) = (
+                num(&value, label)?,
+                num(&reference, "reference")?,
+                num(&tol, "rel_tol")?,
+            );
+            let rel = (v - r).abs() / r.abs().max(Real::MIN_POSITIVE);
+            if rel <= tol {
+                c.say(&format!(
+                    "check ok: {label} = {} vs {} (rel. error {} ≤ {})",
+                    sig(v, 7),
+                    sig(r, 7),
+                    sig(rel, 3),
+                    sig(tol, 2)
+                ));
+                Ok(())
+            } else {
+                err(format!(
+                    "self-check failed: {label} = {}, reference {}: relative error {} > {}",
+                    sig(v, 7),
+                    sig(r, 7),
+                    sig(rel, 4),
+                    sig(tol, 2)
+                ))
+            }
+        },
+    );
 }
 
 /// `params(#{ … })`: the defaults with every `--set name=value` applied.

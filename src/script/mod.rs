@@ -15,6 +15,7 @@ mod bindings_mesh_io;
 mod bindings_params;
 mod bindings_queries;
 mod bindings_simulation;
+pub mod numbers;
 pub mod opts;
 mod runner;
 pub mod types;
@@ -112,6 +113,7 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     bindings_generators::register(&mut engine);
     bindings_joints::register_script_laws(&mut engine, ctx.clone());
     bindings_mesh_io::register(&mut engine, ctx.clone());
+    numbers::register(&mut engine);
     // stdlib modules are compiled by this engine (they may call host functions).
     let mut stdlib = StaticModuleResolver::new();
     for (name, src) in STDLIB {

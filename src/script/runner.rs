@@ -1,6 +1,7 @@
 //! `sim.run(..)`: the time loop as seen from a script — steps, periodic hooks, monitors,
 //! `stop_when`, progress on a terminal, and the output written after every run.
 
+use super::numbers::sig;
 use super::opts::{Opts, RhaiResult};
 use super::types::{MonitorHandle, SimHandle};
 use super::ScriptContext;
@@ -358,6 +359,7 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
 }
 
 /// The per-stage timing table and the energy summary printed at the end of `fdem run`.
+/// Times have 6 significant digits, dt and energies 5, relative errors 3 ([`sig`]).
 pub fn summary(
     name: &str,
     sim: &Simulation,
@@ -373,9 +375,9 @@ pub fn summary(
         0.0
     };
     s.push_str(&format!(
-        "── {name}: {steps} steps to t = {:.6e} s (dt = {:.4e} s), {} tets, {} nodes; {:.2} s wall, {:.2} M tet-steps/s\n",
-        sim.time,
-        sim.dt,
+        "── {name}: {steps} steps to t = {} s (dt = {} s), {} tets, {} nodes; {:.2} s wall, {:.2} M tet-steps/s\n",
+        sig(sim.time, 6),
+        sig(sim.dt, 5),
         sim.tets.len(),
         sim.nodes.len(),
         wall,
@@ -395,33 +397,37 @@ pub fn summary(
     }
     s.push_str(&format!("   {:<20} {:>9.3}\n", "total", total));
     let e = &sim.energy;
+    let joules = |x: f64| sig(x, 5);
     let at = sim.energy_history.last().map(|h| h.time).unwrap_or(0.0);
-    s.push_str(&format!("   energy [J] at t = {at:.6e} s (last sample)\n"));
-    s.push_str(&format!("   {:<20} {:>14.6e}\n", "kinetic", e.kinetic));
-    s.push_str(&format!("   {:<20} {:>14.6e}\n", "strain", e.strain));
     s.push_str(&format!(
-        "   {:<20} {:>14.6e}   (gravity {:.4e}, forces {:.4e}, constraints {:.4e})\n",
+        "   energy [J] at t = {} s (last sample)\n",
+        sig(at, 6)
+    ));
+    s.push_str(&format!("   {:<20} {:>12}\n", "kinetic", joules(e.kinetic)));
+    s.push_str(&format!("   {:<20} {:>12}\n", "strain", joules(e.strain)));
+    s.push_str(&format!(
+        "   {:<20} {:>12}   (gravity {}, forces {}, constraints {})\n",
         "external work",
-        e.external_work(),
-        e.gravity_work,
-        e.force_work,
-        e.reaction_work
+        joules(e.external_work()),
+        joules(e.gravity_work),
+        joules(e.force_work),
+        joules(e.reaction_work)
     ));
     s.push_str(&format!(
-        "   {:<20} {:>14.6e}   (mass damping {:.4e}, viscous {:.4e}, fracture {:.4e}, friction {:.4e})\n",
+        "   {:<20} {:>12}   (mass damping {}, viscous {}, fracture {}, friction {})\n",
         "dissipated",
-        e.dissipated(),
-        e.mass_damping,
-        e.viscous_damping,
-        e.fracture,
-        e.friction
+        joules(e.dissipated()),
+        joules(e.mass_damping),
+        joules(e.viscous_damping),
+        joules(e.fracture),
+        joules(e.friction)
     ));
     if sim.contact.is_enabled() {
         let (c, cd) = (&sim.contact, &sim.contact_detection);
         s.push_str(&format!(
-            "   {:<20} {:>14.6e}   ({} surface tets, {} candidate pairs, {} touching, {} detections)\n",
+            "   {:<20} {:>12}   ({} surface tets, {} candidate pairs, {} touching, {} detections)\n",
             "contact (elastic)",
-            e.contact,
+            joules(e.contact),
             cd.surface.len(),
             cd.pairs.len(),
             c.last.active,
@@ -430,9 +436,9 @@ pub fn summary(
     }
     if !sim.joints.is_empty() {
         s.push_str(&format!(
-            "   {:<20} {:>14.6e}   ({} of {} joints broken)\n",
+            "   {:<20} {:>12}   ({} of {} joints broken)\n",
             "joints (elastic)",
-            e.joint,
+            joules(e.joint),
             sim.break_events.len(),
             sim.joints.len()
         ));
@@ -444,7 +450,7 @@ pub fn summary(
         );
         let count = volume.len();
         volume.sort_by(|a, b| b.total_cmp(a));
-        let shown: Vec<String> = volume.iter().take(5).map(|v| format!("{v:.3e}")).collect();
+        let shown: Vec<String> = volume.iter().take(5).map(|v| sig(*v, 4)).collect();
         let more = if count > 5 { ", …" } else { "" };
         s.push_str(&format!(
             "   fragments            {count} (volumes [m³], largest first: {}{more})\n",
@@ -452,14 +458,15 @@ pub fn summary(
         ));
     }
     s.push_str(&format!(
-        "   {:<20} {:>14.6e}\n",
-        "initial (kin+strain)", e.initial
+        "   {:<20} {:>12}\n",
+        "initial (kin+strain)",
+        joules(e.initial)
     ));
     s.push_str(&format!(
-        "   {:<20} {:>14.6e}   ({:.2e} of the largest term)\n",
+        "   {:<20} {:>12}   ({} of the largest term)\n",
         "balance error",
-        e.balance_error(),
-        e.relative_balance_error()
+        joules(e.balance_error()),
+        sig(e.relative_balance_error(), 3)
     ));
     s.push_str(&format!(
         "   output: {} ({frames} VTK frames, energy.csv, monitors{})\n",
@@ -510,8 +517,9 @@ impl Progress {
         };
         let bar = format!("{}{}", "█".repeat(filled), "░".repeat(width - filled));
         eprint!(
-            "\r{bar} {:>5.1} %  step {steps}  t = {t:.4e} s  {:.0} steps/s  {eta}   ",
+            "\r{bar} {:>5.1} %  step {steps}  t = {} s  {:.0} steps/s  {eta}   ",
             100.0 * frac,
+            sig(t, 4),
             rate
         );
         let _ = std::io::stderr().flush();
