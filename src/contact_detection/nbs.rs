@@ -143,12 +143,18 @@ pub fn nbs_pairs(
     out: &mut Vec<[u32; 2]>,
 ) {
     out.clear();
-    let n = boxes.len();
-    if n < 2 {
+    if boxes.len() < 2 {
         return;
     }
-    // Cell size: the largest box; cells counted from the smallest centre (only to keep the
-    // integers small — nothing is sized by the extent).
+    assign_cells(boxes, ws);
+    sort_into_cells(boxes, ws);
+    search_neighbour_cells(boxes.len(), ws, keep);
+    order_by_first(boxes.len(), ws, out);
+}
+
+/// The integer cell of every box centre. Cell size: the largest box; cells counted from the
+/// smallest centre (only to keep the integers small — nothing is sized by the extent).
+fn assign_cells(boxes: &[Aabb], ws: &mut NbsWorkspace) {
     let (d, origin) = boxes
         .par_iter()
         .map(|b| (b.max_extent(), b.centre()))
@@ -163,8 +169,14 @@ pub fn nbs_pairs(
         let c = (b.centre() - origin) * inv;
         [c.x.floor() as i64, c.y.floor() as i64, c.z.floor() as i64]
     }));
-    // Occupied cells: count the elements of each (consecutive elements are often in the
-    // same cell, so the last slot is remembered).
+}
+
+/// Occupied cells in the hash table with their element counts, then a counting sort of the
+/// elements by cell (index order within each cell) and their boxes in that order.
+fn sort_into_cells(boxes: &[Aabb], ws: &mut NbsWorkspace) {
+    let n = boxes.len();
+    // Count the elements of each cell (consecutive elements are often in the same cell, so
+    // the last slot is remembered).
     let cap = (2 * n).next_power_of_two();
     ws.slots.clear();
     ws.slots.resize(cap, Slot::default());
@@ -194,8 +206,7 @@ pub fn nbs_pairs(
         ws.slots[h].count += 1;
         ws.slot_of.push(h as u32);
     }
-    // Runs of the cells in the sorted arrays (prefix sum over the table), then a counting
-    // sort of the elements (index order within each cell).
+    // Runs of the cells in the sorted arrays (prefix sum over the table).
     let mut acc = 0u32;
     for s in ws.slots.iter_mut() {
         s.start = acc;
@@ -213,9 +224,16 @@ pub fn nbs_pairs(
     ws.sorted_boxes.clear();
     ws.sorted_boxes
         .par_extend(ws.sorted.par_iter().map(|&e| boxes[e as usize]));
-    // Search the 27 cells around each element's cell for higher-indexed overlapping boxes,
-    // visiting the elements cell by cell (neighbouring elements share their lookups' cache
-    // lines).
+}
+
+/// Search the 27 cells around each element's cell for higher-indexed overlapping boxes that
+/// pass `keep`, visiting the elements cell by cell (neighbouring elements share their
+/// lookups' cache lines); pairs per chunk of elements in `ws.chunk_pairs`.
+fn search_neighbour_cells(
+    n: usize,
+    ws: &mut NbsWorkspace,
+    keep: &(impl Fn(u32, u32) -> bool + Sync),
+) {
     let n_chunks = n.div_ceil(CHUNK);
     ws.chunk_pairs.resize_with(n_chunks, Vec::new);
     let (slots, sorted, sorted_boxes, cell_xyz) =
@@ -246,7 +264,10 @@ pub fn nbs_pairs(
                 }
             }
         });
-    // Order the pairs by their first element (a counting sort: linear, deterministic).
+}
+
+/// Order the pairs by their first element (a counting sort: linear, deterministic).
+fn order_by_first(n: usize, ws: &mut NbsWorkspace, out: &mut Vec<[u32; 2]>) {
     ws.first_count.clear();
     ws.first_count.resize(n + 1, 0);
     for p in ws.chunk_pairs.iter().flatten() {

@@ -529,6 +529,89 @@ fn update_surface_geometry(
         });
 }
 
+/// A touching pair as the tangential forces see it.
+struct Overlap<'a> {
+    r: &'a potential::PairForces,
+    gc: &'a TetGeom,
+    gt: &'a TetGeom,
+    /// Nodes of the contactor and of the target.
+    nodes: ([u32; 4], [u32; 4]),
+    tets: [u32; 2],
+    /// 1/(smallest height) of the contactor and of the target [1/m].
+    inv_h: (Real, Real),
+    /// Normal force on the contactor [N] and its magnitude.
+    f_normal: Vec3,
+    fn_mag: Real,
+}
+
+/// The normal dashpot and Coulomb friction of a touching pair at its contact point: adds
+/// their forces to `f` (contactor's 4 nodes, then the target's), books their dissipation in
+/// `sums` and returns the energy stored in the friction spring [J].
+#[inline(always)]
+fn friction_and_damping(
+    inp: &StepInputs,
+    pr: &ContactProps,
+    o: &Overlap,
+    ps: &mut PairState,
+    sums: &mut ContactSums,
+    frame: &mut Frame,
+    f: &mut [Vec3; 8],
+) -> Real {
+    let (r, (na, nb), [ea, eb]) = (o.r, o.nodes, o.tets);
+    let n = o.f_normal / o.fn_mag;
+    let nc = o.gc.bary(&r.point);
+    let nt = o.gt.bary(&r.point);
+    let mut dv = Vec3::zeros();
+    for i in 0..4 {
+        dv += inp.v[na[i] as usize] * nc[i] - inp.v[nb[i] as usize] * nt[i];
+    }
+    // k_n/3 per unit penalty: the thin-overlap stiffness of one face node. The friction spring
+    // and the dashpot act at one point, so one node can feel all of them; sized per node they
+    // stay within the critical time step.
+    let stiff = 4.0 / 3.0 * r.area * (o.inv_h.0 + o.inv_h.1);
+    let mut fx = Vec3::zeros();
+    // Normal dashpot first: Coulomb acts on the whole normal force.
+    let mut normal = o.fn_mag;
+    if pr.damping > 0.0 {
+        let masses = (inp.tet_mass[ea as usize], inp.tet_mass[eb as usize]);
+        let fd = friction::normal_dashpot(pr, stiff, masses, &n, &dv, o.fn_mag);
+        fx += n * fd;
+        normal += fd;
+    }
+    let du = dv * inp.dt_prev;
+    let mut e_spring = 0.0;
+    if pr.has_friction() {
+        let touch = friction::Touch {
+            n,
+            dv,
+            du,
+            normal,
+            stiff,
+            area: r.area,
+            point: r.point,
+            tets: [ea, eb],
+            time: inp.time,
+            laws: &inp.laws.friction_laws,
+        };
+        let ft = friction::coulomb_friction(pr, ps, &touch, frame, sums);
+        e_spring = 0.5 * ft.norm_squared() / (pr.tangential_penalty * stiff);
+        sums.friction_force += ft.norm();
+        fx += ft;
+    } else {
+        ps.spring = Vec3::zeros();
+    }
+    // Dissipated = −(work of these forces) − (change of the spring energy), the work in the
+    // central difference's trapezoid form ½(f_{n−1} + f_n)·Δu_n.
+    sums.dissipated += -0.5 * (ps.f_prev + fx).dot(&du) - (e_spring - ps.e_prev);
+    ps.f_prev = fx;
+    ps.e_prev = e_spring;
+    for i in 0..4 {
+        f[i] += fx * nc[i];
+        f[4 + i] -= fx * nt[i];
+    }
+    e_spring
+}
+
 /// One candidate pair `pi` in one step: rejection (boxes, then the witness axis), arming,
 /// the potential force, friction and damping. Returns the forces of a touching pair; updates
 /// its history, `sums` and `handover`.
@@ -596,57 +679,19 @@ fn interact(
     let mut energy = r.energy;
     let (na, nb) = (inp.tet_nodes[ea as usize], inp.tet_nodes[eb as usize]);
     if (pr.has_friction() || pr.damping > 0.0) && fn_mag > 0.0 {
-        let n = f_normal / fn_mag;
-        let nc = gc.bary(&r.point);
-        let nt = gt.bary(&r.point);
-        let mut dv = Vec3::zeros();
-        for i in 0..4 {
-            dv += inp.v[na[i] as usize] * nc[i] - inp.v[nb[i] as usize] * nt[i];
-        }
-        // k_n/3 per unit penalty: the thin-overlap stiffness of one face node. The friction
-        // spring and the dashpot act at one point, so one node can feel all of them; sized
-        // per node they stay within the critical time step.
-        let stiff = 4.0 / 3.0 * r.area * (inv_ha + inv_hb);
-        let mut fx = Vec3::zeros();
-        // Normal dashpot first: Coulomb acts on the whole normal force.
-        let mut normal = fn_mag;
-        if pr.damping > 0.0 {
-            let masses = (inp.tet_mass[ea as usize], inp.tet_mass[eb as usize]);
-            let fd = friction::normal_dashpot(&pr, stiff, masses, &n, &dv, fn_mag);
-            fx += n * fd;
-            normal += fd;
-        }
-        let du = dv * inp.dt_prev;
-        let mut e_spring = 0.0;
+        let touch = Overlap {
+            r: &r,
+            gc,
+            gt,
+            nodes: (na, nb),
+            tets: [ea, eb],
+            inv_h: (inv_ha, inv_hb),
+            f_normal,
+            fn_mag,
+        };
+        let e_spring = friction_and_damping(inp, &pr, &touch, ps, sums, frame, &mut f);
         if pr.has_friction() {
-            let touch = friction::Touch {
-                n,
-                dv,
-                du,
-                normal,
-                stiff,
-                area: r.area,
-                point: r.point,
-                tets: [ea, eb],
-                time: inp.time,
-                laws: &inp.laws.friction_laws,
-            };
-            let ft = friction::coulomb_friction(&pr, ps, &touch, frame, sums);
-            e_spring = 0.5 * ft.norm_squared() / (pr.tangential_penalty * stiff);
             energy += e_spring;
-            sums.friction_force += ft.norm();
-            fx += ft;
-        } else {
-            ps.spring = Vec3::zeros();
-        }
-        // Dissipated = −(work of these forces) − (change of the spring energy), the work in
-        // the central difference's trapezoid form ½(f_{n−1} + f_n)·Δu_n.
-        sums.dissipated += -0.5 * (ps.f_prev + fx).dot(&du) - (e_spring - ps.e_prev);
-        ps.f_prev = fx;
-        ps.e_prev = e_spring;
-        for i in 0..4 {
-            f[i] += fx * nc[i];
-            f[4 + i] -= fx * nt[i];
         }
     } else {
         // Still touching: keep the touching flag and the slip path.

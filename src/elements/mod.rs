@@ -170,20 +170,72 @@ pub fn add_internal_forces(
     ws: &mut ElementsWorkspace,
     want_energy: bool,
 ) -> ElementSums {
-    let mut total = ElementSums::default();
-    let x = &nodes.x;
-    let v = &nodes.v;
-    let add_partials = |total: &mut ElementSums, partials: &[ElementSums]| {
-        for p in partials {
-            total.strain_energy += p.strain_energy;
-            total.viscous_power += p.viscous_power;
-            total.inverted += p.inverted;
-        }
+    let k = Kernel {
+        tets,
+        materials,
+        x: &nodes.x,
+        v: &nodes.v,
+        want_energy,
     };
-    // Runs of small bodies, one thread per run. Per node the arithmetic is the same as the
-    // chunked path below (a body's forces, then its gather in slot order), so results do
-    // not depend on how bodies are scheduled.
-    let f_ptr = SyncPtr(nodes.f.as_mut_ptr());
+    let mut total = ElementSums::default();
+    small_body_runs(&k, bodies, &mut nodes.f, ws);
+    add_partials(&mut total, &ws.partials);
+    let ElementsWorkspace {
+        shared,
+        partials,
+        big,
+        ..
+    } = ws;
+    for &bi in big.iter() {
+        let b = &bodies[bi];
+        large_body(
+            &k,
+            b,
+            &mut nodes.f[b.nodes.clone()],
+            &mut shared[bi],
+            partials,
+        );
+        add_partials(&mut total, partials);
+    }
+    total
+}
+
+/// What every element of one stage 1 pass reads.
+struct Kernel<'a> {
+    tets: &'a Tets,
+    materials: &'a [Material],
+    x: &'a [Vec3],
+    v: &'a [Vec3],
+    want_energy: bool,
+}
+
+impl Kernel<'_> {
+    #[inline(always)]
+    fn tet(&self, e: usize) -> TetResult {
+        tet_result(
+            self.tets,
+            self.materials,
+            self.x,
+            self.v,
+            e,
+            self.want_energy,
+        )
+    }
+}
+
+fn add_partials(total: &mut ElementSums, partials: &[ElementSums]) {
+    for p in partials {
+        total.strain_energy += p.strain_energy;
+        total.viscous_power += p.viscous_power;
+        total.inverted += p.inverted;
+    }
+}
+
+/// Runs of small bodies, one thread per run; their sums in `ws.partials` (one per run). Per
+/// node the arithmetic is the same as [`large_body`]'s (a body's forces, then its gather in
+/// slot order), so results do not depend on how bodies are scheduled.
+fn small_body_runs(k: &Kernel, bodies: &[Body], f: &mut [Vec3], ws: &mut ElementsWorkspace) {
+    let f_ptr = SyncPtr(f.as_mut_ptr());
     let g_ptr = SyncPtr(ws.shared.as_mut_ptr());
     ws.groups
         .par_iter()
@@ -193,7 +245,7 @@ pub fn add_internal_forces(
                 let b = &bodies[bi];
                 // SAFETY: runs are disjoint ranges of bodies, whose node ranges are disjoint
                 // (checked when the runs are built), and each body's gather data belongs to
-                // it alone; `nodes.f` and `ws.shared` outlive this parallel section.
+                // it alone; `f` and `ws.shared` outlive this parallel section.
                 let (f_body, shared) = unsafe {
                     (
                         std::slice::from_raw_parts_mut(
@@ -207,7 +259,7 @@ pub fn add_internal_forces(
                 match shared {
                     None => {
                         for (i, f4) in f_body.chunks_exact_mut(4).enumerate() {
-                            let r = tet_result(tets, materials, x, v, e0 + i, want_energy);
+                            let r = k.tet(e0 + i);
                             for (f, rf) in f4.iter_mut().zip(r.forces) {
                                 *f += rf;
                             }
@@ -216,7 +268,7 @@ pub fn add_internal_forces(
                     }
                     Some(g) => {
                         for (i, slot) in g.slots.iter_mut().enumerate() {
-                            let r = tet_result(tets, materials, x, v, e0 + i, want_energy);
+                            let r = k.tet(e0 + i);
                             *slot = r.forces;
                             accumulate(&mut s, &r);
                         }
@@ -232,62 +284,63 @@ pub fn add_internal_forces(
             s
         })
         .collect_into_vec(&mut ws.partials);
-    add_partials(&mut total, &ws.partials);
-    // Large bodies, each in parallel chunks.
-    for &bi in &ws.big {
-        let b = &bodies[bi];
-        let shared = &mut ws.shared[bi];
-        let e0 = b.tets.start;
-        let f_body = &mut nodes.f[b.nodes.clone()];
-        match shared {
-            None => {
-                f_body
-                    .par_chunks_mut(4 * CHUNK)
-                    .enumerate()
-                    .map(|(c, fs)| {
-                        let mut s = ElementSums::default();
-                        for (i, f4) in fs.chunks_exact_mut(4).enumerate() {
-                            let r =
-                                tet_result(tets, materials, x, v, e0 + c * CHUNK + i, want_energy);
-                            for (f, rf) in f4.iter_mut().zip(r.forces) {
-                                *f += rf;
-                            }
-                            accumulate(&mut s, &r);
+}
+
+/// One large body in parallel chunks of `CHUNK` tets (`f_body` its nodes' forces); the
+/// chunks' sums in `partials`. A body that owns its nodes adds each tet's forces directly;
+/// one that shares nodes writes slots, then gathers them per node in slot order.
+fn large_body(
+    k: &Kernel,
+    b: &Body,
+    f_body: &mut [Vec3],
+    shared: &mut Option<SharedGather>,
+    partials: &mut Vec<ElementSums>,
+) {
+    let e0 = b.tets.start;
+    match shared {
+        None => {
+            f_body
+                .par_chunks_mut(4 * CHUNK)
+                .enumerate()
+                .map(|(c, fs)| {
+                    let mut s = ElementSums::default();
+                    for (i, f4) in fs.chunks_exact_mut(4).enumerate() {
+                        let r = k.tet(e0 + c * CHUNK + i);
+                        for (f, rf) in f4.iter_mut().zip(r.forces) {
+                            *f += rf;
                         }
-                        s
-                    })
-                    .collect_into_vec(&mut ws.partials);
-            }
-            Some(g) => {
-                g.slots
-                    .par_chunks_mut(CHUNK)
-                    .enumerate()
-                    .map(|(c, slots)| {
-                        let mut s = ElementSums::default();
-                        for (i, slot) in slots.iter_mut().enumerate() {
-                            let r =
-                                tet_result(tets, materials, x, v, e0 + c * CHUNK + i, want_energy);
-                            *slot = r.forces;
-                            accumulate(&mut s, &r);
-                        }
-                        s
-                    })
-                    .collect_into_vec(&mut ws.partials);
-                let (offsets, slot_ids, slots) = (&g.offsets, &g.slot_ids, &g.slots);
-                f_body
-                    .par_iter_mut()
-                    .enumerate()
-                    .with_min_len(4 * CHUNK)
-                    .for_each(|(i, f)| {
-                        for &s in &slot_ids[offsets[i] as usize..offsets[i + 1] as usize] {
-                            *f += slots[s as usize / 4][s as usize % 4];
-                        }
-                    });
-            }
+                        accumulate(&mut s, &r);
+                    }
+                    s
+                })
+                .collect_into_vec(partials);
         }
-        add_partials(&mut total, &ws.partials);
+        Some(g) => {
+            g.slots
+                .par_chunks_mut(CHUNK)
+                .enumerate()
+                .map(|(c, slots)| {
+                    let mut s = ElementSums::default();
+                    for (i, slot) in slots.iter_mut().enumerate() {
+                        let r = k.tet(e0 + c * CHUNK + i);
+                        *slot = r.forces;
+                        accumulate(&mut s, &r);
+                    }
+                    s
+                })
+                .collect_into_vec(partials);
+            let (offsets, slot_ids, slots) = (&g.offsets, &g.slot_ids, &g.slots);
+            f_body
+                .par_iter_mut()
+                .enumerate()
+                .with_min_len(4 * CHUNK)
+                .for_each(|(i, f)| {
+                    for &s in &slot_ids[offsets[i] as usize..offsets[i + 1] as usize] {
+                        *f += slots[s as usize / 4][s as usize % 4];
+                    }
+                });
+        }
     }
-    total
 }
 
 #[cfg(test)]
