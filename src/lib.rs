@@ -4,17 +4,20 @@
 //! explicitly with the central difference method. One time step is Munjiza's seven stages, and
 //! the module list reads as the step ([`pipeline::Simulation::step`]):
 //!
-//! 1. [`elements`] — stress in every tetrahedron from its deformation; nodal internal forces.
-//! 2. joints — joint forces between tetrahedra.
-//! 3. fracture — joints that break; fragments.
-//! 4. contact detection — NBS search.
-//! 5. contact interaction — potential contact forces with Coulomb friction.
+//! 1. [`elements`] — stress in every element from its deformation; nodal internal forces
+//!    (one module per element family: [`elements::tet4`]).
+//! 2. [`joints`] — joint forces between tetrahedra; built-in and compiled joint laws.
+//! 3. [`fracture`] — joints that break; user criteria; fragments.
+//! 4. [`contact_detection`] — surface elements and candidate pairs by NBS; the pair remap.
+//! 5. [`contact_interaction`] — potential contact forces with Coulomb friction; pair history.
 //! 6. [`loads`] — gravity, nodal forces, tractions, prescribed velocities.
-//! 7. [`integration`] — central difference, lumped mass, stable time step.
+//! 7. [`integration`] — central difference, reactions, energy sums.
 //!
-//! Around them: [`mesh`] (tet4 meshes, generators, regions), [`material`] (elastic laws),
-//! [`pipeline`] (the state, the step, timers, energy), [`script`] (the Rhai layer),
-//! [`io`] (ParaView and CSV output) and [`cli`].
+//! Below them: [`math`], [`params`] (how laws declare parameters), [`mesh`] (tet4 meshes,
+//! generators, regions, Gmsh), [`material`] (elastic laws), [`state`] (nodes, tets, bodies)
+//! and [`compiled`] (Rhai laws compiled to native code). Above them: [`pipeline`] (the
+//! [`Simulation`], the step, timers, energy), [`io`] (ParaView and CSV output), [`script`]
+//! (the Rhai layer) and [`cli`]. Imports go one way only, in this order (tests/layering.rs).
 
 pub mod cli;
 pub mod compiled;

@@ -1,6 +1,6 @@
 //! Script laws compiled to native code: the one Rhai-to-native compiler that every stage's
 //! user law goes through (stage 2 joint laws, stage 3 fracture criteria, stage 5 friction
-//! laws). Each stage declares its law's [`Signature`] next to itself with [`law_signature!`]
+//! laws). Each stage declares its law's [`Signature`] next to itself with `law_signature!`
 //! (inputs and outputs by name): [`crate::joints::JOINT_LAW`],
 //! [`crate::fracture::CRITERION`], [`crate::contact_interaction::FRICTION_LAW`].
 //!
