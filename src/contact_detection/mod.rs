@@ -93,7 +93,8 @@ pub struct ContactDetection {
     pub broken_faces: Vec<([u32; 2], u32)>,
     /// Candidate pairs (indices into `surface`, lower first), ordered by first index.
     pub pairs: Vec<[u32; 2]>,
-    /// For every pair of `pairs`: where it comes from (valid after a detection).
+    /// For every pair of `pairs`: where it comes from, from a detection until stage 5 takes
+    /// it ([`ContactDetection::take_remap`]).
     pub origins: Vec<PairOrigin>,
     /// Inflated boxes of the surface tets at the last detection.
     pub boxes: Vec<Aabb>,
@@ -101,8 +102,8 @@ pub struct ContactDetection {
     pub surface_stale: bool,
     /// Break events seen by the last surface refresh.
     seen_breaks: usize,
-    /// The previous pair list and, for each of its pairs, its index in the list before the
-    /// last surface refresh (reused buffers).
+    /// During a detection: the previous pair list and, for each of its pairs, its index in
+    /// the list before the surface refresh (freed after each detection, as the remap is).
     old_pairs: Vec<[u32; 2]>,
     carried: Vec<u32>,
 }
@@ -120,6 +121,12 @@ impl ContactDetection {
             self.surface_stale = true;
             self.seen_breaks = break_events;
         }
+    }
+
+    /// The old→new remap of the last detection, for stage 5 (the buffer goes with it, so the
+    /// remap costs no memory between detections).
+    pub fn take_remap(&mut self) -> Vec<PairOrigin> {
+        std::mem::take(&mut self.origins)
     }
 
     /// Bytes held by the detection buffers (capacity).
@@ -218,6 +225,8 @@ pub fn update_pairs(
         cd.origins
             .push(origin.unwrap_or_else(|| filter.new_pair(p[0], p[1])));
     }
+    cd.old_pairs = Vec::new();
+    cd.carried = Vec::new();
     cd.detector.x_at_detection.clear();
     cd.detector.x_at_detection.extend_from_slice(x);
     cd.detector.stale = false;

@@ -215,7 +215,6 @@ pub struct ContactInteraction {
     pub laws: ContactLaws,
     /// History of every candidate pair, `state[k]` for stage 4's `pairs[k]`.
     pub state: Vec<PairState>,
-    old_state: Vec<PairState>,
     /// Record `events` for new touching pairs.
     pub record_events: bool,
     pub events: Vec<ContactEvent>,
@@ -253,15 +252,16 @@ impl ContactInteraction {
     }
 
     /// Stage 4 detected: carry the history over to the new pair list (`origins`, one per new
-    /// pair) and size the per-surface and per-chunk buffers.
-    pub fn carry_history(&mut self, origins: &[PairOrigin], n_surface: usize) {
-        std::mem::swap(&mut self.state, &mut self.old_state);
-        self.state.clear();
-        let old = &self.old_state;
-        self.state.extend(origins.iter().map(|o| match *o {
-            PairOrigin::Kept(k) => old[k as usize],
-            PairOrigin::New { neighbours, joint } => PairState::new_pair(neighbours, joint),
-        }));
+    /// pair: stage 4's remap) and size the per-surface and per-chunk buffers.
+    pub fn carry_history(&mut self, origins: Vec<PairOrigin>, n_surface: usize) {
+        let old = std::mem::take(&mut self.state);
+        self.state = origins
+            .iter()
+            .map(|o| match *o {
+                PairOrigin::Kept(k) => old[k as usize],
+                PairOrigin::New { neighbours, joint } => PairState::new_pair(neighbours, joint),
+            })
+            .collect();
         self.geom.resize(n_surface, None);
         self.current_boxes
             .resize(n_surface, Aabb::of_points(&[Vec3::zeros()]));
@@ -370,7 +370,7 @@ impl ContactInteraction {
     /// Bytes held by the stage 5 buffers (capacity).
     pub fn bytes(&self) -> usize {
         use std::mem::size_of;
-        (self.state.capacity() + self.old_state.capacity()) * size_of::<PairState>()
+        self.state.capacity() * size_of::<PairState>()
             + self.geom.capacity() * size_of::<Option<TetGeom>>()
             + self.current_boxes.capacity() * size_of::<Aabb>()
             + self.inv_h.capacity() * size_of::<Real>()
@@ -759,7 +759,7 @@ mod tests {
             neighbours: false,
             joint: u32::MAX,
         };
-        ci.carry_history(&[new], cd.surface.len());
+        ci.carry_history(vec![new], cd.surface.len());
         let tets = Tets {
             nodes: vec![[0, 1, 2, 3], [4, 5, 6, 7]],
             material: vec![0, 0],

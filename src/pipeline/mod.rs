@@ -640,8 +640,9 @@ impl Simulation {
                 &self.bodies,
                 &self.joints,
             ) {
-                let cd = &self.contact_detection;
-                self.contact.carry_history(&cd.origins, cd.surface.len());
+                let remap = self.contact_detection.take_remap();
+                let n_surface = self.contact_detection.surface.len();
+                self.contact.carry_history(remap, n_surface);
             }
         });
         let cs = timed(&mut self.timers, Stage::ContactInteraction, || {
