@@ -4,10 +4,10 @@ use crate::material::{Formulation, Material};
 use crate::math::Vec3;
 use crate::mesh::box_mesh;
 use crate::pipeline::{Simulation, Stage};
-use crate::script::{self, numbers::sig, RunOptions};
+use crate::script::{self, numbers::sig, types::SimHandle, RunOptions};
 use crate::state::Layout;
 use clap::{Parser, Subcommand};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(Parser)]
@@ -86,6 +86,7 @@ enum Command {
     },
 }
 
+/// The `fdem` command: parse the arguments, run the subcommand and exit with its code.
 pub fn main() {
     let cli = Cli::parse();
     let code = match cli.command {
@@ -97,29 +98,7 @@ pub fn main() {
             quiet,
         } => {
             set_threads(threads);
-            match parse_sets(&set) {
-                Err(e) => fail(&e),
-                Ok(overrides) => {
-                    let options = RunOptions {
-                        overrides,
-                        out_dir: out,
-                        quiet,
-                        check_only: false,
-                        progress: !quiet,
-                    };
-                    match script::run_file(&script, options) {
-                        Ok(report) => {
-                            if !quiet {
-                                for s in report.summaries() {
-                                    print!("{s}");
-                                }
-                            }
-                            0
-                        }
-                        Err(e) => fail(&e.to_string()),
-                    }
-                }
-            }
+            run_script(&script, &set, out, quiet)
         }
         Command::Check {
             mesh: Some(mesh), ..
@@ -142,49 +121,7 @@ pub fn main() {
             script: Some(script),
             set,
             ..
-        } => match parse_sets(&set) {
-            Err(e) => fail(&e),
-            Ok(overrides) => {
-                let options = RunOptions {
-                    overrides,
-                    check_only: true,
-                    quiet: true,
-                    ..Default::default()
-                };
-                match script::run_file(&script, options) {
-                    Ok(report) => {
-                        for s in &report.sims {
-                            let mut st = s.0.borrow_mut();
-                            let ready = st.sim.prepare();
-                            let sim = &st.sim;
-                            println!(
-                                "ok: model '{}': {} bodies, {} tets, {} nodes, mass {} kg",
-                                st.name,
-                                sim.bodies.len(),
-                                sim.tets.len(),
-                                sim.nodes.len(),
-                                sig(sim.total_mass(), 6)
-                            );
-                            match (ready, &sim.dt_info) {
-                                (Err(e), _) => {
-                                    std::process::exit(fail(&format!("{}: {e}", script.display())))
-                                }
-                                (Ok(()), Some(i)) => println!("    {i}"),
-                                _ => {}
-                            }
-                        }
-                        if report.sims.is_empty() {
-                            println!(
-                                "ok: {} parses and runs its setup; it creates no simulation",
-                                script.display()
-                            );
-                        }
-                        0
-                    }
-                    Err(e) => fail(&e.to_string()),
-                }
-            }
-        },
+        } => check_script(&script, &set),
         Command::Doc => {
             print!("{}", script::api::markdown());
             0
@@ -206,20 +143,100 @@ pub fn main() {
                 "fragmented" => bench_fragmented(tets, steps),
                 _ => bench(&case, tets, steps, &material, &law, &layout),
             };
-            match result {
-                Ok(r) => {
-                    if json {
-                        println!("{}", r);
-                    } else {
-                        println!("{}", serde_json::to_string_pretty(&r).unwrap());
-                    }
-                    0
-                }
-                Err(e) => fail(&e),
-            }
+            print_bench(result, json)
         }
     };
     std::process::exit(code);
+}
+
+/// `fdem run`: run `script` (summaries printed unless `quiet`); returns the exit code.
+fn run_script(script: &Path, set: &[String], out: Option<PathBuf>, quiet: bool) -> i32 {
+    let overrides = match parse_sets(set) {
+        Err(e) => return fail(&e),
+        Ok(overrides) => overrides,
+    };
+    let options = RunOptions {
+        overrides,
+        out_dir: out,
+        quiet,
+        check_only: false,
+        progress: !quiet,
+    };
+    match script::run_file(script, options) {
+        Ok(report) => {
+            if !quiet {
+                for s in report.summaries() {
+                    print!("{s}");
+                }
+            }
+            0
+        }
+        Err(e) => fail(&e.to_string()),
+    }
+}
+
+/// `fdem check SCRIPT`: build the models up to their first run, one line each; the exit code.
+fn check_script(script: &Path, set: &[String]) -> i32 {
+    let overrides = match parse_sets(set) {
+        Err(e) => return fail(&e),
+        Ok(overrides) => overrides,
+    };
+    let options = RunOptions {
+        overrides,
+        check_only: true,
+        quiet: true,
+        ..Default::default()
+    };
+    match script::run_file(script, options) {
+        Ok(report) => {
+            for s in &report.sims {
+                print_checked_model(script, s);
+            }
+            if report.sims.is_empty() {
+                println!(
+                    "ok: {} parses and runs its setup; it creates no simulation",
+                    script.display()
+                );
+            }
+            0
+        }
+        Err(e) => fail(&e.to_string()),
+    }
+}
+
+/// Print one model's `fdem check` lines (mass in kg, dt in s); exit 1 if it cannot be prepared.
+fn print_checked_model(script: &Path, s: &SimHandle) {
+    let mut st = s.0.borrow_mut();
+    let ready = st.sim.prepare();
+    let sim = &st.sim;
+    println!(
+        "ok: model '{}': {} bodies, {} tets, {} nodes, mass {} kg",
+        st.name,
+        sim.bodies.len(),
+        sim.tets.len(),
+        sim.nodes.len(),
+        sig(sim.total_mass(), 6)
+    );
+    match (ready, &sim.dt_info) {
+        (Err(e), _) => std::process::exit(fail(&format!("{}: {e}", script.display()))),
+        (Ok(()), Some(i)) => println!("    {i}"),
+        _ => {}
+    }
+}
+
+/// Print a benchmark's JSON record (one line if `json`, else pretty); returns the exit code.
+fn print_bench(result: Result<serde_json::Value, String>, json: bool) -> i32 {
+    match result {
+        Ok(r) => {
+            if json {
+                println!("{}", r);
+            } else {
+                println!("{}", serde_json::to_string_pretty(&r).unwrap());
+            }
+            0
+        }
+        Err(e) => fail(&e),
+    }
 }
 
 /// `fdem check --mesh FILE`: import and check a mesh file; the summary (Ok) or the summary

@@ -19,37 +19,195 @@ pub fn encode_frame(
     extra: StressMeasure,
     encoding: Encoding,
 ) -> Result<Vec<u8>, String> {
-    let n = &sim.nodes;
-    let points: Vec<[f64; 3]> = n.x.iter().map(|p| [p.x, p.y, p.z]).collect();
-    let disp: Vec<[f64; 3]> =
-        n.x.iter()
-            .zip(&n.x0)
-            .map(|(x, x0)| [x.x - x0.x, x.y - x0.y, x.z - x0.z])
-            .collect();
-    let vel: Vec<[f64; 3]> = n.v.iter().map(|v| [v.x, v.y, v.z]).collect();
-    let stress_of = |measure: StressMeasure| -> Vec<[f64; 9]> {
-        (0..sim.tets.len())
-            .into_par_iter()
-            .map(|e| {
-                let f = deformation_gradient(&sim.tets, &n.x, e);
-                let s = sim.materials[sim.tets.material[e] as usize].stress(&f, measure);
-                [
-                    s[(0, 0)],
-                    s[(0, 1)],
-                    s[(0, 2)],
-                    s[(1, 0)],
-                    s[(1, 1)],
-                    s[(1, 2)],
-                    s[(2, 0)],
-                    s[(2, 1)],
-                    s[(2, 2)],
-                ]
-            })
-            .collect()
+    let data = FrameData::of(sim, extra);
+    let extra_name = format!("stress_{}", extra.name());
+    let frame = VtuFrame {
+        points: &data.points,
+        tets: &sim.tets.nodes,
+        triangles: &[],
+        point_data: data.point_fields(),
+        cell_data: data.cell_fields(&extra_name),
     };
-    let cauchy = stress_of(StressMeasure::Cauchy);
-    // Principal stresses σ1 ≥ σ2 ≥ σ3 (eigenvalues of the symmetric Cauchy stress).
-    let principal: Vec<[f64; 3]> = cauchy
+    encode_vtu_with(&frame, encoding)
+}
+
+/// The arrays of one frame of [`encode_frame`], owned here and lent to the [`VtuFrame`].
+struct FrameData {
+    /// Current node positions [m].
+    points: Vec<[f64; 3]>,
+    /// Node displacements from the reference positions [m].
+    displacement: Vec<[f64; 3]>,
+    /// Node velocities (half-step) [m/s].
+    velocity: Vec<[f64; 3]>,
+    /// Cauchy stress per tetrahedron, 9 components row-major [Pa].
+    cauchy: Vec<[f64; 9]>,
+    /// Principal stresses σ1 ≥ σ2 ≥ σ3 per tetrahedron [Pa].
+    principal: Vec<[f64; 3]>,
+    /// Von Mises stress per tetrahedron [Pa].
+    von_mises: Vec<f64>,
+    /// Body id per tetrahedron.
+    body: Vec<i32>,
+    /// Material id per tetrahedron.
+    material: Vec<i32>,
+    /// The `extra` stress measure per tetrahedron [Pa], unless it is Cauchy.
+    extra_stress: Option<Vec<[f64; 9]>>,
+    /// Largest joint damage per tetrahedron (empty without joints).
+    damage: Vec<f64>,
+    /// Fragment id per tetrahedron (empty without joints).
+    fragment: Vec<i32>,
+    /// Whether contact is enabled (then the two contact arrays are filled).
+    contact_on: bool,
+    /// Largest mean contact pressure per tetrahedron over the last step [Pa].
+    contact_pressure: Vec<f64>,
+    /// Contact force per node over the last step [N].
+    contact_force: Vec<[f64; 3]>,
+}
+
+impl FrameData {
+    /// Compute every array of the frame from the current state of `sim`.
+    fn of(sim: &Simulation, extra: StressMeasure) -> Self {
+        let n = &sim.nodes;
+        let points: Vec<[f64; 3]> = n.x.iter().map(|p| [p.x, p.y, p.z]).collect();
+        let displacement: Vec<[f64; 3]> =
+            n.x.iter()
+                .zip(&n.x0)
+                .map(|(x, x0)| [x.x - x0.x, x.y - x0.y, x.z - x0.z])
+                .collect();
+        let velocity: Vec<[f64; 3]> = n.v.iter().map(|v| [v.x, v.y, v.z]).collect();
+        let cauchy = stresses(sim, StressMeasure::Cauchy);
+        let principal = principal_stresses(&cauchy);
+        let von_mises: Vec<f64> = cauchy
+            .iter()
+            .map(|s| von_mises(&crate::math::Mat3::from_row_slice(s)))
+            .collect();
+        let body: Vec<i32> = sim.tets.body.iter().map(|&b| b as i32).collect();
+        let material: Vec<i32> = sim.tets.material.iter().map(|&m| m as i32).collect();
+        let extra_stress = (extra != StressMeasure::Cauchy).then(|| stresses(sim, extra));
+        let (damage, fragment) = joint_fields(sim);
+        let contact_on = sim.contact.is_enabled();
+        let (contact_pressure, contact_force) = if contact_on {
+            let force = sim.contact.node_forces(sim.nodes.len());
+            (
+                sim.contact.tet_pressures(sim.tets.len()),
+                force.iter().map(|f| [f.x, f.y, f.z]).collect(),
+            )
+        } else {
+            (Vec::new(), Vec::new())
+        };
+        FrameData {
+            points,
+            displacement,
+            velocity,
+            cauchy,
+            principal,
+            von_mises,
+            body,
+            material,
+            extra_stress,
+            damage,
+            fragment,
+            contact_on,
+            contact_pressure,
+            contact_force,
+        }
+    }
+
+    /// Point data: `displacement`, `velocity` and, with contact, `contact_force`.
+    fn point_fields(&self) -> Vec<Field<'_>> {
+        let mut fields = vec![
+            Field {
+                name: "displacement",
+                data: DataArray::VectorF64(&self.displacement),
+            },
+            Field {
+                name: "velocity",
+                data: DataArray::VectorF64(&self.velocity),
+            },
+        ];
+        if self.contact_on {
+            fields.push(Field {
+                name: "contact_force",
+                data: DataArray::VectorF64(&self.contact_force),
+            });
+        }
+        fields
+    }
+
+    /// Cell data in file order; the extra stress, if any, is named `extra_name`.
+    fn cell_fields<'a>(&'a self, extra_name: &'a str) -> Vec<Field<'a>> {
+        let mut fields = vec![
+            Field {
+                name: "stress",
+                data: DataArray::TensorF64(&self.cauchy),
+            },
+            Field {
+                name: "von_mises",
+                data: DataArray::ScalarF64(&self.von_mises),
+            },
+            Field {
+                name: "principal_stress",
+                data: DataArray::VectorF64(&self.principal),
+            },
+            Field {
+                name: "body",
+                data: DataArray::ScalarI32(&self.body),
+            },
+            Field {
+                name: "material",
+                data: DataArray::ScalarI32(&self.material),
+            },
+        ];
+        if !self.damage.is_empty() {
+            fields.push(Field {
+                name: "damage",
+                data: DataArray::ScalarF64(&self.damage),
+            });
+            fields.push(Field {
+                name: "fragment",
+                data: DataArray::ScalarI32(&self.fragment),
+            });
+        }
+        if self.contact_on {
+            fields.push(Field {
+                name: "contact_pressure",
+                data: DataArray::ScalarF64(&self.contact_pressure),
+            });
+        }
+        if let Some(s) = &self.extra_stress {
+            fields.push(Field {
+                name: extra_name,
+                data: DataArray::TensorF64(s),
+            });
+        }
+        fields
+    }
+}
+
+/// Stress per tetrahedron in the given measure, 9 components row-major [Pa].
+fn stresses(sim: &Simulation, measure: StressMeasure) -> Vec<[f64; 9]> {
+    (0..sim.tets.len())
+        .into_par_iter()
+        .map(|e| {
+            let f = deformation_gradient(&sim.tets, &sim.nodes.x, e);
+            let s = sim.materials[sim.tets.material[e] as usize].stress(&f, measure);
+            [
+                s[(0, 0)],
+                s[(0, 1)],
+                s[(0, 2)],
+                s[(1, 0)],
+                s[(1, 1)],
+                s[(1, 2)],
+                s[(2, 0)],
+                s[(2, 1)],
+                s[(2, 2)],
+            ]
+        })
+        .collect()
+}
+
+/// Principal stresses σ1 ≥ σ2 ≥ σ3 [Pa] (eigenvalues of each symmetric Cauchy stress).
+fn principal_stresses(cauchy: &[[f64; 9]]) -> Vec<[f64; 3]> {
+    cauchy
         .par_iter()
         .map(|s| {
             let mut e: [f64; 3] = crate::math::Mat3::from_row_slice(s)
@@ -58,115 +216,26 @@ pub fn encode_frame(
             e.sort_by(|a, b| b.total_cmp(a));
             e
         })
-        .collect();
-    let vm: Vec<f64> = cauchy
-        .iter()
-        .map(|s| von_mises(&crate::math::Mat3::from_row_slice(s)))
-        .collect();
-    let body: Vec<i32> = sim.tets.body.iter().map(|&b| b as i32).collect();
-    let material: Vec<i32> = sim.tets.material.iter().map(|&m| m as i32).collect();
-    let extra_stress = (extra != StressMeasure::Cauchy).then(|| stress_of(extra));
-    // With joints: the largest damage over each tet's joints, and the fragment id.
-    let (damage, fragment): (Vec<f64>, Vec<i32>) = if sim.joints.is_empty() {
-        (Vec::new(), Vec::new())
-    } else {
-        let mut d = vec![0.0f64; sim.tets.len()];
-        for (j, tets) in sim.joints.tets.iter().enumerate() {
-            let dj = sim.joints.state[j]
-                .iter()
-                .map(|p| p.damage)
-                .fold(0.0, f64::max);
-            for &t in tets {
-                d[t as usize] = d[t as usize].max(dj);
-            }
-        }
-        let frag = crate::fracture::fragments(&sim.tets.nodes, &sim.joints, sim.nodes.len());
-        (d, frag.into_iter().map(|f| f as i32).collect())
-    };
-    let extra_name = format!("stress_{}", extra.name());
-    let mut cell_data = vec![
-        Field {
-            name: "stress",
-            data: DataArray::TensorF64(&cauchy),
-        },
-        Field {
-            name: "von_mises",
-            data: DataArray::ScalarF64(&vm),
-        },
-        Field {
-            name: "principal_stress",
-            data: DataArray::VectorF64(&principal),
-        },
-        Field {
-            name: "body",
-            data: DataArray::ScalarI32(&body),
-        },
-        Field {
-            name: "material",
-            data: DataArray::ScalarI32(&material),
-        },
-    ];
-    if !damage.is_empty() {
-        cell_data.push(Field {
-            name: "damage",
-            data: DataArray::ScalarF64(&damage),
-        });
-        cell_data.push(Field {
-            name: "fragment",
-            data: DataArray::ScalarI32(&fragment),
-        });
+        .collect()
+}
+
+/// Per tet: the largest damage of its joints and its fragment id (both empty without joints).
+fn joint_fields(sim: &Simulation) -> (Vec<f64>, Vec<i32>) {
+    if sim.joints.is_empty() {
+        return (Vec::new(), Vec::new());
     }
-    let contact_on = sim.contact.is_enabled();
-    let contact_pressure = if contact_on {
-        sim.contact.tet_pressures(sim.tets.len())
-    } else {
-        Vec::new()
-    };
-    if contact_on {
-        cell_data.push(Field {
-            name: "contact_pressure",
-            data: DataArray::ScalarF64(&contact_pressure),
-        });
-    }
-    let contact_force: Vec<[f64; 3]> = if contact_on {
-        sim.contact
-            .node_forces(sim.nodes.len())
+    let mut d = vec![0.0f64; sim.tets.len()];
+    for (j, tets) in sim.joints.tets.iter().enumerate() {
+        let dj = sim.joints.state[j]
             .iter()
-            .map(|f| [f.x, f.y, f.z])
-            .collect()
-    } else {
-        Vec::new()
-    };
-    if let Some(s) = &extra_stress {
-        cell_data.push(Field {
-            name: &extra_name,
-            data: DataArray::TensorF64(s),
-        });
+            .map(|p| p.damage)
+            .fold(0.0, f64::max);
+        for &t in tets {
+            d[t as usize] = d[t as usize].max(dj);
+        }
     }
-    let frame = VtuFrame {
-        points: &points,
-        tets: &sim.tets.nodes,
-        triangles: &[],
-        point_data: vec![
-            Field {
-                name: "displacement",
-                data: DataArray::VectorF64(&disp),
-            },
-            Field {
-                name: "velocity",
-                data: DataArray::VectorF64(&vel),
-            },
-        ],
-        cell_data,
-    };
-    let mut frame = frame;
-    if contact_on {
-        frame.point_data.push(Field {
-            name: "contact_force",
-            data: DataArray::VectorF64(&contact_force),
-        });
-    }
-    encode_vtu_with(&frame, encoding)
+    let frag = crate::fracture::fragments(&sim.tets.nodes, &sim.joints, sim.nodes.len());
+    (d, frag.into_iter().map(|f| f as i32).collect())
 }
 
 /// Encode the crack surface as `.vtu` bytes: one triangle per broken joint (face A at its

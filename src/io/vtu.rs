@@ -194,86 +194,16 @@ pub fn encode_vtu_into_with(
 ) -> Result<(), String> {
     out.clear();
     let n_points = frame.points.len();
-    if !frame.tets.is_empty() && !frame.triangles.is_empty() {
-        return Err("a frame holds either tetrahedra or triangles, not both".into());
-    }
-    let (stride, cell_type, connectivity): (usize, u8, &[u32]) = if frame.triangles.is_empty() {
-        (4, VTK_TETRA, frame.tets.as_flattened())
-    } else {
-        (3, VTK_TRIANGLE, frame.triangles.as_flattened())
-    };
-    let n_cells = connectivity.len() / stride;
+    let cells = Cells::of(frame)?;
     validate_fields("point", &frame.point_data, n_points)?;
-    validate_fields("cell", &frame.cell_data, n_cells)?;
+    validate_fields("cell", &frame.cell_data, cells.count)?;
 
-    // Header, computing each block's offset into the appended data as we go.
-    let mut xml =
-        String::with_capacity(1024 + 160 * (frame.point_data.len() + frame.cell_data.len()));
-    let mut offset: usize = 0;
-    let mut blocks: Vec<usize> =
-        Vec::with_capacity(4 + frame.point_data.len() + frame.cell_data.len());
-    let mut data_array = |xml: &mut String, ty: &str, name: &str, ncomp: usize, nbytes: usize| {
-        xml.push_str("        <DataArray type=\"");
-        xml.push_str(ty);
-        xml.push_str("\" Name=\"");
-        push_escaped(xml, name);
-        xml.push('"');
-        if ncomp != 1 {
-            let _ = write!(xml, " NumberOfComponents=\"{ncomp}\"");
-        }
-        let _ = writeln!(xml, " format=\"appended\" offset=\"{offset}\"/>");
-        blocks.push(8 + nbytes);
-        offset += match encoding {
-            Encoding::Raw => 8 + nbytes,
-            Encoding::Base64 => 4 * (8 + nbytes).div_ceil(3),
-        };
-    };
-
-    xml.push_str("<?xml version=\"1.0\"?>\n");
-    xml.push_str(
-        "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n",
-    );
-    xml.push_str("  <UnstructuredGrid>\n");
-    let _ = writeln!(
-        xml,
-        "    <Piece NumberOfPoints=\"{n_points}\" NumberOfCells=\"{n_cells}\">"
-    );
-    for (tag, fields) in [
-        ("PointData", &frame.point_data),
-        ("CellData", &frame.cell_data),
-    ] {
-        let _ = writeln!(xml, "      <{tag}>");
-        for f in fields.iter() {
-            data_array(
-                &mut xml,
-                f.data.vtk_type(),
-                f.name,
-                f.data.components(),
-                f.data.byte_len(),
-            );
-        }
-        let _ = writeln!(xml, "      </{tag}>");
-    }
-    xml.push_str("      <Points>\n");
-    data_array(&mut xml, "Float64", "Points", 3, n_points * 24);
-    xml.push_str("      </Points>\n");
-    xml.push_str("      <Cells>\n");
-    data_array(&mut xml, "Int64", "connectivity", 1, n_cells * stride * 8);
-    data_array(&mut xml, "Int64", "offsets", 1, n_cells * 8);
-    data_array(&mut xml, "UInt8", "types", 1, n_cells);
-    xml.push_str("      </Cells>\n");
-    xml.push_str("    </Piece>\n");
-    xml.push_str("  </UnstructuredGrid>\n");
-    let _ = write!(
-        xml,
-        "  <AppendedData encoding=\"{}\">\n   _",
-        encoding.name()
-    );
-    let binary_len: usize = blocks.iter().sum();
+    let header = xml_header(frame, &cells, encoding);
+    let binary_len: usize = header.blocks.iter().sum();
     const FOOTER: &[u8] = b"\n  </AppendedData>\n</VTKFile>\n";
 
-    out.reserve_exact(xml.len() + binary_len + FOOTER.len());
-    out.extend_from_slice(xml.as_bytes());
+    out.reserve_exact(header.xml.len() + binary_len + FOOTER.len());
+    out.extend_from_slice(header.xml.as_bytes());
     let binary_start = out.len();
 
     for f in frame.point_data.iter().chain(frame.cell_data.iter()) {
@@ -284,13 +214,155 @@ pub fn encode_vtu_into_with(
     put_header(out, n_points * 24);
     put_f64s(out, frame.points.as_flattened());
 
-    put_header(out, n_cells * stride * 8);
+    if let Err(e) = put_connectivity(out, &cells, n_points) {
+        out.clear();
+        return Err(e);
+    }
+    put_offsets_and_types(out, &cells);
+
+    debug_assert_eq!(out.len() - binary_start, binary_len);
+    if encoding == Encoding::Base64 {
+        let raw = out.split_off(binary_start);
+        out.reserve_exact(header.encoded_len + FOOTER.len());
+        let mut at = 0;
+        for len in header.blocks {
+            base64_into(&raw[at..at + len], out);
+            at += len;
+        }
+    }
+    out.extend_from_slice(FOOTER);
+    Ok(())
+}
+
+/// The cells of a frame: tetrahedra or triangles, as one flat node list.
+struct Cells<'a> {
+    /// Nodes per cell: 4 (tetrahedra) or 3 (triangles).
+    stride: usize,
+    /// VTK cell type code.
+    cell_type: u8,
+    /// Node indices of all cells, `stride` per cell.
+    connectivity: &'a [u32],
+    /// Number of cells.
+    count: usize,
+}
+
+impl<'a> Cells<'a> {
+    /// The cells of `frame`; an error if it holds both tetrahedra and triangles.
+    fn of(frame: &VtuFrame<'a>) -> Result<Self, String> {
+        if !frame.tets.is_empty() && !frame.triangles.is_empty() {
+            return Err("a frame holds either tetrahedra or triangles, not both".into());
+        }
+        let (stride, cell_type, connectivity): (usize, u8, &[u32]) = if frame.triangles.is_empty() {
+            (4, VTK_TETRA, frame.tets.as_flattened())
+        } else {
+            (3, VTK_TRIANGLE, frame.triangles.as_flattened())
+        };
+        Ok(Cells {
+            stride,
+            cell_type,
+            connectivity,
+            count: connectivity.len() / stride,
+        })
+    }
+}
+
+/// The XML part of a `.vtu` file, up to the `_` that starts the appended data.
+struct XmlHeader {
+    /// The XML text.
+    xml: String,
+    /// Bytes of each appended block before encoding (8-byte header + data), in file order.
+    blocks: Vec<usize>,
+    /// Bytes of all appended blocks after encoding.
+    encoded_len: usize,
+}
+
+impl XmlHeader {
+    /// Append one `<DataArray>` element with its offset, and account for its `nbytes` block.
+    fn data_array(
+        &mut self,
+        encoding: Encoding,
+        ty: &str,
+        name: &str,
+        ncomp: usize,
+        nbytes: usize,
+    ) {
+        let xml = &mut self.xml;
+        xml.push_str("        <DataArray type=\"");
+        xml.push_str(ty);
+        xml.push_str("\" Name=\"");
+        push_escaped(xml, name);
+        xml.push('"');
+        if ncomp != 1 {
+            let _ = write!(xml, " NumberOfComponents=\"{ncomp}\"");
+        }
+        let offset = self.encoded_len;
+        let _ = writeln!(xml, " format=\"appended\" offset=\"{offset}\"/>");
+        self.blocks.push(8 + nbytes);
+        self.encoded_len += match encoding {
+            Encoding::Raw => 8 + nbytes,
+            Encoding::Base64 => 4 * (8 + nbytes).div_ceil(3),
+        };
+    }
+}
+
+/// Write the XML header, computing each block's offset into the appended data as it goes.
+fn xml_header(frame: &VtuFrame, cells: &Cells, encoding: Encoding) -> XmlHeader {
+    let (n_points, n_cells) = (frame.points.len(), cells.count);
+    let n_fields = frame.point_data.len() + frame.cell_data.len();
+    let mut h = XmlHeader {
+        xml: String::with_capacity(1024 + 160 * n_fields),
+        blocks: Vec::with_capacity(4 + n_fields),
+        encoded_len: 0,
+    };
+    h.xml.push_str("<?xml version=\"1.0\"?>\n");
+    h.xml.push_str(
+        "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n",
+    );
+    h.xml.push_str("  <UnstructuredGrid>\n");
+    let _ = writeln!(
+        h.xml,
+        "    <Piece NumberOfPoints=\"{n_points}\" NumberOfCells=\"{n_cells}\">"
+    );
+    for (tag, fields) in [
+        ("PointData", &frame.point_data),
+        ("CellData", &frame.cell_data),
+    ] {
+        let _ = writeln!(h.xml, "      <{tag}>");
+        for f in fields.iter() {
+            let (ty, ncomp, nbytes) = (f.data.vtk_type(), f.data.components(), f.data.byte_len());
+            h.data_array(encoding, ty, f.name, ncomp, nbytes);
+        }
+        let _ = writeln!(h.xml, "      </{tag}>");
+    }
+    h.xml.push_str("      <Points>\n");
+    h.data_array(encoding, "Float64", "Points", 3, n_points * 24);
+    h.xml.push_str("      </Points>\n");
+    h.xml.push_str("      <Cells>\n");
+    let connectivity_bytes = n_cells * cells.stride * 8;
+    h.data_array(encoding, "Int64", "connectivity", 1, connectivity_bytes);
+    h.data_array(encoding, "Int64", "offsets", 1, n_cells * 8);
+    h.data_array(encoding, "UInt8", "types", 1, n_cells);
+    h.xml.push_str("      </Cells>\n");
+    h.xml.push_str("    </Piece>\n");
+    h.xml.push_str("  </UnstructuredGrid>\n");
+    let _ = write!(
+        h.xml,
+        "  <AppendedData encoding=\"{}\">\n   _",
+        encoding.name()
+    );
+    h
+}
+
+/// Append the connectivity block (`Int64`); an error if a node index is `>= n_points`.
+fn put_connectivity(out: &mut Vec<u8>, cells: &Cells, n_points: usize) -> Result<(), String> {
+    let (stride, connectivity) = (cells.stride, cells.connectivity);
+    put_header(out, cells.count * stride * 8);
     let mut max_index: u32 = 0;
     for &i in connectivity {
         max_index = max_index.max(i);
         out.extend_from_slice(&i64::from(i).to_le_bytes());
     }
-    if n_cells > 0 && max_index as usize >= n_points {
+    if cells.count > 0 && max_index as usize >= n_points {
         let c = connectivity
             .iter()
             .position(|&i| i as usize >= n_points)
@@ -298,32 +370,22 @@ pub fn encode_vtu_into_with(
             / stride;
         let cell = &connectivity[stride * c..stride * (c + 1)];
         let kind = if stride == 4 { "tets" } else { "triangles" };
-        out.clear();
         return Err(format!(
             "{kind}[{c}] = {cell:?} refers to a node index out of range: there are {n_points} points"
         ));
     }
-
-    put_header(out, n_cells * 8);
-    for c in 1..=n_cells as i64 {
-        out.extend_from_slice(&(stride as i64 * c).to_le_bytes());
-    }
-
-    put_header(out, n_cells);
-    out.resize(out.len() + n_cells, cell_type);
-
-    debug_assert_eq!(out.len() - binary_start, binary_len);
-    if encoding == Encoding::Base64 {
-        let raw = out.split_off(binary_start);
-        out.reserve_exact(offset + FOOTER.len());
-        let mut at = 0;
-        for len in blocks {
-            base64_into(&raw[at..at + len], out);
-            at += len;
-        }
-    }
-    out.extend_from_slice(FOOTER);
     Ok(())
+}
+
+/// Append the offsets block (`Int64`, end of each cell) and the types block (`UInt8`).
+fn put_offsets_and_types(out: &mut Vec<u8>, cells: &Cells) {
+    put_header(out, cells.count * 8);
+    for c in 1..=cells.count as i64 {
+        out.extend_from_slice(&(cells.stride as i64 * c).to_le_bytes());
+    }
+
+    put_header(out, cells.count);
+    out.resize(out.len() + cells.count, cells.cell_type);
 }
 
 /// Standard base64 (RFC 4648, with padding) of `bytes`, appended to `out`.

@@ -417,9 +417,42 @@ struct Raw {
     warnings: Vec<String>,
 }
 
+/// The sections met so far while reading a file.
+#[derive(Default)]
+struct Seen {
+    /// `$Entities` (MSH 4.1): physical groups of each (dimension, entity tag).
+    entities: Option<HashMap<(u8, i64), Vec<i64>>>,
+    /// `$Nodes`: index into `Raw::x` of each node tag.
+    node_index: Option<HashMap<u64, u32>>,
+    /// Whether `$Elements` was read.
+    have_elements: bool,
+}
+
 impl<'a> Reader<'a> {
+    /// Read the whole file: the `$MeshFormat` header, then every section up to the end.
     fn read_file(&mut self) -> R<Raw> {
         let mut raw = Raw::default();
+        let (version, v4) = self.mesh_format()?;
+        raw.version = version;
+        let mut seen = Seen::default();
+        loop {
+            self.skip_ws();
+            if self.pos >= self.b.len() {
+                break;
+            }
+            self.section(&mut raw, &mut seen, v4)?;
+        }
+        if seen.node_index.is_none() {
+            return Err(self.err_at_file("missing section $Nodes"));
+        }
+        if !seen.have_elements {
+            return Err(self.err_at_file("missing section $Elements"));
+        }
+        Ok(raw)
+    }
+
+    /// Read the `$MeshFormat` section: the version ("4.1", "2.2", …) and whether it is 4.1.
+    fn mesh_format(&mut self) -> R<(String, bool)> {
         self.skip_ws();
         if !self.b[self.pos..].starts_with(b"$MeshFormat") {
             return Err(self.err_at(
@@ -431,53 +464,10 @@ impl<'a> Reader<'a> {
         let (version, vat) = self.token("the format version (4.1 or 2.2)")?;
         let (file_type, fat) = self.ascii_int("the file type (0 = ASCII, 1 = binary)")?;
         let (data_size, dat) = self.ascii_int("the data size (size of size_t)")?;
-        let v4 = match version {
-            "4.1" => true,
-            v if v.starts_with("2.") => false,
-            "4" | "4.0" => {
-                return Err(self.err_at(
-                    vat,
-                    "MSH 4.0 is not supported; save the mesh as MSH 4.1 (gmsh -format msh41) or 2.2 (-format msh22)",
-                ))
-            }
-            v => {
-                return Err(self.err_at(
-                    vat,
-                    format!("unsupported MSH version '{v}'; fdem reads 4.1 (ASCII or binary) and 2.2 (ASCII)"),
-                ))
-            }
-        };
-        raw.version = version.to_string();
+        let v4 = self.is_v4(version, vat)?;
         match file_type {
             0 => {}
-            1 if v4 => {
-                if data_size != 4 && data_size != 8 {
-                    return Err(self.err_at(
-                        dat,
-                        format!("data size {data_size} is not supported (4 or 8 bytes)"),
-                    ));
-                }
-                self.size_t = data_size as usize;
-                // The integer 1 in binary after the header line tells the byte order.
-                if self.pos < self.b.len() && self.b[self.pos] == b'\r' {
-                    self.pos += 1;
-                }
-                if self.pos < self.b.len() && self.b[self.pos] == b'\n' {
-                    self.pos += 1;
-                }
-                let at = self.pos;
-                let one = self.bytes(4, "the binary integer 1 (byte-order mark)")?;
-                self.binary = true;
-                self.big_endian = match one {
-                    [1, 0, 0, 0] => false,
-                    [0, 0, 0, 1] => true,
-                    _ => {
-                        return Err(
-                            self.err_at(at, "bad byte-order mark: expected the binary integer 1")
-                        )
-                    }
-                };
-            }
+            1 if v4 => self.binary_header(data_size, dat)?,
             1 => return Err(self.err_at(
                 fat,
                 "binary MSH 2.2 is not supported; save as MSH 4.1 (binary or ASCII) or 2.2 ASCII",
@@ -489,89 +479,128 @@ impl<'a> Reader<'a> {
             }
         }
         self.expect_end("MeshFormat")?;
+        Ok((version.to_string(), v4))
+    }
 
-        let mut entities: Option<HashMap<(u8, i64), Vec<i64>>> = None;
-        let mut node_index: Option<HashMap<u64, u32>> = None;
-        let mut have_elements = false;
-        loop {
-            self.skip_ws();
-            if self.pos >= self.b.len() {
-                break;
+    /// Whether `version` (read at `at`) is 4.1 (true) or 2.x (false); others are refused.
+    fn is_v4(&self, version: &str, at: usize) -> R<bool> {
+        match version {
+            "4.1" => Ok(true),
+            v if v.starts_with("2.") => Ok(false),
+            "4" | "4.0" => Err(self.err_at(
+                at,
+                "MSH 4.0 is not supported; save the mesh as MSH 4.1 (gmsh -format msh41) or 2.2 (-format msh22)",
+            )),
+            v => Err(self.err_at(
+                at,
+                format!("unsupported MSH version '{v}'; fdem reads 4.1 (ASCII or binary) and 2.2 (ASCII)"),
+            )),
+        }
+    }
+
+    /// Switch to binary: `size_t` of `data_size` bytes, byte order from the integer 1 after.
+    fn binary_header(&mut self, data_size: i64, at: usize) -> R<()> {
+        if data_size != 4 && data_size != 8 {
+            return Err(self.err_at(
+                at,
+                format!("data size {data_size} is not supported (4 or 8 bytes)"),
+            ));
+        }
+        self.size_t = data_size as usize;
+        // The integer 1 in binary after the header line tells the byte order.
+        self.skip_line_end();
+        let at = self.pos;
+        let one = self.bytes(4, "the binary integer 1 (byte-order mark)")?;
+        self.binary = true;
+        self.big_endian = match one {
+            [1, 0, 0, 0] => false,
+            [0, 0, 0, 1] => true,
+            _ => return Err(self.err_at(at, "bad byte-order mark: expected the binary integer 1")),
+        };
+        Ok(())
+    }
+
+    /// Step over one line end (`\n` or `\r\n`) if the reader is at one.
+    fn skip_line_end(&mut self) {
+        if self.b.get(self.pos) == Some(&b'\r') {
+            self.pos += 1;
+        }
+        if self.b.get(self.pos) == Some(&b'\n') {
+            self.pos += 1;
+        }
+    }
+
+    /// Read one section, from its `$Name` header to its `$EndName`, into `raw` and `seen`.
+    fn section(&mut self, raw: &mut Raw, seen: &mut Seen, v4: bool) -> R<()> {
+        let (t, at) = self.token("a section")?;
+        let Some(name) = t.strip_prefix('$') else {
+            return Err(self.err_at(
+                at,
+                format!("expected a section header such as $Nodes, found '{t}'"),
+            ));
+        };
+        let name = name.to_string();
+        if self.binary {
+            // Binary data starts right after the header line's newline.
+            self.skip_line_end();
+        }
+        match name.as_str() {
+            "PhysicalNames" => {
+                self.once(!raw.names.is_empty(), &name, at)?;
+                self.physical_names(raw)
             }
-            let (t, at) = self.token("a section")?;
-            let Some(name) = t.strip_prefix('$') else {
-                return Err(self.err_at(
-                    at,
-                    format!("expected a section header such as $Nodes, found '{t}'"),
-                ));
-            };
-            let name = name.to_string();
-            if self.binary {
-                // Binary data starts right after the header line's newline.
-                if self.b.get(self.pos) == Some(&b'\r') {
-                    self.pos += 1;
-                }
-                if self.b.get(self.pos) == Some(&b'\n') {
-                    self.pos += 1;
-                }
+            "Entities" if v4 => {
+                self.once(seen.entities.is_some(), &name, at)?;
+                seen.entities = Some(self.entities()?);
+                Ok(())
             }
-            let once = |seen: bool, r: &Self| -> R<()> {
-                if seen {
-                    Err(r.err_at(at, format!("section ${name} appears twice")))
+            "PartitionedEntities" => Err(self.err_at(
+                at,
+                "partitioned meshes are not supported; save the mesh unpartitioned",
+            )),
+            "Nodes" => {
+                self.once(seen.node_index.is_some(), &name, at)?;
+                seen.node_index = Some(if v4 {
+                    self.nodes_v4(raw)?
                 } else {
-                    Ok(())
-                }
-            };
-            match name.as_str() {
-                "PhysicalNames" => {
-                    once(!raw.names.is_empty(), self)?;
-                    self.physical_names(&mut raw)?
-                }
-                "Entities" if v4 => {
-                    once(entities.is_some(), self)?;
-                    entities = Some(self.entities()?);
-                }
-                "PartitionedEntities" => {
-                    return Err(self.err_at(
-                        at,
-                        "partitioned meshes are not supported; save the mesh unpartitioned",
-                    ))
-                }
-                "Nodes" => {
-                    once(node_index.is_some(), self)?;
-                    node_index = Some(if v4 {
-                        self.nodes_v4(&mut raw)?
-                    } else {
-                        self.nodes_v2(&mut raw)?
-                    });
-                }
-                "Elements" => {
-                    once(have_elements, self)?;
-                    let Some(index) = node_index.as_ref() else {
-                        return Err(self.err_at(at, "$Elements comes before $Nodes"));
-                    };
-                    if v4 {
-                        let empty = HashMap::new();
-                        let ent = entities.as_ref().unwrap_or(&empty);
-                        self.elements_v4(&mut raw, index, ent)?;
-                    } else {
-                        self.elements_v2(&mut raw, index)?;
-                    }
-                    have_elements = true;
-                }
-                n if n.starts_with("End") => {
-                    return Err(self.err_at(at, format!("${n} without its section start")))
-                }
-                _ => self.skip_section(&name, at)?,
+                    self.nodes_v2(raw)?
+                });
+                Ok(())
             }
+            "Elements" => {
+                self.once(seen.have_elements, &name, at)?;
+                self.elements(raw, seen, v4, at)
+            }
+            n if n.starts_with("End") => {
+                Err(self.err_at(at, format!("${n} without its section start")))
+            }
+            _ => self.skip_section(&name, at),
         }
-        if node_index.is_none() {
-            return Err(self.err_at_file("missing section $Nodes"));
+    }
+
+    /// Refuse section `$name` (header at `at`) if it was `seen` before.
+    fn once(&self, seen: bool, name: &str, at: usize) -> R<()> {
+        if seen {
+            Err(self.err_at(at, format!("section ${name} appears twice")))
+        } else {
+            Ok(())
         }
-        if !have_elements {
-            return Err(self.err_at_file("missing section $Elements"));
+    }
+
+    /// Read the `$Elements` section (header at `at`), which needs `$Nodes` read before.
+    fn elements(&mut self, raw: &mut Raw, seen: &mut Seen, v4: bool, at: usize) -> R<()> {
+        let Some(index) = seen.node_index.as_ref() else {
+            return Err(self.err_at(at, "$Elements comes before $Nodes"));
+        };
+        if v4 {
+            let empty = HashMap::new();
+            let ent = seen.entities.as_ref().unwrap_or(&empty);
+            self.elements_v4(raw, index, ent)?;
+        } else {
+            self.elements_v2(raw, index)?;
         }
-        Ok(raw)
+        seen.have_elements = true;
+        Ok(())
     }
 
     fn err_at_file(&self, msg: &str) -> GmshError {
@@ -882,25 +911,56 @@ impl<'a> Reader<'a> {
 // ─── From the file's content to a Mesh with sets ────────────────────────────────
 
 impl Raw {
-    fn build(self, r: &Reader) -> R<Imported> {
+    /// Turn the file's content into the mesh, its named sets and the reader's warnings.
+    fn build(mut self, r: &Reader) -> R<Imported> {
         let format = format!(
             "MSH {} {}",
             self.version,
             if r.binary { "binary" } else { "ASCII" }
         );
-        let mut warnings = self.warnings;
+        let mut warnings = std::mem::take(&mut self.warnings);
         // Tetrahedra, with their element tags for messages.
         let tets_raw: Vec<&RawElement> = self.elements.iter().filter(|e| e.kind == 4).collect();
         if tets_raw.is_empty() {
-            return Err(GmshError {
-                file: r.file.to_string(),
-                place: Place::File,
-                message: "the file has no 4-node tetrahedra (element type 4): mesh the volume in 3D (gmsh -3) and, if physical groups are defined, include the volume in one".into(),
-            });
+            return Err(r.err_at_file("the file has no 4-node tetrahedra (element type 4): mesh the volume in 3D (gmsh -3) and, if physical groups are defined, include the volume in one"));
         }
-        // Keep nodes used by tetrahedra, in file order.
+        let (nodes, new_id) = self.used_nodes(&tets_raw, &mut warnings);
+        let tets: Vec<[u32; 4]> = tets_raw
+            .iter()
+            .map(|e| [0, 1, 2, 3].map(|k| new_id[e.nodes[k] as usize]))
+            .collect();
+        let mut mesh = Mesh::new(nodes, tets);
+        let fixed = mesh.fix_orientation();
+        if fixed > 0 {
+            warnings.push(format!(
+                "{fixed} of {} tetrahedra had left-handed node order (negative volume) and were reordered (two nodes swapped)",
+                mesh.tets.len()
+            ));
+        }
+        self.fill_sets(r, &mut mesh, &tets_raw, &new_id)?;
+        // Named groups that hold no element of the file.
+        for ((dim, tag), name) in &self.names {
+            if !mesh.sets.names().iter().any(|n| n == name) {
+                warnings.push(format!(
+                    "physical group '{name}' (dimension {dim}, tag {tag}) has no elements in the file"
+                ));
+            }
+        }
+        Ok(Imported {
+            mesh,
+            warnings,
+            format,
+        })
+    }
+
+    /// Nodes used by tetrahedra and each file node's new index (`u32::MAX`: dropped, warned).
+    fn used_nodes(
+        &self,
+        tets_raw: &[&RawElement],
+        warnings: &mut Vec<String>,
+    ) -> (Vec<Vec3>, Vec<u32>) {
         let mut used = vec![false; self.x.len()];
-        for e in &tets_raw {
+        for e in tets_raw {
             for &n in &e.nodes {
                 used[n as usize] = true;
             }
@@ -926,32 +986,34 @@ impl Raw {
                 if dropped > 5 { ", …" } else { "" }
             ));
         }
-        let tets: Vec<[u32; 4]> = tets_raw
-            .iter()
-            .map(|e| [0, 1, 2, 3].map(|k| new_id[e.nodes[k] as usize]))
-            .collect();
-        let mut mesh = Mesh::new(nodes, tets);
-        let fixed = mesh.fix_orientation();
-        if fixed > 0 {
-            warnings.push(format!(
-                "{fixed} of {} tetrahedra had left-handed node order (negative volume) and were reordered (two nodes swapped)",
-                mesh.tets.len()
-            ));
-        }
+        (nodes, new_id)
+    }
 
-        // Physical groups → sets.
-        let group_name = |g: &(u8, i64)| -> String {
-            self.names
-                .get(g)
-                .cloned()
-                .unwrap_or_else(|| format!("physical_{}", g.1))
-        };
+    /// The name of physical group `g`: its `$PhysicalNames` entry or `physical_<tag>`.
+    fn group_name(&self, g: &(u8, i64)) -> String {
+        self.names
+            .get(g)
+            .cloned()
+            .unwrap_or_else(|| format!("physical_{}", g.1))
+    }
+
+    /// Physical groups → the element, face and node sets of `mesh`.
+    fn fill_sets(
+        &self,
+        r: &Reader,
+        mesh: &mut Mesh,
+        tets_raw: &[&RawElement],
+        new_id: &[u32],
+    ) -> R<()> {
         let mut elements: BTreeMap<String, BTreeSet<u32>> = BTreeMap::new();
         let mut node_sets: BTreeMap<String, BTreeSet<u32>> = BTreeMap::new();
         let mut faces: BTreeMap<String, BTreeSet<(u32, u8)>> = BTreeMap::new();
         for (t, e) in tets_raw.iter().enumerate() {
             for g in &e.groups {
-                elements.entry(group_name(g)).or_default().insert(t as u32);
+                elements
+                    .entry(self.group_name(g))
+                    .or_default()
+                    .insert(t as u32);
             }
         }
         // Tet faces by sorted node triple (sorted, searched by bisection).
@@ -960,7 +1022,7 @@ impl Raw {
             .iter()
             .any(|e| e.kind != 4 && e.groups.iter().any(|g| g.0 == 2));
         let all_faces = if needs_faces {
-            super::checks::sorted_faces(&mesh, &[])
+            super::checks::sorted_faces(mesh, &[])
         } else {
             Vec::new()
         };
@@ -969,70 +1031,11 @@ impl Raw {
             .iter()
             .filter(|e| e.kind != 4 && !e.groups.is_empty())
         {
-            let (_, dim, meaning) = element_type(e.kind).expect("checked when read");
-            let names: Vec<String> = e.groups.iter().map(group_name).collect();
-            let mut ids = Vec::with_capacity(e.nodes.len());
-            for &n in &e.nodes {
-                let id = new_id[n as usize];
-                if id == u32::MAX {
-                    return Err(r.err_at(
-                        e.at,
-                        format!(
-                            "element {} ({meaning}) of physical group '{}' uses node {}, which belongs to no tetrahedron",
-                            e.tag, names[0], self.node_tags[n as usize]
-                        ),
-                    ));
-                }
-                ids.push(id);
-            }
+            let (_, dim, _) = element_type(e.kind).expect("checked when read");
+            let names: Vec<String> = e.groups.iter().map(|g| self.group_name(g)).collect();
+            let ids = self.mesh_nodes(r, e, &names[0], new_id)?;
             if dim == 2 {
-                if e.kind != 2 {
-                    return Err(r.err_at(
-                        e.at,
-                        format!("element {} ({meaning}) of surface group '{}' cannot be a face of a 4-node tetrahedron; only 3-node triangles (type 2) are accepted in surface groups", e.tag, names[0]),
-                    ));
-                }
-                let mut k = [ids[0], ids[1], ids[2]];
-                k.sort_unstable();
-                let lo = all_faces.partition_point(|f| f.0 < k);
-                let owners: Vec<(u32, u8)> = all_faces[lo..]
-                    .iter()
-                    .take_while(|f| f.0 == k)
-                    .map(|f| (f.1, f.2))
-                    .collect();
-                if owners.is_empty() {
-                    let c = (mesh.nodes[ids[0] as usize]
-                        + mesh.nodes[ids[1] as usize]
-                        + mesh.nodes[ids[2] as usize])
-                        / 3.0;
-                    return Err(r.err_at(
-                        e.at,
-                        format!(
-                            "triangle element {} (nodes {}, {}, {}) of surface group '{}' at ({:.6}, {:.6}, {:.6}) is not a face of any tetrahedron",
-                            e.tag, self.node_tags[e.nodes[0] as usize], self.node_tags[e.nodes[1] as usize], self.node_tags[e.nodes[2] as usize],
-                            names[0], c.x, c.y, c.z
-                        ),
-                    ));
-                }
-                // On the boundary the face has one tetrahedron. On an internal surface, take
-                // the tetrahedron whose outward normal agrees with the triangle's orientation.
-                let chosen = if owners.len() == 1 {
-                    owners[0]
-                } else {
-                    let p = ids
-                        .iter()
-                        .map(|&i| mesh.nodes[i as usize])
-                        .collect::<Vec<_>>();
-                    let n_tri = (p[1] - p[0]).cross(&(p[2] - p[0]));
-                    *owners
-                        .iter()
-                        .find(|&&(t, l)| {
-                            let f = TET_FACES[l as usize];
-                            let q = f.map(|c| mesh.nodes[mesh.tets[t as usize][c] as usize]);
-                            (q[1] - q[0]).cross(&(q[2] - q[0])).dot(&n_tri) > 0.0
-                        })
-                        .unwrap_or(&owners[0])
-                };
+                let chosen = self.face_of(r, e, &names[0], &ids, mesh, &all_faces)?;
                 for name in &names {
                     faces.entry(name.clone()).or_default().insert(chosen);
                 }
@@ -1044,32 +1047,102 @@ impl Raw {
                     .extend(ids.iter().copied());
             }
         }
-        mesh.sets.elements = elements
-            .into_iter()
-            .map(|(k, v)| (k, v.into_iter().collect()))
-            .collect();
-        mesh.sets.nodes = node_sets
-            .into_iter()
-            .map(|(k, v)| (k, v.into_iter().collect()))
-            .collect();
-        mesh.sets.faces = faces
-            .into_iter()
-            .map(|(k, v)| (k, v.into_iter().collect()))
-            .collect();
-        // Named groups that hold no element of the file.
-        for ((dim, tag), name) in &self.names {
-            if !mesh.sets.names().iter().any(|n| n == name) {
-                warnings.push(format!(
-                    "physical group '{name}' (dimension {dim}, tag {tag}) has no elements in the file"
+        mesh.sets.elements = sorted_lists(elements);
+        mesh.sets.nodes = sorted_lists(node_sets);
+        mesh.sets.faces = sorted_lists(faces);
+        Ok(())
+    }
+
+    /// The mesh node indices of element `e` of `group`; an error if one is in no tetrahedron.
+    fn mesh_nodes(&self, r: &Reader, e: &RawElement, group: &str, new_id: &[u32]) -> R<Vec<u32>> {
+        let (_, _, meaning) = element_type(e.kind).expect("checked when read");
+        let mut ids = Vec::with_capacity(e.nodes.len());
+        for &n in &e.nodes {
+            let id = new_id[n as usize];
+            if id == u32::MAX {
+                return Err(r.err_at(
+                    e.at,
+                    format!(
+                        "element {} ({meaning}) of physical group '{group}' uses node {}, which belongs to no tetrahedron",
+                        e.tag, self.node_tags[n as usize]
+                    ),
                 ));
             }
+            ids.push(id);
         }
-        Ok(Imported {
-            mesh,
-            warnings,
-            format,
-        })
+        Ok(ids)
     }
+
+    /// The (tetrahedron, local face) that element `e` (mesh nodes `ids`) of surface `group` is.
+    fn face_of(
+        &self,
+        r: &Reader,
+        e: &RawElement,
+        group: &str,
+        ids: &[u32],
+        mesh: &Mesh,
+        all_faces: &[([u32; 3], u32, u8)],
+    ) -> R<(u32, u8)> {
+        if e.kind != 2 {
+            let (_, _, meaning) = element_type(e.kind).expect("checked when read");
+            return Err(r.err_at(
+                e.at,
+                format!("element {} ({meaning}) of surface group '{group}' cannot be a face of a 4-node tetrahedron; only 3-node triangles (type 2) are accepted in surface groups", e.tag),
+            ));
+        }
+        let mut k = [ids[0], ids[1], ids[2]];
+        k.sort_unstable();
+        let lo = all_faces.partition_point(|f| f.0 < k);
+        let owners: Vec<(u32, u8)> = all_faces[lo..]
+            .iter()
+            .take_while(|f| f.0 == k)
+            .map(|f| (f.1, f.2))
+            .collect();
+        if owners.is_empty() {
+            let c = (mesh.nodes[ids[0] as usize]
+                + mesh.nodes[ids[1] as usize]
+                + mesh.nodes[ids[2] as usize])
+                / 3.0;
+            return Err(r.err_at(
+                e.at,
+                format!(
+                    "triangle element {} (nodes {}, {}, {}) of surface group '{group}' at ({:.6}, {:.6}, {:.6}) is not a face of any tetrahedron",
+                    e.tag, self.node_tags[e.nodes[0] as usize], self.node_tags[e.nodes[1] as usize], self.node_tags[e.nodes[2] as usize],
+                    c.x, c.y, c.z
+                ),
+            ));
+        }
+        Ok(facing_owner(mesh, ids, &owners))
+    }
+}
+
+/// Of the (tetrahedron, local face) `owners` of triangle `ids`, the one it belongs to.
+fn facing_owner(mesh: &Mesh, ids: &[u32], owners: &[(u32, u8)]) -> (u32, u8) {
+    // On the boundary the face has one tetrahedron. On an internal surface, take the
+    // tetrahedron whose outward normal agrees with the triangle's orientation.
+    if owners.len() == 1 {
+        return owners[0];
+    }
+    let p = ids
+        .iter()
+        .map(|&i| mesh.nodes[i as usize])
+        .collect::<Vec<_>>();
+    let n_tri = (p[1] - p[0]).cross(&(p[2] - p[0]));
+    *owners
+        .iter()
+        .find(|&&(t, l)| {
+            let f = TET_FACES[l as usize];
+            let q = f.map(|c| mesh.nodes[mesh.tets[t as usize][c] as usize]);
+            (q[1] - q[0]).cross(&(q[2] - q[0])).dot(&n_tri) > 0.0
+        })
+        .unwrap_or(&owners[0])
+}
+
+/// Named sets as sorted lists.
+fn sorted_lists<T>(sets: BTreeMap<String, BTreeSet<T>>) -> BTreeMap<String, Vec<T>> {
+    sets.into_iter()
+        .map(|(k, v)| (k, v.into_iter().collect()))
+        .collect()
 }
 
 #[cfg(test)]

@@ -3,7 +3,7 @@
 
 use super::numbers::sig;
 use super::opts::{Opts, RhaiResult};
-use super::types::{MonitorHandle, SimHandle};
+use super::types::{MonitorHandle, SimHandle, SimState};
 use super::ScriptContext;
 use crate::io::{frame::encode_frame, write_csv};
 use crate::pipeline::{SimError, Simulation, Stage};
@@ -26,58 +26,14 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
             "run(): give a limit: max_time, duration or steps (stop_when alone could run forever)",
         );
     }
-    {
-        let mut st = s.0.borrow_mut();
-        st.sim.prepare().map_err(|e| format!("run(): {e}"))?;
-        if st.runs == 0 {
-            st.sim
-                .check_body_overlaps()
-                .map_err(|e| format!("run(): {e}"))?;
-            let sim = &st.sim;
-            let with_joints: std::collections::HashSet<u32> = sim
-                .joints
-                .tets
-                .iter()
-                .map(|t| sim.tets.body[t[0] as usize])
-                .collect();
-            for (id, b) in sim.bodies.iter().enumerate() {
-                if b.layout == crate::state::Layout::Jointed && !with_joints.contains(&(id as u32))
-                {
-                    ctx.say(&format!(
-                        "[{}] warning: body '{}' is jointed but has no joints: its tetrahedra are not connected and will move independently (sim.insert_joints(..) adds them)",
-                        st.name, b.name
-                    ));
-                }
-            }
-        }
-        let line = st
-            .sim
-            .dt_info
-            .as_ref()
-            .map(|i| i.to_string())
-            .unwrap_or_default();
-        if st.printed_dt.as_deref() != Some(line.as_str()) {
-            ctx.say(&format!("[{}] {line}", st.name));
-            st.printed_dt = Some(line);
-        }
-    }
+    prepare_run(ctx, s)?;
     if ctx.options.check_only {
         // `fdem check` validates the model as built up to the first run, then stops the script.
         return Err(
             rhai::EvalAltResult::ErrorTerminated(CHECK_DONE.into(), rhai::Position::NONE).into(),
         );
     }
-    let (t_start, step_start, dt) = {
-        let st = s.0.borrow();
-        (st.sim.time, st.sim.step, st.sim.dt)
-    };
-    let t_end = match (max_time, duration) {
-        (Some(a), Some(b)) => a.min(t_start + b),
-        (Some(a), None) => a,
-        (None, Some(b)) => t_start + b,
-        (None, None) => f64::INFINITY,
-    };
-    let step_end = steps.map(|n| step_start + n).unwrap_or(u64::MAX);
+    let limits = Limits::new(s, max_time, duration, steps, stop_when, check_every);
     let mut progress = Progress::new(ctx.options.progress && std::io::stderr().is_terminal());
     // Monitors get a first value when the model has not moved yet.
     let monitors: Vec<MonitorHandle> = s.0.borrow().monitors.clone();
@@ -87,79 +43,12 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
         }
     }
     let wall = Instant::now();
-    let result = (|| -> RhaiResult<()> {
-        loop {
-            let (time, step) = {
-                let st = s.0.borrow();
-                (st.sim.time, st.sim.step)
-            };
-            if step >= step_end || time >= t_end - 1e-9 * dt {
-                return s
-                    .0
-                    .borrow()
-                    .sim
-                    .check_configuration()
-                    .map_err(|e| sim_error(&e));
-            }
-            {
-                let mut st = s.0.borrow_mut();
-                // The last step of a run with a known end is an energy sample.
-                if step + 1 >= step_end || time + dt >= t_end - 1e-9 * dt {
-                    st.sim.sample_next = true;
-                }
-                st.sim.step().map_err(|e| sim_error(&e))?;
-            }
-            call_hooks(nc, s)?;
-            dispatch_break_events(nc, s)?;
-            dispatch_contact_events(nc, s)?;
-            let step = step + 1;
-            for m in &monitors {
-                let every = m.0.borrow().every;
-                if step % every == 0 {
-                    record(nc, s, m)?;
-                }
-            }
-            if let Some(f) = &stop_when {
-                if (step - step_start) % check_every == 0 {
-                    let r: Dynamic = f.call_within_context(nc, (s.clone(),))?;
-                    match r.as_bool() {
-                        Ok(true) => {
-                            return s
-                                .0
-                                .borrow()
-                                .sim
-                                .check_configuration()
-                                .map_err(|e| sim_error(&e))
-                        }
-                        Ok(false) => {}
-                        Err(t) => {
-                            return super::opts::err(format!(
-                                "run(): stop_when must return true or false, got {t}"
-                            ))
-                        }
-                    }
-                }
-            }
-            if progress.enabled {
-                let frac_t = if t_end.is_finite() {
-                    (time - t_start) / (t_end - t_start)
-                } else {
-                    0.0
-                };
-                let frac_s = if step_end < u64::MAX {
-                    (step - step_start) as f64 / (step_end - step_start) as f64
-                } else {
-                    0.0
-                };
-                progress.update(frac_t.max(frac_s), step - step_start, time);
-            }
-        }
-    })();
+    let result = step_until_done(nc, s, &limits, &monitors, &mut progress);
     progress.finish();
     {
         let mut st = s.0.borrow_mut();
         st.wall += wall.elapsed().as_secs_f64();
-        let done = st.sim.step - step_start;
+        let done = st.sim.step - limits.step_start;
         st.steps_in_runs += done;
         st.runs += 1;
     }
@@ -167,6 +56,188 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
     let written = write_run_output(s);
     result?;
     written.map_err(|e| e.into())
+}
+
+/// Prepare the model (first run: overlaps, unjointed bodies) and print a changed dt line.
+fn prepare_run(ctx: &ScriptContext, s: &SimHandle) -> RhaiResult<()> {
+    let mut st = s.0.borrow_mut();
+    st.sim.prepare().map_err(|e| format!("run(): {e}"))?;
+    if st.runs == 0 {
+        st.sim
+            .check_body_overlaps()
+            .map_err(|e| format!("run(): {e}"))?;
+        warn_jointless_bodies(ctx, &st);
+    }
+    let line = st
+        .sim
+        .dt_info
+        .as_ref()
+        .map(|i| i.to_string())
+        .unwrap_or_default();
+    if st.printed_dt.as_deref() != Some(line.as_str()) {
+        ctx.say(&format!("[{}] {line}", st.name));
+        st.printed_dt = Some(line);
+    }
+    Ok(())
+}
+
+/// Warn about each jointed body that has no joints (its tetrahedra move independently).
+fn warn_jointless_bodies(ctx: &ScriptContext, st: &SimState) {
+    let sim = &st.sim;
+    let with_joints: std::collections::HashSet<u32> = sim
+        .joints
+        .tets
+        .iter()
+        .map(|t| sim.tets.body[t[0] as usize])
+        .collect();
+    for (id, b) in sim.bodies.iter().enumerate() {
+        if b.layout == crate::state::Layout::Jointed && !with_joints.contains(&(id as u32)) {
+            ctx.say(&format!(
+                "[{}] warning: body '{}' is jointed but has no joints: its tetrahedra are not connected and will move independently (sim.insert_joints(..) adds them)",
+                st.name, b.name
+            ));
+        }
+    }
+}
+
+/// Where a run ends: the first limit reached, or `stop_when` returning true.
+struct Limits {
+    /// Simulated time at the start of the run [s].
+    t_start: f64,
+    /// Step count at the start of the run.
+    step_start: u64,
+    /// Time step [s].
+    dt: f64,
+    /// Time at which the run ends [s] (infinite without `max_time` and `duration`).
+    t_end: f64,
+    /// Step count at which the run ends (`u64::MAX` without `steps`).
+    step_end: u64,
+    /// The script's `stop_when` closure.
+    stop_when: Option<FnPtr>,
+    /// `stop_when` is asked every `check_every` steps.
+    check_every: u64,
+}
+
+impl Limits {
+    /// Limits of a run starting now: `max_time` [s], `duration` [s], `steps`, first reached.
+    fn new(
+        s: &SimHandle,
+        max_time: Option<f64>,
+        duration: Option<f64>,
+        steps: Option<u64>,
+        stop_when: Option<FnPtr>,
+        check_every: u64,
+    ) -> Self {
+        let (t_start, step_start, dt) = {
+            let st = s.0.borrow();
+            (st.sim.time, st.sim.step, st.sim.dt)
+        };
+        let t_end = match (max_time, duration) {
+            (Some(a), Some(b)) => a.min(t_start + b),
+            (Some(a), None) => a,
+            (None, Some(b)) => t_start + b,
+            (None, None) => f64::INFINITY,
+        };
+        let step_end = steps.map(|n| step_start + n).unwrap_or(u64::MAX);
+        Limits {
+            t_start,
+            step_start,
+            dt,
+            t_end,
+            step_end,
+            stop_when,
+            check_every,
+        }
+    }
+
+    /// Fraction of the run done at `time` [s] and `step` (the larger of the two fractions).
+    fn fraction_done(&self, time: f64, step: u64) -> f64 {
+        let frac_t = if self.t_end.is_finite() {
+            (time - self.t_start) / (self.t_end - self.t_start)
+        } else {
+            0.0
+        };
+        let frac_s = if self.step_end < u64::MAX {
+            (step - self.step_start) as f64 / (self.step_end - self.step_start) as f64
+        } else {
+            0.0
+        };
+        frac_t.max(frac_s)
+    }
+}
+
+/// The time loop: step, with hooks, callbacks and monitors, until `lim` ends the run.
+fn step_until_done(
+    nc: &NativeCallContext,
+    s: &SimHandle,
+    lim: &Limits,
+    monitors: &[MonitorHandle],
+    progress: &mut Progress,
+) -> RhaiResult<()> {
+    loop {
+        let (time, step) = {
+            let st = s.0.borrow();
+            (st.sim.time, st.sim.step)
+        };
+        if step >= lim.step_end || time >= lim.t_end - 1e-9 * lim.dt {
+            return check_configuration(s);
+        }
+        {
+            let mut st = s.0.borrow_mut();
+            // The last step of a run with a known end is an energy sample.
+            if step + 1 >= lim.step_end || time + lim.dt >= lim.t_end - 1e-9 * lim.dt {
+                st.sim.sample_next = true;
+            }
+            st.sim.step().map_err(|e| sim_error(&e))?;
+        }
+        call_hooks(nc, s)?;
+        dispatch_break_events(nc, s)?;
+        dispatch_contact_events(nc, s)?;
+        let step = step + 1;
+        for m in monitors {
+            let every = m.0.borrow().every;
+            if step % every == 0 {
+                record(nc, s, m)?;
+            }
+        }
+        if stop_requested(nc, s, lim, step)? {
+            return check_configuration(s);
+        }
+        if progress.enabled {
+            progress.update(lim.fraction_done(time, step), step - lim.step_start, time);
+        }
+    }
+}
+
+/// Whether `stop_when` (asked every `check_every` steps of the run) ends the run at `step`.
+fn stop_requested(
+    nc: &NativeCallContext,
+    s: &SimHandle,
+    lim: &Limits,
+    step: u64,
+) -> RhaiResult<bool> {
+    let Some(f) = &lim.stop_when else {
+        return Ok(false);
+    };
+    // `check_every` ≥ 1 (`positive_int`).
+    if !(step - lim.step_start).is_multiple_of(lim.check_every) {
+        return Ok(false);
+    }
+    let r: Dynamic = f.call_within_context(nc, (s.clone(),))?;
+    match r.as_bool() {
+        Ok(stop) => Ok(stop),
+        Err(t) => super::opts::err(format!(
+            "run(): stop_when must return true or false, got {t}"
+        )),
+    }
+}
+
+/// The end-of-run check for inverted elements, as a script error.
+fn check_configuration(s: &SimHandle) -> RhaiResult<()> {
+    s.0.borrow()
+        .sim
+        .check_configuration()
+        .map_err(|e| sim_error(&e))
 }
 
 fn sim_error(e: &SimError) -> Box<rhai::EvalAltResult> {
