@@ -5,6 +5,8 @@
 //! then the pipeline that drives them, then io, script and cli. So no import goes up, and no
 //! two modules import each other.
 //!
+//! It also holds the house rule on function length ([`long_functions_say_why`]).
+//!
 //! Comments are skipped (a doc link may point anywhere), and so is a file's trailing
 //! `#[cfg(test)]` module: unit tests may build a whole `Simulation` to exercise their stage.
 
@@ -219,5 +221,61 @@ fn the_architecture_page_shows_the_order() {
     assert!(
         doc.contains(&line),
         "docs/architecture.md must show the module order as the line\n{line}"
+    );
+}
+
+/// Longest function allowed without a stated reason [lines, from `fn` to its closing brace].
+const MAX_FN_LINES: usize = 120;
+
+/// No function in `src/` is longer than [`MAX_FN_LINES`] unless its doc comment says why, in
+/// a line starting `/// Kept whole:` (a hot loop that must stay one pass, say).
+#[test]
+fn long_functions_say_why() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    files.sort();
+    let mut long = Vec::new();
+    for f in files {
+        let text = std::fs::read_to_string(&f).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        for (i, line) in lines.iter().enumerate() {
+            let t = line.trim_start();
+            let indent = &line[..line.len() - t.len()];
+            let is_fn = [
+                "fn ",
+                "pub fn ",
+                "pub(crate) fn ",
+                "pub(super) fn ",
+                "const fn ",
+            ]
+            .iter()
+            .any(|p| t.starts_with(p));
+            if !is_fn || t.ends_with(';') {
+                continue;
+            }
+            let close = format!("{indent}}}");
+            let Some(end) = (i..lines.len()).find(|&j| lines[j] == close) else {
+                continue;
+            };
+            let n = end - i + 1;
+            if n <= MAX_FN_LINES {
+                continue;
+            }
+            let doc: Vec<&str> = lines[..i]
+                .iter()
+                .rev()
+                .map(|l| l.trim_start())
+                .take_while(|l| l.starts_with("///") || l.starts_with("#["))
+                .collect();
+            if !doc.iter().any(|l| l.starts_with("/// Kept whole:")) {
+                long.push(format!("{}:{}: {n} lines: {}", f.display(), i + 1, t));
+            }
+        }
+    }
+    assert!(
+        long.is_empty(),
+        "functions over {MAX_FN_LINES} lines without a `/// Kept whole:` reason:\n{}",
+        long.join("\n")
     );
 }

@@ -58,7 +58,7 @@ pub struct Signature {
 /// inputs (their order is the slot order, written once), its `NAMES`, `to_slots()`, and a
 /// [`Signature`] constant with the kind and the output names.
 ///
-/// ```ignore
+/// ```text
 /// law_signature! {
 ///     /// Inputs of a friction law.
 ///     pub struct FrictionInputs { slip_rate, slip, pressure, normal_force, area, time, mu }
