@@ -888,3 +888,30 @@ fn check_mesh_command_prints_a_summary_and_fails_on_problems() {
         "{text}"
     );
 }
+
+/// Regression: named physical groups with no elements were warned about in hash-map order,
+/// so the warnings of one file came in a different order from run to run. They now come in
+/// (dimension, tag) order, the same every time.
+#[test]
+fn empty_group_warnings_come_in_dimension_and_tag_order() {
+    let names = "$PhysicalNames\n8\n0 5 \"corner\"\n2 2 \"bottom\"\n3 1 \"solid\"\n\
+        3 40 \"e\"\n2 30 \"d\"\n1 20 \"c\"\n0 10 \"b\"\n3 9 \"a\"\n$EndPhysicalNames\n";
+    let a = CUBE.find("$PhysicalNames").unwrap();
+    let b = CUBE.find("$Entities").unwrap();
+    let t = format!("{}{names}{}", &CUBE[..a], &CUBE[b..]);
+    let expected: Vec<String> = [
+        (0, 10, "b"),
+        (1, 20, "c"),
+        (2, 30, "d"),
+        (3, 9, "a"),
+        (3, 40, "e"),
+    ]
+    .iter()
+    .map(|(d, g, n)| {
+        format!("physical group '{n}' (dimension {d}, tag {g}) has no elements in the file")
+    })
+    .collect();
+    for _ in 0..5 {
+        assert_eq!(parse(&t).unwrap().warnings, expected);
+    }
+}

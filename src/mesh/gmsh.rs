@@ -410,7 +410,7 @@ struct RawElement {
 #[derive(Default)]
 struct Raw {
     version: String,
-    names: HashMap<(u8, i64), String>,
+    names: BTreeMap<(u8, i64), String>,
     x: Vec<Vec3>,
     node_tags: Vec<u64>,
     elements: Vec<RawElement>,
