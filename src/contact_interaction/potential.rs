@@ -29,13 +29,26 @@
 //! **Exact integration.** Only surface integrals are needed. Each face of C is clipped by T
 //! (4 half-spaces λ_j^t ≥ 0) and split by T's sub-tetrahedra, where φ_t is linear; the
 //! integrands φ·N are then quadratic, integrated exactly on a fan of triangles. The volume
-//! integrals E_c, E_t come from the same facets as cones from the element's centroid: the
-//! kink planes of φ contain the centroid, so they carry no flux, and inside a cone φ is
-//! linear: ∫_cone φ = (h·A/3)·(¼·φ(apex) + ¾·φ(facet centroid)), φ(apex) = 1.
+//! integrals E_c, E_t are sums over the sub-tetrahedra R_m of one element, where φ = 4λ_m is
+//! linear: ∫_{R_m∩Ω} φ = Σ over the boundary facets of cones from one apex a,
+//! V·(¼φ(a) + ¾φ(facet centroid)), V = (x̄ − a)·n·A/3. The boundary of R_m ∩ Ω is made of
+//! facets of ∂Ω and of the kink triangles λ_m = λ_j inside the other element; a kink facet
+//! appears in two regions with opposite normals and equal φ, adding −|g_m − g_j|·h²·A/3.
+//!
+//! **The apex is a point of the overlap** (the first facet vertex found), not the element's
+//! centroid: cones from the centroid are as large as the element and cancel down to the
+//! overlap, which for a thin overlap of depth d is a fraction (d/H)² of them — at the
+//! default penalty a block at rest under gravity has d/H ≈ 1e-7, so a facet clipped a
+//! rounding error differently on the two sides became energy a million times the true
+//! one, and forces that were not its gradient (docs/theory/contact.md). From an apex in the
+//! overlap, cone heights are of the order of the overlap and the energy is accurate to
+//! about ulp(H)·H/d² (coordinates are taken relative to a node of the pair).
 //!
 //! **Coplanar faces** (blocks that touch exactly, the common start of masonry and cut boxes)
-//! are robust: barycentric values within 1e-9 of a plane are snapped onto it, so both sides
-//! of a coincident face pair see the same polygon and their large cone terms cancel.
+//! are robust: barycentric values within `SNAP` (1e-12) of a plane count as on it, so both
+//! sides of a coincident face pair see the same polygon. Faces of the two elements that lie
+//! in one plane with the same outward normal (the flush sides of matching meshes) bound the
+//! overlap once: the contactor's facet counts, the target's is skipped.
 
 // Index loops over the 4 nodes / faces mirror the equations; iterators would obscure them.
 #![allow(clippy::needless_range_loop)]
@@ -43,8 +56,10 @@
 use crate::math::{Real, Vec3};
 use crate::mesh::TET_FACES;
 
-/// Barycentric values this close to 0 count as on the plane.
-const SNAP: Real = 1e-9;
+/// Barycentric values this close to 0 count as on the plane. Small, because a facet clipped
+/// a snap distance differently on the two sides costs p·SNAP·H·L·d of energy (d the
+/// overlap depth), against p·L²·d²/H for the whole overlap.
+const SNAP: Real = 1e-12;
 /// Polygon capacity: a triangle clipped by 4 + 3 planes has at most 3 + 7 = 10 vertices.
 const MAX_POLY: usize = 10;
 
@@ -91,6 +106,16 @@ impl TetGeom {
             normal,
             volume: det / 6.0,
         })
+    }
+
+    /// The same tetrahedron with coordinates relative to `origin`.
+    #[inline(always)]
+    fn shifted(&self, origin: Vec3) -> Self {
+        TetGeom {
+            x: self.x.map(|x| x - origin),
+            centroid: self.centroid - origin,
+            ..*self
+        }
     }
 
     /// Barycentric coordinates λ_0..λ_3 of `p`.
@@ -226,6 +251,12 @@ struct Acc {
     area: Real,
     moment: Vec3,
     depth: Real,
+    /// Apex of the cones that give E_c and E_t: the first vertex of the first facet found,
+    /// a point of the overlap (see [`integrate_piece`]); `None` until a facet is found.
+    apex: Option<Vec3>,
+    /// Barycentric coordinates of the apex in the contactor and in the target.
+    apex_c: [Real; 4],
+    apex_t: [Real; 4],
 }
 
 /// The six edges of a tetrahedron (node pairs).
@@ -311,6 +342,10 @@ pub fn tet_tet(c: &TetGeom, t: &TetGeom, p: Real) -> PairForces {
 /// [`tet_tet`] for a pair no axis separates.
 pub fn overlapping_tet_tet(c: &TetGeom, t: &TetGeom, p: Real) -> PairForces {
     let mut out = PairForces::default();
+    // Facet geometry relative to a node of the pair: rounding then scales with the elements'
+    // size, not with their distance from the origin (it sets the energy's noise floor).
+    let origin = c.x[0];
+    let (c, t) = (&c.shifted(origin), &t.shifted(origin));
     let bc: [[Real; 4]; 4] = t.x.map(|x| c.bary(&x)); // bc[v][k]: λ_k^c at target vertex v
     let bt: [[Real; 4]; 4] = c.x.map(|x| t.bary(&x));
     let mut acc = Acc {
@@ -321,6 +356,9 @@ pub fn overlapping_tet_tet(c: &TetGeom, t: &TetGeom, p: Real) -> PairForces {
         area: 0.0,
         moment: Vec3::zeros(),
         depth: 0.0,
+        apex: None,
+        apex_c: [0.0; 4],
+        apex_t: [0.0; 4],
     };
     for k in 0..4 {
         faces_inside(c, t, k, &bt, Side::Contactor, &mut acc);
@@ -329,13 +367,15 @@ pub fn overlapping_tet_tet(c: &TetGeom, t: &TetGeom, p: Real) -> PairForces {
     if acc.area <= 0.0 {
         return out;
     }
+    kink_facets(c, t, &bt, Side::Contactor, &mut acc);
+    kink_facets(t, c, &bc, Side::Target, &mut acc);
     for i in 0..4 {
         out.fc[i] = -p * (c.g[i] * acc.e_c + acc.sc[i]);
         out.ft[i] = -p * (t.g[i] * acc.e_t + acc.st[i]);
     }
     out.energy = p * (acc.e_c + acc.e_t);
     out.area = 0.5 * acc.area;
-    out.point = acc.moment / acc.area;
+    out.point = acc.moment / acc.area + origin;
     out.depth = acc.depth;
     out.touching = true;
     out
@@ -353,11 +393,21 @@ fn faces_inside(
 ) {
     let f = TET_FACES[k];
     // Whole face outside (or on) one plane of the other element.
-    // (A face lying in the plane is kept: its coincident partner is kept too, and their
-    // cone terms cancel.)
+    // (A face lying in the plane is kept: its coincident partner of opposite normal is kept
+    // too, and their cone terms cancel.)
     for j in 0..4 {
         let b = |v: &usize| b_own_in_other[*v][j];
         if f.iter().all(|v| b(v) <= SNAP) && f.iter().any(|v| b(v) < -SNAP) {
+            return;
+        }
+        // A target face lying in a contactor face plane with the same outward normal (the
+        // flush sides of matching meshes) bounds the overlap where the contactor's face
+        // does: that facet is counted once, from the contactor. (φ_c = φ_t = 0 on it, so it
+        // only adds cones, and the contactor's facet adds both.)
+        if side == Side::Target
+            && f.iter().all(|v| b(v).abs() <= SNAP)
+            && own.normal[k].dot(&other.normal[j]) > 0.0
+        {
             return;
         }
     }
@@ -428,15 +478,104 @@ fn faces_inside(
                 continue 'region;
             }
         }
-        integrate_piece(own, other, if first { poly } else { cur }, m, n, side, acc);
+        integrate_piece(other, if first { poly } else { cur }, k, m, n, side, acc);
     }
 }
 
-/// One planar facet on the boundary of `own`, inside region m of `other` (φ_other = 4λ_m).
-fn integrate_piece(
+/// The kink facets of `own` inside `other`: E_own = ∫_{C∩T} φ_own dV is summed region by
+/// region of `own` (φ_own = 4λ_m on its sub-tetrahedron R_m), and with an apex a that is not
+/// the centroid, the boundary of R_m ∩ (C∩T) includes the pieces of the kink triangles
+/// λ_m = λ_j (centroid and the edge shared by faces m and j) inside the other element. A
+/// piece of area A at height h = (x̄ − a)·n above a, n = (g_m − g_j)/|g_m − g_j|, appears in
+/// R_m and in R_j with opposite normals and equal φ, so together they add
+/// (h·A/3)·(λ_m(a) − λ_j(a)) = −|g_m − g_j|·h²·A/3 to E_own.
+fn kink_facets(
     own: &TetGeom,
     other: &TetGeom,
+    b_own_in_other: &[[Real; 4]; 4],
+    side: Side,
+    acc: &mut Acc,
+) {
+    let Some(apex) = acc.apex else {
+        return;
+    };
+    let b_centroid = other.bary(&own.centroid);
+    let mut sum = 0.0;
+    for (m, j) in KINKS {
+        // The edge shared by faces m and j: the other two nodes.
+        let (p, q) = edge_off(m, j);
+        let tri_bo = [b_centroid, b_own_in_other[p], b_own_in_other[q]];
+        // Whole triangle outside one plane of the other element.
+        if (0..4)
+            .any(|l| tri_bo.iter().all(|b| b[l] <= SNAP) && tri_bo.iter().any(|b| b[l] < -SNAP))
+        {
+            continue;
+        }
+        let mut a = Poly::new();
+        let mut b = Poly::new();
+        for (x, bo) in [own.centroid, own.x[p], own.x[q]].into_iter().zip(tri_bo) {
+            a.push(Vert {
+                x,
+                bo,
+                bs: [0.0; 4],
+            });
+        }
+        let (mut cur, mut next) = (&mut a, &mut b);
+        let mut empty = false;
+        for l in 0..4 {
+            if tri_bo.iter().all(|b| b[l] >= -SNAP) {
+                continue;
+            }
+            cur.clip_into(next, |v| v.bo[l]);
+            std::mem::swap(&mut cur, &mut next);
+            if cur.n < 3 {
+                empty = true;
+                break;
+            }
+        }
+        if empty {
+            continue;
+        }
+        let gd = own.g[m] - own.g[j];
+        let gn = gd.norm();
+        let n = gd / gn;
+        let v0 = cur.get(0).x;
+        let (mut area, mut first) = (0.0, Vec3::zeros());
+        for t in 1..cur.n - 1 {
+            let (xb, xc) = (cur.get(t).x, cur.get(t + 1).x);
+            let at = 0.5 * (xb - v0).cross(&(xc - v0)).dot(&n);
+            area += at;
+            first += (v0 + xb + xc) * (at / 3.0);
+        }
+        if area == 0.0 {
+            continue;
+        }
+        let h = (first / area - apex).dot(&n);
+        sum -= gn * h * h * area.abs() / 3.0;
+    }
+    match side {
+        Side::Contactor => acc.e_c += sum,
+        Side::Target => acc.e_t += sum,
+    }
+}
+
+/// The six kink planes of a tetrahedron's φ: λ_m = λ_j for m < j.
+const KINKS: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
+
+/// The two nodes other than m and j (the edge faces m and j share).
+#[inline(always)]
+fn edge_off(m: usize, j: usize) -> (usize, usize) {
+    let mut e = (0..4).filter(|&x| x != m && x != j);
+    (e.next().unwrap(), e.next().unwrap())
+}
+
+/// One planar facet on face k of `own` (outward normal n), inside region m of `other`
+/// (φ_other = 4λ_m): its surface integrals, and its cones from the apex for E_own, E_other.
+#[allow(clippy::too_many_arguments)]
+fn integrate_piece(
+    other: &TetGeom,
     poly: &Poly,
+    k: usize,
     m: usize,
     n: Vec3,
     side: Side,
@@ -486,11 +625,26 @@ fn integrate_piece(
     let phi_c = i_phi / area;
     acc.area += area;
     acc.moment += first;
-    // Cone volumes from each element's centroid over this facet.
-    let cone_own = (centroid - own.centroid).dot(&n) * area / 3.0; // φ_own = 0 here
-    let cone_oth = (centroid - other.centroid).dot(&n) * area / 3.0;
-    let e_own = 0.25 * cone_own;
-    let e_oth = cone_oth * (0.25 + 0.75 * phi_c);
+    // The cone from the apex a over this facet, signed volume V = (x̄ − a)·n·A/3; for φ
+    // linear on it, ∫_cone φ = V·(¼φ(a) + ¾φ(x̄)). φ_own = 4λ_k^own is 0 on its own face k;
+    // φ_other = 4λ_m^other (this piece lies in the other's region m).
+    let apex = *acc.apex.get_or_insert_with(|| {
+        let v = poly.get(0);
+        let (bc, bt) = match side {
+            Side::Contactor => (v.bs, v.bo),
+            Side::Target => (v.bo, v.bs),
+        };
+        acc.apex_c = bc;
+        acc.apex_t = bt;
+        v.x
+    });
+    let (apex_own, apex_oth) = match side {
+        Side::Contactor => (&acc.apex_c, &acc.apex_t),
+        Side::Target => (&acc.apex_t, &acc.apex_c),
+    };
+    let cone = (centroid - apex).dot(&n) * area / 3.0;
+    let e_own = cone * apex_own[k];
+    let e_oth = cone * (apex_oth[m] + 0.75 * phi_c);
     // A facet of ∂C inside T (φ_other = φ_t) adds + ∫_{∂C∩T} φ_t N^c n_c to the contactor and
     // − ∫_{T∩∂C} φ_t N^t n_c to the target; a facet of ∂T inside C (φ_other = φ_c) adds
     // + ∫_{∂T∩C} φ_c N^t n_t to the target and − ∫_{C∩∂T} φ_c N^c n_t to the contactor.
@@ -765,6 +919,116 @@ mod tests {
             assert!(
                 (f.z + slab_force).abs() < 0.03 * slab_force,
                 "d = {d}: F = {f:?} vs {slab_force}"
+            );
+        }
+    }
+
+    /// A thin overlap between parallel faces, as a block resting under gravity at the default
+    /// penalty makes (d/H ≈ σ/(8p), 1e-8 to 1e-6): the contactor's face sinks d below the
+    /// target's face, the two triangles coincident (matching meshes: every lateral plane
+    /// shared) or offset (non-matching), away from the origin. Away from the overlap's
+    /// edges φ_c = 4s/H_c and φ_t = 4(d − s)/H_t across the layer, so
+    /// E = 2p·A·d²·(1/H_c + 1/H_t) (A the overlap area); the edges change it by O(d/H).
+    /// Tolerance 1e-3 at d/H ≤ 1e-4, where the edge correction is below 1e-3, and the
+    /// rounding of facets a distance H from the apex (≈ ulp(x)·H/d² relative) is below 1e-4.
+    /// Before the cones were taken from a point of the overlap (they came from each element's
+    /// centroid, cancelling to (d/H)² of their size) the coincident case gave 1e6 times
+    /// the energy at d/H = 1e-7.
+    #[test]
+    fn thin_overlaps_have_the_thin_layer_energy() {
+        let origin = Vec3::new(1.3, -0.7, 2.1);
+        let h = 0.05;
+        let tri = |o: Vec3, z: Real| {
+            [
+                o + Vec3::new(0.0, 0.0, z),
+                o + Vec3::new(h, 0.0, z),
+                o + Vec3::new(0.0, h, z),
+            ]
+        };
+        for offset in [Vec3::zeros(), Vec3::new(0.013, 0.007, 0.0)] {
+            for rel in [1e-4, 1e-5, 1e-6, 1e-7] {
+                let d = rel * h;
+                let t = tri(origin, 0.0);
+                let target = geom(
+                    [t[0], t[1], t[2], origin + Vec3::new(0.0, 0.0, -h)].map(|p| [p.x, p.y, p.z]),
+                );
+                let c = tri(origin + offset, -d);
+                let contactor = geom(
+                    [c[0], c[1], c[2], origin + offset + Vec3::new(0.0, 0.0, h)]
+                        .map(|p| [p.x, p.y, p.z]),
+                );
+                // Overlap of the two right triangles of legs h, the second shifted by (a, b).
+                let (a, b) = (offset.x, offset.y);
+                let leg = h - a - b;
+                let area = 0.5 * leg * leg;
+                let expected = 2.0 * area * d * d * (2.0 / h);
+                for (x, y) in [(&contactor, &target), (&target, &contactor)] {
+                    let r = tet_tet(x, y, 1.0);
+                    assert!(
+                        (r.energy - expected).abs() < 1e-3 * expected,
+                        "offset {:?}, d/H = {rel:e}: E = {:e}, thin layer {expected:e}",
+                        offset.as_slice(),
+                        r.energy
+                    );
+                    let f: Real = r.fc.iter().map(|f| f.z).sum::<Real>().abs();
+                    let f_layer = 4.0 * area * d * (2.0 / h);
+                    assert!((f - f_layer).abs() < 1e-3 * f_layer, "{f:e} vs {f_layer:e}");
+                }
+            }
+        }
+    }
+
+    /// The wedge a contactor edge cuts into a target face (from a block resting on a
+    /// non-matching base: one node 1.65e-8 m under the face, the other 2.6e-9 m above it,
+    /// the contactor's faces at the edge vertical and at 45°). E = p∫(φ_c + φ_t) over the
+    /// wedge is below p·V·8·depth/H_min, V ≤ area·depth. It used to be 8.7e-7 J at p = 1e9
+    /// (a hundred million times the bound): a point of the target face within the snap
+    /// distance of both contactor planes closed the facets inconsistently, and centroid
+    /// cones turned that into energy.
+    #[test]
+    fn an_edge_grazing_a_face_has_a_wedge_energy() {
+        let t = geom([
+            [0.0, 0.05, -0.05],
+            [0.0, 0.1, 0.0],
+            [0.0, 0.05, 0.0],
+            [0.05, 0.1, 0.0],
+        ]);
+        let c = geom([
+            [
+                0.012999767019656308,
+                0.05699980359554877,
+                -1.6515953525504632e-8,
+            ],
+            [
+                0.012999767258052825,
+                0.1069998865027984,
+                2.635831430937902e-9,
+            ],
+            [
+                0.013000010198471397,
+                0.10699992776457226,
+                0.04999971108143207,
+            ],
+            [
+                0.06300001309575988,
+                0.10699996191731223,
+                0.049999580784970965,
+            ],
+        ]);
+        let p = 1e9;
+        for (x, y) in [(&c, &t), (&t, &c)] {
+            let r = tet_tet(x, y, p);
+            let h_min = x
+                .height
+                .iter()
+                .chain(&y.height)
+                .fold(1.0 as Real, |a, &b| a.min(b));
+            let bound = 8.0 * p * r.area * r.depth * r.depth / h_min;
+            assert!(r.touching);
+            assert!(
+                r.energy >= 0.0 && r.energy <= bound,
+                "E = {:e} J, bound {bound:e} J",
+                r.energy
             );
         }
     }
