@@ -257,6 +257,10 @@ struct Acc {
     /// Barycentric coordinates of the apex in the contactor and in the target.
     apex_c: [Real; 4],
     apex_t: [Real; 4],
+    /// Bit m set: a facet of ∂(C∩T) lies in the sub-tetrahedron R_m of the contactor (of
+    /// the target). A kink facet between R_m and R_j can only exist when both are set.
+    regions_c: u8,
+    regions_t: u8,
 }
 
 /// The six edges of a tetrahedron (node pairs).
@@ -359,6 +363,8 @@ pub fn overlapping_tet_tet(c: &TetGeom, t: &TetGeom, p: Real) -> PairForces {
         apex: None,
         apex_c: [0.0; 4],
         apex_t: [0.0; 4],
+        regions_c: 0,
+        regions_t: 0,
     };
     for k in 0..4 {
         faces_inside(c, t, k, &bt, Side::Contactor, &mut acc);
@@ -367,8 +373,9 @@ pub fn overlapping_tet_tet(c: &TetGeom, t: &TetGeom, p: Real) -> PairForces {
     if acc.area <= 0.0 {
         return out;
     }
-    kink_facets(c, t, &bt, Side::Contactor, &mut acc);
-    kink_facets(t, c, &bc, Side::Target, &mut acc);
+    let apex = acc.apex.expect("a facet was found");
+    acc.e_c += kink_energy(c, t, &bt, apex, acc.regions_c);
+    acc.e_t += kink_energy(t, c, &bc, apex, acc.regions_t);
     for i in 0..4 {
         out.fc[i] = -p * (c.g[i] * acc.e_c + acc.sc[i]);
         out.ft[i] = -p * (t.g[i] * acc.e_t + acc.st[i]);
@@ -482,26 +489,31 @@ fn faces_inside(
     }
 }
 
-/// The kink facets of `own` inside `other`: E_own = ∫_{C∩T} φ_own dV is summed region by
-/// region of `own` (φ_own = 4λ_m on its sub-tetrahedron R_m), and with an apex a that is not
-/// the centroid, the boundary of R_m ∩ (C∩T) includes the pieces of the kink triangles
-/// λ_m = λ_j (centroid and the edge shared by faces m and j) inside the other element. A
-/// piece of area A at height h = (x̄ − a)·n above a, n = (g_m − g_j)/|g_m − g_j|, appears in
-/// R_m and in R_j with opposite normals and equal φ, so together they add
-/// (h·A/3)·(λ_m(a) − λ_j(a)) = −|g_m − g_j|·h²·A/3 to E_own.
-fn kink_facets(
+/// The kink facets' part of E_own = ∫_{C∩T} φ_own dV. E_own is summed region by region of
+/// `own` (φ_own = 4λ_m on its sub-tetrahedron R_m), and with an apex a that is not the
+/// centroid, the boundary of R_m ∩ (C∩T) includes the pieces of the kink triangles
+/// λ_m = λ_j (the centroid and the edge shared by faces m and j) inside the other element.
+/// A piece of area A lies in the plane through the centroid c with normal
+/// ν = (g_m − g_j)/|g_m − g_j|, so its height over a is h = (c − a)·ν; it appears in R_m and
+/// in R_j with opposite normals and equal φ, and together they add
+/// (h·A/3)·(λ_m(a) − λ_j(a)) = −|g_m − g_j|·h²·A/3. Only kinks between two regions that
+/// hold facets of ∂(C∩T) (`regions`, bit m for R_m) are clipped: a piece of the overlap in
+/// R_m is bounded by some facet of ∂(C∩T), since the kink planes alone meet only at c.
+/// (Closing each region's facets to get the kink areas without clipping was tried: it turns
+/// every facet's rounding into kink area, a hundred times the energy of a thin wedge.)
+fn kink_energy(
     own: &TetGeom,
     other: &TetGeom,
     b_own_in_other: &[[Real; 4]; 4],
-    side: Side,
-    acc: &mut Acc,
-) {
-    let Some(apex) = acc.apex else {
-        return;
-    };
+    apex: Vec3,
+    regions: u8,
+) -> Real {
     let b_centroid = other.bary(&own.centroid);
     let mut sum = 0.0;
     for (m, j) in KINKS {
+        if regions & (1 << m) == 0 || regions & (1 << j) == 0 {
+            continue;
+        }
         // The edge shared by faces m and j: the other two nodes.
         let (p, q) = edge_off(m, j);
         let tri_bo = [b_centroid, b_own_in_other[p], b_own_in_other[q]];
@@ -511,52 +523,67 @@ fn kink_facets(
         {
             continue;
         }
-        let mut a = Poly::new();
-        let mut b = Poly::new();
-        for (x, bo) in [own.centroid, own.x[p], own.x[q]].into_iter().zip(tri_bo) {
-            a.push(Vert {
-                x,
-                bo,
-                bs: [0.0; 4],
-            });
-        }
-        let (mut cur, mut next) = (&mut a, &mut b);
-        let mut empty = false;
-        for l in 0..4 {
-            if tri_bo.iter().all(|b| b[l] >= -SNAP) {
-                continue;
-            }
-            cur.clip_into(next, |v| v.bo[l]);
-            std::mem::swap(&mut cur, &mut next);
-            if cur.n < 3 {
-                empty = true;
-                break;
-            }
-        }
-        if empty {
-            continue;
-        }
         let gd = own.g[m] - own.g[j];
         let gn = gd.norm();
         let n = gd / gn;
-        let v0 = cur.get(0).x;
-        let (mut area, mut first) = (0.0, Vec3::zeros());
-        for t in 1..cur.n - 1 {
-            let (xb, xc) = (cur.get(t).x, cur.get(t + 1).x);
-            let at = 0.5 * (xb - v0).cross(&(xc - v0)).dot(&n);
-            area += at;
-            first += (v0 + xb + xc) * (at / 3.0);
-        }
+        let area = clipped_area([own.centroid, own.x[p], own.x[q]], tri_bo, &n);
         if area == 0.0 {
             continue;
         }
-        let h = (first / area - apex).dot(&n);
+        let h = (own.centroid - apex).dot(&n);
         sum -= gn * h * h * area.abs() / 3.0;
     }
-    match side {
-        Side::Contactor => acc.e_c += sum,
-        Side::Target => acc.e_t += sum,
+    sum
+}
+
+/// Area [m²] of the triangle `x` (barycentric coordinates `bo` of its vertices in the other
+/// element) inside the other element, measured along the triangle's normal `n`: the
+/// triangle clipped by the planes λ_l = 0 that cut it (positions and the four values only,
+/// lighter than the facets' [`Poly`]).
+#[inline(always)]
+fn clipped_area(x: [Vec3; 3], bo: [[Real; 4]; 3], n: &Vec3) -> Real {
+    type Buf = ([Vec3; MAX_POLY], [[Real; 4]; MAX_POLY]);
+    let mut a: Buf = ([Vec3::zeros(); MAX_POLY], [[0.0; 4]; MAX_POLY]);
+    let mut b: Buf = a;
+    a.0[..3].copy_from_slice(&x);
+    a.1[..3].copy_from_slice(&bo);
+    let (mut cur, mut next) = (&mut a, &mut b);
+    let mut len = 3;
+    for l in 0..4 {
+        if bo.iter().all(|b| b[l] >= -SNAP) {
+            continue;
+        }
+        let snap = |v: Real| if v.abs() <= SNAP { 0.0 } else { v };
+        let mut out = 0;
+        for i in 0..len {
+            let k = if i + 1 == len { 0 } else { i + 1 };
+            let (va, vb) = (snap(cur.1[i][l]), snap(cur.1[k][l]));
+            if va >= 0.0 && out < MAX_POLY {
+                next.0[out] = cur.0[i];
+                next.1[out] = cur.1[i];
+                out += 1;
+            }
+            if ((va > 0.0 && vb < 0.0) || (va < 0.0 && vb > 0.0)) && out < MAX_POLY {
+                let t = va / (va - vb);
+                next.0[out] = cur.0[i] + (cur.0[k] - cur.0[i]) * t;
+                for r in 0..4 {
+                    next.1[out][r] = cur.1[i][r] + (cur.1[k][r] - cur.1[i][r]) * t;
+                }
+                out += 1;
+            }
+        }
+        if out < 3 {
+            return 0.0;
+        }
+        std::mem::swap(&mut cur, &mut next);
+        len = out;
     }
+    let p = &cur.0;
+    let mut area = 0.0;
+    for t in 1..len - 1 {
+        area += 0.5 * (p[t] - p[0]).cross(&(p[t + 1] - p[0])).dot(n);
+    }
+    area.abs()
 }
 
 /// The six kink planes of a tetrahedron's φ: λ_m = λ_j for m < j.
@@ -642,6 +669,12 @@ fn integrate_piece(
         Side::Contactor => (&acc.apex_c, &acc.apex_t),
         Side::Target => (&acc.apex_t, &acc.apex_c),
     };
+    let (reg_own, reg_oth) = match side {
+        Side::Contactor => (&mut acc.regions_c, &mut acc.regions_t),
+        Side::Target => (&mut acc.regions_t, &mut acc.regions_c),
+    };
+    *reg_own |= 1 << k;
+    *reg_oth |= 1 << m;
     let cone = (centroid - apex).dot(&n) * area / 3.0;
     let e_own = cone * apex_own[k];
     let e_oth = cone * (apex_oth[m] + 0.75 * phi_c);
