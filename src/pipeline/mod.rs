@@ -277,6 +277,10 @@ pub struct Simulation {
     integration_partials: Vec<IntegrationSums>,
     contact_energy: Real,
     contact_dissipated: Real,
+    /// Gravity of the last step (None before the first): a change (a ramp, a body force
+    /// standing for ground acceleration) shifts the gravity work's state function, see
+    /// [`Simulation::gravity_changed`].
+    gravity_applied: Option<Vec3>,
 }
 
 impl Simulation {
@@ -610,6 +614,7 @@ impl Simulation {
         timed(&mut self.timers, Stage::ExternalLoads, || {
             loads::add_external_forces(&mut self.loads, &mut self.nodes, time, dt)
         });
+        self.gravity_changed();
         let params = StepParams {
             dt,
             dt_prev: self.dt_prev,
@@ -625,6 +630,33 @@ impl Simulation {
         self.time += dt;
         self.step += 1;
         Ok(())
+    }
+
+    /// The gravity work is sampled as the state function W = Σ m·g·(x − X), exact while g is
+    /// constant. When the script changes g between steps (from g_old to g), W would jump by
+    /// (g − g_old)·Σ m(x − X) without any work done: that jump is taken out of the running
+    /// sum (`accumulated.gravity_work`), so W grows by g·Δx from then on. Exact to
+    /// O(|Δg|·|Δx|) per change (g's change is booked at x_n, not over the step).
+    fn gravity_changed(&mut self) {
+        let g = self.loads.gravity;
+        if let Some(g_old) = self.gravity_applied {
+            if g_old != g {
+                // Fixed chunks summed in order: the same for any thread count.
+                const CHUNK: usize = 4096;
+                let nodes = &self.nodes;
+                let partial: Vec<Vec3> = (0..nodes.len().div_ceil(CHUNK))
+                    .into_par_iter()
+                    .map(|c| {
+                        (c * CHUNK..((c + 1) * CHUNK).min(nodes.len()))
+                            .map(|n| (nodes.x[n] - nodes.x0[n]) * nodes.m[n])
+                            .sum::<Vec3>()
+                    })
+                    .collect();
+                let moment: Vec3 = partial.iter().sum();
+                self.accumulated.gravity_work -= (g - g_old).dot(&moment);
+            }
+        }
+        self.gravity_applied = Some(g);
     }
 
     /// Stages 4 and 5: stage 4 refreshes the candidate pairs and hands stage 5 the remap of
@@ -685,7 +717,7 @@ impl Simulation {
             self.energy = Energy {
                 kinetic: is.kinetic,
                 strain: el.strain_energy,
-                gravity_work: is.gravity_work,
+                gravity_work: is.gravity_work + a.gravity_work,
                 force_work: self.loads.force_work,
                 reaction_work: a.reaction_work + is.reaction_work_before,
                 mass_damping: a.mass_damping + is.damping_before,
