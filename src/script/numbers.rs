@@ -25,7 +25,11 @@ pub fn sig(x: f64, digits: usize) -> String {
     let exp: i32 = exp.parse().expect("integer exponent");
     let d: String = mantissa.chars().filter(|c| *c != '.').collect();
     let sign = if x < 0.0 { "-" } else { "" };
-    let body = if (-3..6).contains(&exp) {
+    if !(-3..6).contains(&exp) {
+        // Only the mantissa is trimmed: "3.50e-10" is 3.5e-10, not 3.5e-1.
+        return format!("{sign}{}e{exp}", trim_zeros(mantissa));
+    }
+    let body = {
         let n = d.len() as i32;
         if exp < 0 {
             format!("0.{}{d}", "0".repeat((-exp - 1) as usize))
@@ -35,8 +39,6 @@ pub fn sig(x: f64, digits: usize) -> String {
             let (int, frac) = d.split_at(exp as usize + 1);
             format!("{int}.{frac}")
         }
-    } else {
-        format!("{}e{exp}", trim_zeros(mantissa))
     };
     format!("{sign}{}", trim_zeros(&body))
 }
@@ -131,6 +133,10 @@ mod tests {
             (0.0009999999999999998, 4, "0.001"),
             (0.000999, 3, "9.99e-4"),
             (1e-12, 4, "1e-12"),
+            // The exponent keeps its zeros (it used to lose them: 3.86e-10 printed 3.86e-1).
+            (3.86e-10, 3, "3.86e-10"),
+            (-5.0e-20, 3, "-5e-20"),
+            (2.5e10, 3, "2.5e10"),
             (-2.195451e-6, 5, "-2.1955e-6"),
             (1e12, 4, "1e12"),
             (2.4343e12, 3, "2.43e12"),
