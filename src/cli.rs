@@ -162,15 +162,16 @@ fn run_script(script: &Path, set: &[String], out: Option<PathBuf>, quiet: bool) 
         check_only: false,
         progress: !quiet,
     };
-    match script::run_file(script, options) {
-        Ok(report) => {
-            if !quiet {
-                for s in report.summaries() {
-                    print!("{s}");
-                }
-            }
-            0
+    // The summaries (timing, energy account) are printed whether the script succeeded or
+    // not: a failed self-check is when they are needed most.
+    let (report, result) = script::run_file_with_report(script, options);
+    if !quiet {
+        for s in report.summaries() {
+            print!("{s}");
         }
+    }
+    match result {
+        Ok(()) => 0,
         Err(e) => fail(&e.to_string()),
     }
 }

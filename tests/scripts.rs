@@ -12,6 +12,25 @@ fn run_text(name: &str, text: &str, extra: &[&str]) -> (bool, String, String) {
     run_script(&temp_dir(name), name, text, extra)
 }
 
+/// [`run_text`] without `--quiet`: the end-of-run summaries are printed.
+fn run_text_with_summary(name: &str, text: &str) -> (bool, String, String) {
+    let dir = temp_dir(name);
+    let path = dir.join(format!("{name}.rhai"));
+    std::fs::write(&path, text).unwrap();
+    let out = fdem()
+        .arg("run")
+        .arg(&path)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
 #[test]
 fn every_bundled_script_runs_in_quick_mode_and_passes_its_self_checks() {
     let scripts: Vec<PathBuf> =
@@ -304,6 +323,66 @@ fn failed_self_check_fails_the_run() {
     assert!(
         err.contains("selfcheck.rhai:1:1: error: self-check failed: answer"),
         "{err}"
+    );
+}
+
+/// A run whose self-check fails still prints its end-of-run summary (timing and energy):
+/// that is when the user needs it most.
+#[test]
+fn summary_is_printed_when_a_self_check_fails() {
+    let (ok, out, err) = run_text_with_summary(
+        "failing_model",
+        r#"let sim = simulation(#{ name: "failing" });
+let m = material("elastic/st_venant_kirchhoff", #{ density: 1000.0, young: 1e6, poisson: 0.3 });
+let b = sim.add_body("b", box(#{ min: [0.0, 0.0, 0.0], max: [1.0, 1.0, 1.0] }).mesh(#{ divisions: [1, 1, 1] }), m, #{ layout: "continuous" });
+sim.run(#{ steps: 10 });
+expect_within("answer", 41.0, 42.0, 43.0);
+"#,
+    );
+    assert!(!ok);
+    assert!(err.contains("self-check failed: answer"), "{err}");
+    assert!(out.contains("── failing: 10 steps"), "{out}");
+    assert!(out.contains("balance error"), "{out}");
+}
+
+/// An energy account that stops closing is reported on the console when a sample first
+/// passes 1 % of the largest term, and again in the summary. Here a second
+/// `initial_velocity` kicks the block to 10× its speed between runs (work no term books).
+#[test]
+fn balance_error_beyond_one_percent_is_warned_during_the_run_and_in_the_summary() {
+    let model = |kick: &str| {
+        format!(
+            r#"let sim = simulation(#{{ name: "kick", energy_every: 5 }});
+let m = material("elastic/st_venant_kirchhoff", #{{ density: 1000.0, young: 1e6, poisson: 0.3 }});
+let b = sim.add_body("b", box(#{{ min: [0.0, 0.0, 0.0], max: [1.0, 1.0, 1.0] }}).mesh(#{{ divisions: [1, 1, 1] }}), m, #{{ layout: "continuous" }});
+sim.initial_velocity(b.nodes(), [0.1, 0.0, 0.0]);
+sim.run(#{{ steps: 20 }});
+{kick}
+sim.run(#{{ steps: 20 }});
+"#
+        )
+    };
+    let (ok, out, err) = run_text_with_summary(
+        "kick",
+        &model("sim.initial_velocity(b.nodes(), [1.0, 0.0, 0.0]);"),
+    );
+    assert!(ok, "{err}");
+    let warnings: Vec<&str> = out
+        .lines()
+        .filter(|l| l.contains("warning: energy balance error"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "warned once: {out}");
+    assert!(warnings[0].starts_with("[kick] warning"), "{}", warnings[0]);
+    assert!(
+        out.contains("WARNING: the balance error passed 1 %"),
+        "{out}"
+    );
+    // The same model without the kick closes its account: no warning.
+    let (ok, out, err) = run_text_with_summary("no_kick", &model(""));
+    assert!(ok, "{err}");
+    assert!(
+        !out.contains("warning: energy balance") && !out.contains("WARNING"),
+        "{out}"
     );
 }
 

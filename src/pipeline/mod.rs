@@ -99,6 +99,17 @@ pub struct Energy {
 }
 
 impl Energy {
+    /// A relative balance error beyond this (1 % of the largest term) is reported: `fdem run`
+    /// warns when a sample first passes it and repeats the warning in the end-of-run
+    /// summary. Sound runs close to 1e-4 or better (docs/validation.md); 1 % means some
+    /// energy is created or lost that no term books.
+    pub const WARNING_THRESHOLD: Real = 0.01;
+
+    /// The relative balance error passes [`Energy::WARNING_THRESHOLD`].
+    pub fn balance_is_off(&self) -> bool {
+        self.relative_balance_error().abs() > Self::WARNING_THRESHOLD
+    }
+
     pub fn external_work(&self) -> Real {
         self.gravity_work + self.force_work + self.reaction_work
     }

@@ -119,6 +119,7 @@ fn simulation(c: &ScriptContext, m: Map) -> RhaiResult<SimHandle> {
         on_joint_broken: None,
         events_dispatched: 0,
         on_new_contact_pair: None,
+        balance_warned: false,
     })));
     c.sims.borrow_mut().push(handle.clone());
     Ok(handle)

@@ -173,9 +173,26 @@ pub fn resolve_path(nc: &NativeCallContext, path: &str) -> PathBuf {
 
 /// Run a script file.
 pub fn run_file(path: &Path, options: RunOptions) -> Result<ScriptReport, ScriptError> {
-    let source = std::fs::read_to_string(path)
-        .map_err(|e| ScriptError(format!("{}: cannot read the script: {e}", path.display())))?;
-    run_source(path, &source, options)
+    let (report, result) = run_file_with_report(path, options);
+    result.map(|()| report)
+}
+
+/// Run a script file; the simulations it made come back even when it fails (a failed
+/// self-check, a script error, an unstable run), so their summaries can still be printed.
+pub fn run_file_with_report(
+    path: &Path,
+    options: RunOptions,
+) -> (ScriptReport, Result<(), ScriptError>) {
+    match std::fs::read_to_string(path) {
+        Ok(source) => run_source_with_report(path, &source, options),
+        Err(e) => (
+            ScriptReport { sims: Vec::new() },
+            Err(ScriptError(format!(
+                "{}: cannot read the script: {e}",
+                path.display()
+            ))),
+        ),
+    }
 }
 
 /// Run script text as if it were the file `path`.
@@ -184,6 +201,16 @@ pub fn run_source(
     source: &str,
     options: RunOptions,
 ) -> Result<ScriptReport, ScriptError> {
+    let (report, result) = run_source_with_report(path, source, options);
+    result.map(|()| report)
+}
+
+/// [`run_source`], keeping the simulations when the script fails.
+pub fn run_source_with_report(
+    path: &Path,
+    source: &str,
+    options: RunOptions,
+) -> (ScriptReport, Result<(), ScriptError>) {
     let ctx = Rc::new(ScriptContext {
         options,
         script_path: path.to_path_buf(),
@@ -191,6 +218,13 @@ pub fn run_source(
         sims: RefCell::new(Vec::new()),
         ast: RefCell::new(None),
     });
+    let result = run_in(&ctx, path, source);
+    let sims = ctx.sims.borrow().clone();
+    (ScriptReport { sims }, result)
+}
+
+/// Compile and run the script in `ctx`.
+fn run_in(ctx: &Rc<ScriptContext>, path: &Path, source: &str) -> Result<(), ScriptError> {
     let engine = build_engine(ctx.clone());
     let label = path.display().to_string();
     let mut ast = engine
@@ -222,8 +256,7 @@ pub fn run_source(
             keys.join(", ")
         )));
     }
-    let sims = ctx.sims.borrow().clone();
-    Ok(ScriptReport { sims })
+    Ok(())
 }
 
 impl ScriptReport {

@@ -6,7 +6,7 @@ use super::opts::{Opts, RhaiResult};
 use super::types::{MonitorHandle, SimHandle, SimState};
 use super::ScriptContext;
 use crate::io::{frame::encode_frame, write_csv};
-use crate::pipeline::{SimError, Simulation, Stage};
+use crate::pipeline::{Energy, SimError, Simulation, Stage};
 use rhai::{Dynamic, FnPtr, NativeCallContext};
 use std::io::{IsTerminal, Write};
 use std::time::Instant;
@@ -43,7 +43,7 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
         }
     }
     let wall = Instant::now();
-    let result = step_until_done(nc, s, &limits, &monitors, &mut progress);
+    let result = step_until_done(nc, ctx, s, &limits, &monitors, &mut progress);
     progress.finish();
     {
         let mut st = s.0.borrow_mut();
@@ -169,6 +169,7 @@ impl Limits {
 /// The time loop: step, with hooks, callbacks and monitors, until `lim` ends the run.
 fn step_until_done(
     nc: &NativeCallContext,
+    ctx: &ScriptContext,
     s: &SimHandle,
     lim: &Limits,
     monitors: &[MonitorHandle],
@@ -188,7 +189,11 @@ fn step_until_done(
             if step + 1 >= lim.step_end || time + lim.dt >= lim.t_end - 1e-9 * lim.dt {
                 st.sim.sample_next = true;
             }
+            let samples = st.sim.energy_history.len();
             st.sim.step().map_err(|e| sim_error(&e))?;
+            if st.sim.energy_history.len() > samples {
+                warn_balance(ctx, &mut st);
+            }
         }
         call_hooks(nc, s)?;
         dispatch_break_events(nc, s)?;
@@ -207,6 +212,24 @@ fn step_until_done(
             progress.update(lim.fraction_done(time, step), step - lim.step_start, time);
         }
     }
+}
+
+/// Print once per simulation when a sample's balance error passes
+/// [`Energy::WARNING_THRESHOLD`].
+fn warn_balance(ctx: &ScriptContext, st: &mut SimState) {
+    let e = &st.sim.energy;
+    if st.balance_warned || !e.balance_is_off() {
+        return;
+    }
+    st.balance_warned = true;
+    ctx.say(&format!(
+        "[{}] warning: energy balance error {} J at t = {} s is {} of the largest term (over {} %): energy is created or lost that no term books. Check it before trusting the results: a time step near its limit (lower the integrator's safety), a friction or joint law out of its range, or a known limit (docs/theory/contact.md, Energy account)",
+        st.name,
+        sig(e.balance_error(), 4),
+        sig(st.sim.time, 6),
+        sig(e.relative_balance_error(), 3),
+        sig(100.0 * Energy::WARNING_THRESHOLD, 2)
+    ));
 }
 
 /// Whether `stop_when` (asked every `check_every` steps of the run) ends the run at `step`.
@@ -454,19 +477,7 @@ pub fn summary(
         wall,
         rate / 1e6
     ));
-    let total = sim.timers.total();
-    s.push_str("   stage                 time [s]    share\n");
-    for stage in Stage::ALL {
-        let t = sim.timers.get(stage);
-        let share = if total > 0.0 { 100.0 * t / total } else { 0.0 };
-        s.push_str(&format!(
-            "   {:<20} {:>9.3} {:>7.1} %\n",
-            stage.name(),
-            t,
-            share
-        ));
-    }
-    s.push_str(&format!("   {:<20} {:>9.3}\n", "total", total));
+    s.push_str(&stage_table(sim));
     let e = &sim.energy;
     let joules = |x: f64| sig(x, 5);
     let at = sim.energy_history.last().map(|h| h.time).unwrap_or(0.0);
@@ -528,17 +539,7 @@ pub fn summary(
             shown.join(", ")
         ));
     }
-    s.push_str(&format!(
-        "   {:<20} {:>12}\n",
-        "initial (kin+strain)",
-        joules(e.initial)
-    ));
-    s.push_str(&format!(
-        "   {:<20} {:>12}   ({} of the largest term)\n",
-        "balance error",
-        joules(e.balance_error()),
-        sig(e.relative_balance_error(), 3)
-    ));
+    s.push_str(&balance_lines(sim));
     s.push_str(&format!(
         "   output: {} ({frames} VTK frames, energy.csv, monitors{})\n",
         out_dir.display(),
@@ -548,6 +549,51 @@ pub fn summary(
             ", cracks.csv"
         }
     ));
+    s
+}
+
+/// The per-stage timing table of the summary.
+fn stage_table(sim: &Simulation) -> String {
+    let mut s = String::new();
+    let total = sim.timers.total();
+    s.push_str("   stage                 time [s]    share\n");
+    for stage in Stage::ALL {
+        let t = sim.timers.get(stage);
+        let share = if total > 0.0 { 100.0 * t / total } else { 0.0 };
+        s.push_str(&format!(
+            "   {:<20} {:>9.3} {:>7.1} %\n",
+            stage.name(),
+            t,
+            share
+        ));
+    }
+    s.push_str(&format!("   {:<20} {:>9.3}\n", "total", total));
+    s
+}
+
+/// The initial energy and balance lines of the summary, with a warning when some sample's
+/// balance error passed [`Energy::WARNING_THRESHOLD`].
+fn balance_lines(sim: &Simulation) -> String {
+    let e = &sim.energy;
+    let mut s = format!(
+        "   {:<20} {:>12}\n   {:<20} {:>12}   ({} of the largest term)\n",
+        "initial (kin+strain)",
+        sig(e.initial, 5),
+        "balance error",
+        sig(e.balance_error(), 5),
+        sig(e.relative_balance_error(), 3)
+    );
+    if let Some(first) = sim
+        .energy_history
+        .iter()
+        .find(|h| h.energy.balance_is_off())
+    {
+        s.push_str(&format!(
+            "   WARNING: the balance error passed {} % of the largest term (first at t = {} s); the energy account does not close\n",
+            sig(100.0 * Energy::WARNING_THRESHOLD, 2),
+            sig(first.time, 6)
+        ));
+    }
     s
 }
 

@@ -42,6 +42,8 @@ pub struct SimState {
     pub events_dispatched: usize,
     /// `sim.on_new_contact_pair(|s, pair| …)`.
     pub on_new_contact_pair: Option<FnPtr>,
+    /// The balance-error warning was printed (once per simulation).
+    pub balance_warned: bool,
 }
 
 /// A joint law from `joint_law(..)`; penalties default to 10 × the Young's modulus of the
