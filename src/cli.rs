@@ -623,6 +623,7 @@ pub fn bench_fragmented(tets: usize, steps: u64) -> Result<serde_json::Value, St
     let (kernel_pairs, kernel_ns) =
         sim.contact
             .kernel_ns_per_touching_pair(&sim.contact_detection, &sim.tets.material, 5);
+    let contact_bytes = sim.contact.bytes() + sim.contact_detection.bytes();
     Ok(serde_json::json!({
         "case": "fragmented",
         "kernel_pairs": kernel_pairs,
@@ -639,7 +640,8 @@ pub fn bench_fragmented(tets: usize, steps: u64) -> Result<serde_json::Value, St
         "setup_seconds": setup,
         "tet_steps_per_s": n as f64 * steps as f64 / seconds,
         "contact_over_elements": contact / sim.timers.get(Stage::Elements).max(1e-12),
-        "contact_bytes": sim.contact.bytes() + sim.contact_detection.bytes(),
+        "contact_bytes": contact_bytes,
+        "contact_bytes_per_candidate_pair": contact_bytes as f64 / sim.contact_detection.pairs.len().max(1) as f64,
         "stages": stages,
     }))
 }
