@@ -14,21 +14,7 @@ fn run_text(name: &str, text: &str, extra: &[&str]) -> (bool, String, String) {
 
 /// [`run_text`] without `--quiet`: the end-of-run summaries are printed.
 fn run_text_with_summary(name: &str, text: &str) -> (bool, String, String) {
-    let dir = temp_dir(name);
-    let path = dir.join(format!("{name}.rhai"));
-    std::fs::write(&path, text).unwrap();
-    let out = fdem()
-        .arg("run")
-        .arg(&path)
-        .arg("--out")
-        .arg(dir.join("out"))
-        .output()
-        .unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    common::run_script_with(&temp_dir(name), name, text, &[])
 }
 
 #[test]

@@ -55,15 +55,27 @@ pub fn run_script(
     text: &str,
     extra: &[&str],
 ) -> (bool, String, String) {
+    let mut args = vec!["--quiet"];
+    args.extend_from_slice(extra);
+    run_script_with(dir, name, text, &args)
+}
+
+/// [`run_script`] with exactly the arguments `args` (without `--quiet`, the end-of-run
+/// summaries are printed).
+pub fn run_script_with(
+    dir: &std::path::Path,
+    name: &str,
+    text: &str,
+    args: &[&str],
+) -> (bool, String, String) {
     let path = dir.join(format!("{name}.rhai"));
     std::fs::write(&path, text).unwrap();
     let out = fdem()
         .arg("run")
         .arg(&path)
-        .arg("--quiet")
         .arg("--out")
         .arg(dir.join("out"))
-        .args(extra)
+        .args(args)
         .output()
         .unwrap();
     (
