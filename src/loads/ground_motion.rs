@@ -222,7 +222,9 @@ pub fn parse_two_column(text: &str, file: &str) -> Result<(Real, Vec<Real>), Str
         a.push(ai);
     }
     if t.len() < 2 {
-        return Err(format!("{file}: a two-column record needs at least two lines"));
+        return Err(format!(
+            "{file}: a two-column record needs at least two lines"
+        ));
     }
     let dt = (t[t.len() - 1] - t[0]) / (t.len() - 1) as Real;
     Ok((dt, a))
@@ -351,7 +353,9 @@ impl GroundMotion {
         }
         let eps = 1e-9 * self.dt;
         let first = ((start - eps) / self.dt).ceil().max(0.0) as usize;
-        let last = ((end + eps) / self.dt).floor().min(self.acc.len() as Real - 1.0);
+        let last = ((end + eps) / self.dt)
+            .floor()
+            .min(self.acc.len() as Real - 1.0);
         if last < first as Real {
             return Err(format!(
                 "the time window [{start}, {end}] s holds no sample of the record (duration {} s)",
@@ -391,18 +395,20 @@ impl GroundMotion {
         kinematics(&self.closed(), self.dt).1
     }
 
-    /// Ground velocity at time t [m/s]: linear between samples; after the record the final
-    /// velocity is held (the acceleration is zero).
-    pub fn velocity_at(&self, t: Real) -> Real {
-        let v = self.velocity();
-        interpolate(&v, self.dt, t, Some(0.0))
+    /// The velocity and displacement samples, for repeated interpolation.
+    pub fn kinematics(&self) -> Kinematics {
+        let (v, u) = kinematics(&self.closed(), self.dt);
+        Kinematics { dt: self.dt, v, u }
     }
 
-    /// Ground displacement at time t [m]: linear between samples; after the record it moves
-    /// on at the final velocity (zero after [`Self::baseline_corrected`]).
+    /// See [`Kinematics::velocity_at`] (this integrates the record on every call).
+    pub fn velocity_at(&self, t: Real) -> Real {
+        self.kinematics().velocity_at(t)
+    }
+
+    /// See [`Kinematics::displacement_at`] (this integrates the record on every call).
     pub fn displacement_at(&self, t: Real) -> Real {
-        let (v, u) = kinematics(&self.closed(), self.dt);
-        interpolate(&u, self.dt, t, Some(v[v.len() - 1]))
+        self.kinematics().displacement_at(t)
     }
 
     /// The record resampled at time step `dt` [s] by linear interpolation of [`Self::at`];
@@ -514,7 +520,10 @@ impl GroundMotion {
     /// Pseudo-acceleration spectrum Sa(T) = ω²·max|u| [m/s²] of a linear SDOF with damping
     /// ratio `damping`, ü + 2ζωu̇ + ω²u = −a_g(t), from rest, integrated exactly for the
     /// piecewise-linear record (Nigam & Jennings 1969; see [`sdof_peak`]). The peak is taken
-    /// over the record and a free-vibration tail of one period after it.
+    /// at the samples, over the record and a free-vibration tail of one period after it; a
+    /// peak between samples is missed by up to about (ω·dt)²/8 relative (resample the record
+    /// finer with [`Self::resampled`] for short periods: it keeps the same piecewise-linear
+    /// record).
     pub fn spectrum(&self, periods: &[Real], damping: Real) -> Vec<Real> {
         periods
             .iter()
@@ -538,6 +547,31 @@ impl GroundMotion {
     }
 }
 
+/// Ground velocity and displacement at t = k·dt, k = 0..N (see [`kinematics`]).
+#[derive(Clone, Debug)]
+pub struct Kinematics {
+    pub dt: Real,
+    /// [m/s]
+    pub v: Vec<Real>,
+    /// [m]
+    pub u: Vec<Real>,
+}
+
+impl Kinematics {
+    /// Ground velocity at time t [m/s]: linear between samples, 0 before the record; after
+    /// it the final velocity is held (the acceleration is zero).
+    pub fn velocity_at(&self, t: Real) -> Real {
+        interpolate(&self.v, self.dt, t, Some(0.0))
+    }
+
+    /// Ground displacement at time t [m]: linear between samples, 0 before the record;
+    /// after it the ground moves on at the final velocity (zero after
+    /// [`GroundMotion::baseline_corrected`], so the displacement stays put).
+    pub fn displacement_at(&self, t: Real) -> Real {
+        interpolate(&self.u, self.dt, t, Some(self.v[self.v.len() - 1]))
+    }
+}
+
 /// Integration of a response spectrum's SDOF.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
@@ -552,7 +586,11 @@ pub enum Method {
 /// sample it is y_last + slope·(t − t_last) with `slope` given, else 0.
 fn interpolate(y: &[Real], dt: Real, t: Real, slope: Option<Real>) -> Real {
     if t <= 0.0 || y.is_empty() {
-        return if t == 0.0 { y.first().copied().unwrap_or(0.0) } else { 0.0 };
+        return if t == 0.0 {
+            y.first().copied().unwrap_or(0.0)
+        } else {
+            0.0
+        };
     }
     let s = t / dt;
     let k = s.floor() as usize;
@@ -623,12 +661,27 @@ pub fn kinematics(a: &[Real], dt: Real) -> (Vec<Real>, Vec<Real>) {
 ///
 /// [`Method::AverageAcceleration`]: Newmark (1959) with γ = 1/2, β = 1/4.
 pub fn sdof_peak(acc: &[Real], dt: Real, period: Real, damping: Real, method: Method) -> Real {
+    sdof_response(acc, dt, period, damping, method)
+        .iter()
+        .fold(0.0, |m: Real, u| m.max(u.abs()))
+}
+
+/// The relative displacement u at t = k·dt [m], k = 0 .. N + one period, of the SDOF of
+/// [`sdof_peak`] (same equations), from rest: u_0 = 0.
+pub fn sdof_response(
+    acc: &[Real],
+    dt: Real,
+    period: Real,
+    damping: Real,
+    method: Method,
+) -> Vec<Real> {
     let w = 2.0 * std::f64::consts::PI / period;
     let z = damping;
     let tail = (period / dt).ceil() as usize + 1;
     let p = |k: usize| -acc.get(k).copied().unwrap_or(0.0);
     let (mut u, mut v) = (0.0, 0.0);
-    let mut umax: Real = 0.0;
+    let mut out = Vec::with_capacity(acc.len() + tail + 1);
+    out.push(0.0);
     match method {
         Method::Exact => {
             let wd = w * (1.0 - z * z).sqrt();
@@ -645,7 +698,7 @@ pub fn sdof_peak(acc: &[Real], dt: Real, period: Real, damping: Real, method: Me
                 );
                 u = h + up0 + s * dt / (w * w);
                 v = hd + s / (w * w);
-                umax = umax.max(u.abs());
+                out.push(u);
             }
         }
         Method::AverageAcceleration => {
@@ -663,9 +716,9 @@ pub fn sdof_peak(acc: &[Real], dt: Real, period: Real, damping: Real, method: Me
                 acc_rel = 4.0 / (dt * dt) * (un - u) - 4.0 / dt * v - acc_rel;
                 u = un;
                 v = vn;
-                umax = umax.max(u.abs());
+                out.push(u);
             }
         }
     }
-    umax
+    out
 }
