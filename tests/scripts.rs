@@ -447,7 +447,15 @@ sim.every(#{ time: 1e-5 }, |s| ());
 let mon = sim.monitor("m", #{ every: 1 }, |s| s.time);
 sim.run(#{ max_time: 1.0, duration: 1e-4, steps: 5, stop_when: |s| false, check_every: 1 });
 expect_within("steps", sim.step, 5, 5);
-"#;
+let eq = ground_motion("@GM@", #{ format: "at2", units: "g", scale: 0.5, start: 1.0, end: 10.0, baseline: true });
+let eq2 = ground_motion("@GM@", #{ units: "m/s2", pga: 1.0, dt: 0.01 });
+expect_within("records", eq.duration + eq2.duration, 49.0, 50.0);
+"#
+    .replace(
+        "@GM@",
+        &format!("{}/data/ground_motion/IELC180.AT2", env!("CARGO_MANIFEST_DIR")),
+    );
+    let text = text.as_str();
     let (ok, out, err) = run_text("allkeys", text, &[]);
     assert!(ok, "{out}\n{err}");
     // The run covered every option map of the API table.

@@ -7,9 +7,11 @@
 //! work of the applied forces, integrated with the trapezoidal rule in displacement:
 //! W += ½(F(t) + F(t−dt))·(x(t) − x(t−dt)) (exact for constant loads).
 
+pub mod ground_motion;
 mod table;
 mod time_function;
 
+pub use ground_motion::GroundMotion;
 pub use table::{parse_table, read_table, BadLine, TableError};
 pub use time_function::TimeFunction;
 

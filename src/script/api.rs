@@ -45,8 +45,20 @@ pub const SECTIONS: &[(&str, &str)] = &[
     ("Joints and fracture", "Stages 2–3: cohesive joints between the tetrahedra of jointed bodies; joints break, bodies fragment. Equations in docs/theory/joints.md."),
     ("Contact", "Stages 4–5: surface elements (outer faces and broken joints) touch, slide and collide through Munjiza's potential contact force with Coulomb friction. Equations in docs/theory/contact.md."),
     ("Loads and constraints", "Stage 6: gravity, forces, tractions, fixed and prescribed-velocity nodes, initial velocity."),
+    ("Earthquake records", "Ground-motion records: read, process, and measure them (PGA, PGV, Arias intensity, response spectrum). Equations in docs/theory/ground_motion.md."),
     ("Hooks, monitors and output", "Periodic callbacks, monitored quantities (CSV), ParaView frames."),
     ("Queries", "Read the state from a script or a callback (`s` is the simulation)."),
+];
+
+pub const GROUND_MOTION_KEYS: &[Key] = &[
+    key("format", "string", "", "by extension", "\"at2\", \"two_column\" (or \"csv\"), \"one_column\". Default: `.AT2` files are at2, others two-column, or one-column when `dt` is given."),
+    key("units", "string", "", "\"g\"", "Acceleration unit of the file: \"g\" (9.80665 m/s²), \"m/s2\" or \"cm/s2\"."),
+    key("dt", "float", "s", "-", "Time step of a one-column file."),
+    key("scale", "float", "-", "1", "Multiply the acceleration by this factor (not with `pga`)."),
+    key("pga", "float", "file's units", "-", "Scale the record to this peak |a|, in the file's `units` (e.g. 0.13 with \"g\"). Not with `scale`."),
+    key("start", "float", "s", "0", "Keep samples from this time on; the kept part starts again at t = 0."),
+    key("end", "float", "s", "end of record", "Keep samples up to this time."),
+    key("baseline", "bool", "", "false", "Remove c₀ + c₁·t/T from the acceleration so that the final velocity and displacement are zero (no drift after the record)."),
 ];
 
 pub const SIMULATION_KEYS: &[Key] = &[
@@ -509,6 +521,13 @@ pub const API: &[FnDoc] = &[
     FnDoc { section: "Loads and constraints", name: "sim.initial_velocity", signature: "sim.initial_velocity(nodes, [vx, vy, vz])", summary: "Set the velocity of nodes now [m/s] (before the first step: the initial condition).", keys: &[], laws: &[] },
     FnDoc { section: "Loads and constraints", name: "table", signature: "table([[t0, v0], [t1, v1], …]) -> Table", summary: "Piecewise-linear function of time, held constant beyond its ends. Times must increase. `table.eval(t)` is its value at time t.", keys: &[], laws: &[] },
     FnDoc { section: "Loads and constraints", name: "read_table", signature: "read_table(path [, scale]) -> Table", summary: "A table from a text file of two columns (t, value), separated by commas or spaces; `#` lines and a non-numeric header are skipped. Values are multiplied by `scale`.", keys: &[], laws: &[] },
+    // ── Earthquake records
+    FnDoc { section: "Earthquake records", name: "ground_motion", signature: "ground_motion(path [, #{ … }]) -> GroundMotion",
+        summary: "Read an acceleration record (path as given, or next to the script): PEER NGA `.AT2` (4 header lines, `NPTS=` and `DT=` on the 4th), two-column `t, a` (commas or spaces, uniform step) or one-column at a given `dt`. Processed in this order: units to m/s², time window, baseline correction, scaling. Bad files are refused with the file and line. Properties (SI units): `dt` [s], `duration` [s], `pga` [m/s², signed], `pga_time` [s], `pgv` [m/s, signed], `pgd` [m, signed], `arias` [m/s], `significant_duration` (D5-95) [s].", keys: GROUND_MOTION_KEYS, laws: &[] },
+    FnDoc { section: "Earthquake records", name: "record.at", signature: "record.at(t), record.velocity_at(t), record.displacement_at(t)",
+        summary: "Ground acceleration [m/s²] (linear between samples, zero after the record), velocity [m/s] and displacement [m] (integrated from rest as the central-difference step does; after the record the final velocity is held, zero with `baseline`).", keys: &[], laws: &[] },
+    FnDoc { section: "Earthquake records", name: "record.spectrum", signature: "record.spectrum(periods, damping) -> array",
+        summary: "Pseudo-acceleration response spectrum Sa(T) = ω²·max|u| [m/s²] of linear oscillators with periods `periods` [s] and damping ratio `damping` (0.05 for 5 %), integrated exactly for the piecewise-linear record (Nigam & Jennings 1969).", keys: &[], laws: &[] },
     // ── Hooks and output
     FnDoc { section: "Hooks, monitors and output", name: "sim.every", signature: "sim.every(#{ … }, |s| …)", summary: "Call a closure periodically during runs (e.g. `|s| s.write_vtk()`).", keys: EVERY_KEYS, laws: &[] },
     FnDoc { section: "Hooks, monitors and output", name: "sim.monitor", signature: "sim.monitor(name, #{ … }, |s| value) -> Monitor",

@@ -7,6 +7,7 @@ mod bindings_bodies;
 mod bindings_contact;
 mod bindings_generators;
 mod bindings_geometry;
+mod bindings_ground_motion;
 mod bindings_hooks;
 mod bindings_joints;
 mod bindings_loads;
@@ -106,6 +107,7 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     bindings_materials::register(&mut engine);
     bindings_bodies::register(&mut engine);
     bindings_loads::register(&mut engine);
+    bindings_ground_motion::register(&mut engine);
     bindings_queries::register(&mut engine);
     bindings_hooks::register(&mut engine);
     bindings_joints::register(&mut engine);

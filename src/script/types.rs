@@ -2,6 +2,7 @@
 //! tables and monitors; [`register`] gives them their Rhai names and `to_string`.
 
 use crate::io::VtkSeries;
+use crate::loads::ground_motion::{GroundMotion, Kinematics};
 use crate::loads::TimeFunction;
 use crate::material::{Material, StressMeasure};
 use crate::mesh::{BoundaryFace, Mesh, Region};
@@ -114,6 +115,11 @@ pub struct MaterialValue {
 #[derive(Clone, Debug)]
 pub struct Table(pub TimeFunction);
 
+/// A ground-motion record from `ground_motion(..)`, with its integrated velocity and
+/// displacement (computed once).
+#[derive(Clone, Debug)]
+pub struct Record(pub Rc<(GroundMotion, Kinematics)>);
+
 /// Union of two sorted id lists.
 pub fn union(a: &[u32], b: &[u32]) -> Vec<u32> {
     let mut v: Vec<u32> = a.iter().chain(b).copied().collect();
@@ -135,6 +141,7 @@ pub fn register(engine: &mut Engine) {
         .register_type_with_name::<MeshValue>("Mesh")
         .register_type_with_name::<MaterialValue>("Material")
         .register_type_with_name::<Table>("Table")
+        .register_type_with_name::<Record>("GroundMotion")
         .register_type_with_name::<MonitorHandle>("Monitor");
     engine.register_fn("to_string", |b: &mut BodyHandle| {
         format!("Body '{}'", b.sim.0.borrow().sim.bodies[b.id].name)
@@ -159,6 +166,15 @@ pub fn register(engine: &mut Engine) {
     });
     engine.register_fn("to_string", |s: &mut SimHandle| {
         format!("Simulation '{}'", s.0.borrow().name)
+    });
+    engine.register_fn("to_string", |r: &mut Record| {
+        let g = &r.0 .0;
+        format!(
+            "GroundMotion '{}' ({} samples at {} s)",
+            g.name,
+            g.acc.len(),
+            g.dt
+        )
     });
     engine.register_fn("to_string", |m: &mut MonitorHandle| {
         format!("Monitor '{}'", m.0.borrow().name)
