@@ -538,50 +538,35 @@ fn kink_energy(
 
 /// Area [m²] of the triangle `x` (barycentric coordinates `bo` of its vertices in the other
 /// element) inside the other element, measured along the triangle's normal `n`: the
-/// triangle clipped by the planes λ_l = 0 that cut it (positions and the four values only,
-/// lighter than the facets' [`Poly`]).
+/// triangle clipped by the planes λ_l = 0 that cut it, with the facets' own [`Poly`]
+/// clipping (and so the same snapping).
 #[inline(always)]
 fn clipped_area(x: [Vec3; 3], bo: [[Real; 4]; 3], n: &Vec3) -> Real {
-    type Buf = ([Vec3; MAX_POLY], [[Real; 4]; MAX_POLY]);
-    let mut a: Buf = ([Vec3::zeros(); MAX_POLY], [[0.0; 4]; MAX_POLY]);
-    let mut b: Buf = a;
-    a.0[..3].copy_from_slice(&x);
-    a.1[..3].copy_from_slice(&bo);
+    let mut a = Poly::new();
+    let mut b = Poly::new();
+    for (x, bo) in x.into_iter().zip(bo) {
+        a.push(Vert {
+            x,
+            bo,
+            bs: [0.0; 4],
+        });
+    }
     let (mut cur, mut next) = (&mut a, &mut b);
-    let mut len = 3;
     for l in 0..4 {
         if bo.iter().all(|b| b[l] >= -SNAP) {
             continue;
         }
-        let snap = |v: Real| if v.abs() <= SNAP { 0.0 } else { v };
-        let mut out = 0;
-        for i in 0..len {
-            let k = if i + 1 == len { 0 } else { i + 1 };
-            let (va, vb) = (snap(cur.1[i][l]), snap(cur.1[k][l]));
-            if va >= 0.0 && out < MAX_POLY {
-                next.0[out] = cur.0[i];
-                next.1[out] = cur.1[i];
-                out += 1;
-            }
-            if ((va > 0.0 && vb < 0.0) || (va < 0.0 && vb > 0.0)) && out < MAX_POLY {
-                let t = va / (va - vb);
-                next.0[out] = cur.0[i] + (cur.0[k] - cur.0[i]) * t;
-                for r in 0..4 {
-                    next.1[out][r] = cur.1[i][r] + (cur.1[k][r] - cur.1[i][r]) * t;
-                }
-                out += 1;
-            }
-        }
-        if out < 3 {
+        cur.clip_into(next, |v| v.bo[l]);
+        std::mem::swap(&mut cur, &mut next);
+        if cur.n < 3 {
             return 0.0;
         }
-        std::mem::swap(&mut cur, &mut next);
-        len = out;
     }
-    let p = &cur.0;
+    let v0 = cur.get(0).x;
     let mut area = 0.0;
-    for t in 1..len - 1 {
-        area += 0.5 * (p[t] - p[0]).cross(&(p[t + 1] - p[0])).dot(n);
+    for t in 1..cur.n - 1 {
+        let (xb, xc) = (cur.get(t).x, cur.get(t + 1).x);
+        area += 0.5 * (xb - v0).cross(&(xc - v0)).dot(n);
     }
     area.abs()
 }
