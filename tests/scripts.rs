@@ -91,20 +91,8 @@ print(`mass ${fmt(b.mass, 4, "kg")}`);
 print(`fmt: ${fmt(157.00000000001262, 4)} | ${fmt(1.0013e-3, 5, "m")} | ${fmt(-1.0e-12, 3)} | ${fmt(1.0e12, 3)} | ${fmt(0.0, 3)} | ${fmt(42, 3, "joints")} | ${fmt([0.009000000000000001, 0.0009999999999999998], 3, "m³")}`);
 sim.run(#{ steps: 20 });
 "#;
-    std::fs::write(&path, text).unwrap();
-    let out = fdem()
-        .arg("run")
-        .arg(&path)
-        .arg("--out")
-        .arg(dir.join("out"))
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let (ok, stdout, stderr) = common::run_script_with(&dir, "numbers", text, &[]);
+    assert!(ok, "{stdout}\n{stderr}");
     // The detector works: Rhai's own float interpolation is what `fmt` replaces.
     assert!(
         stdout.contains("raw 157.00000000001262 0.30000000000000004"),
