@@ -399,48 +399,37 @@ fn faces_inside(
     acc: &mut Acc,
 ) {
     let f = TET_FACES[k];
-    // Whole face outside (or on) one plane of the other element.
-    // (A face lying in the plane is kept: its coincident partner of opposite normal is kept
-    // too, and their cone terms cancel.)
-    for j in 0..4 {
-        let b = |v: &usize| b_own_in_other[*v][j];
-        if f.iter().all(|v| b(v) <= SNAP) && f.iter().any(|v| b(v) < -SNAP) {
-            return;
-        }
-        // A target face lying in a contactor face plane with the same outward normal (the
-        // flush sides of matching meshes) bounds the overlap where the contactor's face
-        // does: that facet is counted once, from the contactor. (φ_c = φ_t = 0 on it, so it
-        // only adds cones, and the contactor's facet adds both.)
-        if side == Side::Target
-            && f.iter().all(|v| b(v).abs() <= SNAP)
-            && own.normal[k].dot(&other.normal[j]) > 0.0
-        {
-            return;
-        }
+    let tri_bo = f.map(|v| b_own_in_other[v]);
+    // (A face lying in a plane of the other is kept: its coincident partner of opposite
+    // normal is kept too, and their cone terms cancel.)
+    if outside_a_plane(&tri_bo) {
+        return;
+    }
+    // A target face lying in a contactor face plane with the same outward normal (the flush
+    // sides of matching meshes) bounds the overlap where the contactor's face does: that
+    // facet is counted once, from the contactor. (φ_c = φ_t = 0 on it, so it only adds
+    // cones, and the contactor's facet adds both.)
+    if side == Side::Target
+        && (0..4).any(|j| {
+            tri_bo.iter().all(|b| b[j].abs() <= SNAP) && own.normal[k].dot(&other.normal[j]) > 0.0
+        })
+    {
+        return;
     }
     let mut a = Poly::new();
     let mut b = Poly::new();
-    for &v in &f {
+    for (&v, bo) in f.iter().zip(tri_bo) {
         let mut bs = [0.0; 4];
         bs[v] = 1.0;
         a.push(Vert {
             x: own.x[v],
-            bo: b_own_in_other[v],
+            bo,
             bs,
         });
     }
-    // Clip by the other's four faces, ping-ponging between two buffers.
-    let (mut cur, mut next) = (&mut a, &mut b);
-    for j in 0..4 {
-        if f.iter().all(|&v| b_own_in_other[v][j] >= -SNAP) {
-            continue; // entirely inside this half-space (snapped values are kept)
-        }
-        cur.clip_into(next, |v| v.bo[j]);
-        std::mem::swap(&mut cur, &mut next);
-        if cur.n < 3 {
-            return;
-        }
-    }
+    let Some(cur) = clip_to_other(&mut a, &mut b, &tri_bo) else {
+        return;
+    };
     let poly = cur;
     let n = own.normal[k];
     // Split by the other's regions R_m = {λ_m ≤ λ_j ∀j}. A region is clipped only by the
@@ -517,10 +506,7 @@ fn kink_energy(
         // The edge shared by faces m and j: the other two nodes.
         let (p, q) = edge_off(m, j);
         let tri_bo = [b_centroid, b_own_in_other[p], b_own_in_other[q]];
-        // Whole triangle outside one plane of the other element.
-        if (0..4)
-            .any(|l| tri_bo.iter().all(|b| b[l] <= SNAP) && tri_bo.iter().any(|b| b[l] < -SNAP))
-        {
+        if outside_a_plane(&tri_bo) {
             continue;
         }
         let gd = own.g[m] - own.g[j];
@@ -537,9 +523,7 @@ fn kink_energy(
 }
 
 /// Area [m²] of the triangle `x` (barycentric coordinates `bo` of its vertices in the other
-/// element) inside the other element, measured along the triangle's normal `n`: the
-/// triangle clipped by the planes λ_l = 0 that cut it, with the facets' own [`Poly`]
-/// clipping (and so the same snapping).
+/// element) inside the other element, measured along the triangle's normal `n`.
 #[inline(always)]
 fn clipped_area(x: [Vec3; 3], bo: [[Real; 4]; 3], n: &Vec3) -> Real {
     let mut a = Poly::new();
@@ -551,24 +535,41 @@ fn clipped_area(x: [Vec3; 3], bo: [[Real; 4]; 3], n: &Vec3) -> Real {
             bs: [0.0; 4],
         });
     }
-    let (mut cur, mut next) = (&mut a, &mut b);
+    let Some(p) = clip_to_other(&mut a, &mut b, &bo) else {
+        return 0.0;
+    };
+    let v0 = p.get(0).x;
+    let mut area = 0.0;
+    for t in 1..p.n - 1 {
+        let (xb, xc) = (p.get(t).x, p.get(t + 1).x);
+        area += 0.5 * (xb - v0).cross(&(xc - v0)).dot(n);
+    }
+    area.abs()
+}
+
+/// The triangle with vertex values `bo` (its barycentric coordinates in the other element)
+/// lies outside, or on, one plane λ_l = 0 of the other: nothing of it is inside.
+#[inline(always)]
+fn outside_a_plane(bo: &[[Real; 4]; 3]) -> bool {
+    (0..4).any(|l| bo.iter().all(|b| b[l] <= SNAP) && bo.iter().any(|b| b[l] < -SNAP))
+}
+
+/// The triangle in `a` (vertex values `bo`) clipped by the other element's planes that cut
+/// it, ping-ponging between `a` and `b`; None when less than a triangle is left.
+#[inline(always)]
+fn clip_to_other<'p>(a: &'p mut Poly, b: &'p mut Poly, bo: &[[Real; 4]; 3]) -> Option<&'p Poly> {
+    let (mut cur, mut next) = (a, b);
     for l in 0..4 {
         if bo.iter().all(|b| b[l] >= -SNAP) {
-            continue;
+            continue; // entirely inside this half-space (snapped values are kept)
         }
         cur.clip_into(next, |v| v.bo[l]);
         std::mem::swap(&mut cur, &mut next);
         if cur.n < 3 {
-            return 0.0;
+            return None;
         }
     }
-    let v0 = cur.get(0).x;
-    let mut area = 0.0;
-    for t in 1..cur.n - 1 {
-        let (xb, xc) = (cur.get(t).x, cur.get(t + 1).x);
-        area += 0.5 * (xb - v0).cross(&(xc - v0)).dot(n);
-    }
-    area.abs()
+    Some(cur)
 }
 
 /// The six kink planes of a tetrahedron's φ: λ_m = λ_j for m < j.
