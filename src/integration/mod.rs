@@ -10,9 +10,12 @@
 //! ```
 //!
 //! On the first step dt_prev = 0, so v(dt/2) = v(0) + (dt/2)·a(0), which makes the free fall
-//! x(t) = x₀ + v₀t + gt²/2 exact. Gravity enters as an acceleration here (stage 6 chooses g);
+//! x(t) = x₀ + v₀t + gt²/2 exact. Gravity enters as an acceleration here (stage 6 chooses g),
+//! and so does the body acceleration b = −a_g(t) of a relative-frame ground motion; the
 //! constrained components take the prescribed velocity and report the reaction
-//! R = m·(v_new − v_old)/dt̄ − f − m·g.
+//! R = m·(v_new − v_old)/dt̄ − f − m·(g + b). Under a base motion, damping acts on the velocity
+//! relative to the ground v_f (the damping force is −α·m·(v − v_f)), so the rigid shaking of
+//! a structure is not damped, only its motion relative to its base.
 //!
 //! Energy terms are summed over fixed-size chunks in a fixed order, so they are identical
 //! for any thread count.
@@ -46,6 +49,9 @@ pub struct IntegrationSums {
     pub damping_after: Real,
     /// Chunks holding a non-finite position or velocity (checked every step).
     pub non_finite: usize,
+    /// Σ m·v(t + dt/2) over all nodes (every step) [kg·m/s]: dt times it is the change of
+    /// Σ m·x, with which the work of a uniform body acceleration is booked.
+    pub momentum: Vec3,
 }
 
 /// Step parameters.
@@ -54,7 +60,12 @@ pub struct StepParams {
     pub dt: Real,
     pub dt_prev: Real,
     pub gravity: Vec3,
+    /// Body acceleration besides gravity (a relative-frame ground motion) [m/s²]; its work
+    /// is booked by the caller from [`IntegrationSums::momentum`].
+    pub body_acceleration: Vec3,
     pub mass_damping: Real,
+    /// Velocity that mass damping measures against (the ground's under a base motion) [m/s].
+    pub frame_velocity: Vec3,
     pub sample: bool,
 }
 
@@ -69,6 +80,9 @@ pub fn central_difference(
     let (c_old, c_inv) = (1.0 - c, 1.0 / (1.0 + c));
     let first = p.dt_prev == 0.0;
     let (half_before, half_after) = (0.5 * p.dt_prev, 0.5 * p.dt);
+    let body = p.gravity + p.body_acceleration;
+    // Damping towards the frame velocity: (1 + c)·v_new = (1 − c)·v_old + dt̄·(a + α·v_f).
+    let frame_push = p.frame_velocity * p.mass_damping;
     let Nodes {
         x0,
         x,
@@ -94,16 +108,15 @@ pub fn central_difference(
                 let n = base + i;
                 let mass = m[n];
                 let v_old = vs[i];
-                let acc = fs[i] / mass + p.gravity;
-                let mut v_new = (v_old * c_old + acc * dt_bar) * c_inv;
+                let acc = fs[i] / mass + body;
+                let mut v_new = (v_old * c_old + (acc + frame_push) * dt_bar) * c_inv;
                 let mask = constraint[n];
                 if mask != 0 {
                     let mut r = Vec3::zeros();
                     for k in 0..3 {
                         if mask & (1 << k) != 0 {
                             v_new[k] = v_prescribed[n][k];
-                            r[k] =
-                                mass * ((v_new[k] - v_old[k]) / dt_bar - p.gravity[k]) - fs[i][k];
+                            r[k] = mass * ((v_new[k] - v_old[k]) / dt_bar - body[k]) - fs[i][k];
                         }
                     }
                     s.reaction_work_before += r.dot(&v_old) * half_before;
@@ -114,8 +127,9 @@ pub fn central_difference(
                     rs[i] = r;
                 }
                 if p.mass_damping > 0.0 {
-                    // The damping force −α·m·(v_old + v_new)/2, on free components only.
-                    let mut fd = (v_old + v_new) * (0.5 * p.mass_damping * mass);
+                    // The damping force −α·m·((v_old + v_new)/2 − v_f), free components only.
+                    let mut fd =
+                        ((v_old + v_new) * 0.5 - p.frame_velocity) * (p.mass_damping * mass);
                     for k in 0..3 {
                         if mask & (1 << k) != 0 {
                             fd[k] = 0.0;
@@ -139,6 +153,7 @@ pub fn central_difference(
                     s.gravity_work += mass * p.gravity.dot(&(xs[i] - x0[n]));
                 }
                 xs[i] += v_new * p.dt;
+                s.momentum += v_new * mass;
                 vs[i] = v_new;
                 fs[i] = Vec3::zeros();
                 // NaN and ±∞ propagate through sums: one finiteness test per chunk.
@@ -158,6 +173,7 @@ pub fn central_difference(
             a.damping_before += s.damping_before;
             a.damping_after += s.damping_after;
             a.non_finite += s.non_finite;
+            a.momentum += s.momentum;
             a
         })
 }

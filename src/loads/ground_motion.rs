@@ -380,8 +380,20 @@ impl GroundMotion {
 
     /// Ground acceleration at time t [m/s²]: linear between samples, zero before 0 and
     /// from the duration N·dt on (it reaches zero linearly over the last step).
+    /// O(1), no allocation: this is what a shaken model evaluates once a step.
     pub fn at(&self, t: Real) -> Real {
-        interpolate(&self.closed(), self.dt, t, None)
+        if t.is_nan() || t < 0.0 {
+            return 0.0;
+        }
+        let s = t / self.dt;
+        let k = s.floor();
+        if k >= self.acc.len() as Real {
+            return 0.0;
+        }
+        let k = k as usize;
+        let next = self.acc.get(k + 1).copied().unwrap_or(0.0); // the closing a_N = 0
+        let f = s - k as Real;
+        self.acc[k] * (1.0 - f) + next * f
     }
 
     /// Ground velocity at the samples t = k·dt, k = 0..N [m/s], from rest. See

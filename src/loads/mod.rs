@@ -1,6 +1,6 @@
 //! Stage 6 — external loads: gravity, nodal forces and surface tractions (each optionally
-//! scaled by a time function), and prescribed velocities of node sets (fixed nodes are a
-//! prescribed velocity of zero).
+//! scaled by a time function), prescribed velocities of node sets (fixed nodes are a
+//! prescribed velocity of zero), and ground shaking by earthquake records ([`shaking`]).
 //!
 //! Reads the time and positions; adds nodal forces to `f`, writes the prescribed velocity of
 //! constrained components at t + dt/2 into `v_prescribed` (stage 7 imposes it) and keeps the
@@ -8,10 +8,12 @@
 //! W += ½(F(t) + F(t−dt))·(x(t) − x(t−dt)) (exact for constant loads).
 
 pub mod ground_motion;
+pub mod shaking;
 mod table;
 mod time_function;
 
 pub use ground_motion::GroundMotion;
+pub use shaking::{GroundRecord, Shaking, ShakingKind};
 pub use table::{parse_table, read_table, BadLine, TableError};
 pub use time_function::TimeFunction;
 
@@ -110,12 +112,20 @@ pub struct Loads {
     pub gravity: Vec3,
     pub forces: Vec<NodalForces>,
     pub prescribed: Vec<PrescribedVelocity>,
+    /// Ground motions driving the model (base motion or relative frame).
+    pub shaking: Vec<Shaking>,
     /// Work done by nodal forces and tractions so far [J].
     pub force_work: Real,
+    /// Set by stage 6 for stage 7: the relative-frame body acceleration −Σa_g(t) [m/s²].
+    pub body_acceleration: Vec3,
+    /// Set by stage 6 for stage 7: the ground velocity at t that mass damping measures
+    /// velocities against (the first base motion's; zero without one) [m/s].
+    pub frame_velocity: Vec3,
 }
 
 impl Loads {
-    /// Rebuild the per-node constraint masks from the prescriptions (later ones win per component).
+    /// Rebuild the per-node constraint masks from the prescriptions (later ones win per
+    /// component; nodes following a base motion are constrained in all three).
     pub fn apply_constraint_masks(&self, nodes: &mut Nodes) {
         nodes.constraint.iter_mut().for_each(|c| *c = 0);
         for p in &self.prescribed {
@@ -124,11 +134,20 @@ impl Loads {
                 nodes.constraint[n as usize] |= mask;
             }
         }
+        for s in &self.shaking {
+            if let ShakingKind::Base(base) = &s.kind {
+                for &n in base {
+                    nodes.constraint[n as usize] = 0b111;
+                }
+            }
+        }
     }
 }
 
-/// Stage 6: add the applied forces at time `t` and set prescribed velocities for t + dt/2.
-pub fn add_external_forces(loads: &mut Loads, nodes: &mut Nodes, t: Real, dt: Real) {
+/// Stage 6: add the applied forces at time `t`, set prescribed velocities for t + dt/2, and
+/// advance the ground of each shaking over the step (`dt_prev`: the previous step, 0 on the
+/// first). Base motions win over other prescriptions of their nodes.
+pub fn add_external_forces(loads: &mut Loads, nodes: &mut Nodes, t: Real, dt_prev: Real, dt: Real) {
     let mut work = 0.0;
     for set in &mut loads.forces {
         let s = set.scale.eval(t);
@@ -153,6 +172,24 @@ pub fn add_external_forces(loads: &mut Loads, nodes: &mut Nodes, t: Real, dt: Re
                 let value = tf.eval(t_half);
                 for &n in &p.nodes {
                     nodes.v_prescribed[n as usize][k] = value;
+                }
+            }
+        }
+    }
+    loads.body_acceleration = Vec3::zeros();
+    loads.frame_velocity = Vec3::zeros();
+    let mut frame_set = false;
+    for s in &mut loads.shaking {
+        let a = s.advance(t, dt_prev, dt);
+        match &s.kind {
+            ShakingKind::Relative => loads.body_acceleration -= a,
+            ShakingKind::Base(base) => {
+                for &n in base {
+                    nodes.v_prescribed[n as usize] = s.velocity;
+                }
+                if !frame_set {
+                    loads.frame_velocity = s.velocity_at_step();
+                    frame_set = true;
                 }
             }
         }

@@ -1,11 +1,14 @@
 //! Edits of a model between runs: moving bodies in their reference placement, constraints,
-//! prescribed velocities, applied forces and initial velocities. Each is what the script
-//! functions of the same name do, callable from Rust.
+//! prescribed velocities, applied forces, ground shaking and initial velocities. Each is what
+//! the script functions of the same name do, callable from Rust.
 
 use super::{SimError, Simulation};
-use crate::loads::{NodalForces, PrescribedVelocity, TimeFunction};
+use crate::loads::{
+    GroundRecord, NodalForces, PrescribedVelocity, Shaking, ShakingKind, TimeFunction,
+};
 use crate::math::{edge_matrix, rotation_matrix, Real, Vec3};
 use crate::mesh::BoundaryFace;
+use std::sync::Arc;
 
 impl Simulation {
     /// Translate body `body` by `d` [m]: its reference and current node positions and its
@@ -96,6 +99,37 @@ impl Simulation {
     pub fn add_traction(&mut self, faces: &[BoundaryFace], traction: Vec3, scale: TimeFunction) {
         let forces = NodalForces::traction(faces, &self.nodes.x0, traction, scale);
         self.loads.forces.push(forces);
+    }
+
+    /// Shake the model with ground-motion records (x, y, z; at least one) whose t = 0 falls
+    /// at simulation time `start` (None: now), in one of the two ways of
+    /// [`crate::loads::shaking`]: `ShakingKind::Base(nodes)` makes the nodes follow the
+    /// ground in all three components (over any other prescription of theirs);
+    /// `ShakingKind::Relative` loads every node with −m·a_g(t) (fix the base yourself).
+    pub fn shake(
+        &mut self,
+        records: [Option<Arc<GroundRecord>>; 3],
+        start: Option<Real>,
+        kind: ShakingKind,
+    ) -> Result<(), String> {
+        if records.iter().all(|r| r.is_none()) {
+            return Err("give at least one record (x, y or z)".into());
+        }
+        let start = start.unwrap_or(self.time);
+        if !start.is_finite() || start < self.time - 1e-9 * self.dt.max(1e-300) {
+            return Err(format!(
+                "start = {start} s is before the current time t = {} s; a record can start now or later",
+                self.time
+            ));
+        }
+        if let ShakingKind::Base(nodes) = &kind {
+            if nodes.is_empty() {
+                return Err("the base node set is empty".into());
+            }
+        }
+        self.loads.shaking.push(Shaking::new(records, start, kind));
+        self.invalidate();
+        Ok(())
     }
 
     /// Set the velocity of `nodes` to `v` [m/s] now (an initial condition before a run).

@@ -80,8 +80,11 @@ pub struct Energy {
     pub gravity_work: Real,
     /// Work of nodal forces and tractions.
     pub force_work: Real,
-    /// Work of the constraints (fixed and prescribed-velocity nodes).
+    /// Work of the constraints (fixed and prescribed-velocity nodes, base motions).
     pub reaction_work: Real,
+    /// Work of the relative-frame ground-motion body force −m·a_g(t) (the earthquake's
+    /// input in the relative frame; under a base motion that input is reaction work).
+    pub ground_work: Real,
     /// Dissipated by mass-proportional damping.
     pub mass_damping: Real,
     /// Dissipated by viscous (η·D) element damping.
@@ -111,7 +114,7 @@ impl Energy {
     }
 
     pub fn external_work(&self) -> Real {
-        self.gravity_work + self.force_work + self.reaction_work
+        self.gravity_work + self.force_work + self.reaction_work + self.ground_work
     }
     pub fn dissipated(&self) -> Real {
         self.mass_damping + self.viscous_damping + self.fracture + self.friction
@@ -132,6 +135,7 @@ impl Energy {
             self.gravity_work.abs(),
             self.force_work.abs(),
             self.reaction_work.abs(),
+            self.ground_work.abs(),
             self.dissipated(),
         ]
         .into_iter()
@@ -292,6 +296,8 @@ pub struct Simulation {
     /// standing for ground acceleration) shifts the gravity work's state function, see
     /// [`Simulation::gravity_changed`].
     gravity_applied: Option<Vec3>,
+    /// Σ m·v(t − dt/2) of the last step, for the relative-frame body force's work.
+    momentum_before: Vec3,
 }
 
 impl Simulation {
@@ -623,14 +629,16 @@ impl Simulation {
             self.contact_stages()?; // 4. contact detection, 5. contact interaction
         }
         timed(&mut self.timers, Stage::ExternalLoads, || {
-            loads::add_external_forces(&mut self.loads, &mut self.nodes, time, dt)
+            loads::add_external_forces(&mut self.loads, &mut self.nodes, time, self.dt_prev, dt)
         });
         self.gravity_changed();
         let params = StepParams {
             dt,
             dt_prev: self.dt_prev,
             gravity: self.loads.gravity,
+            body_acceleration: self.loads.body_acceleration,
             mass_damping: self.settings.mass_damping,
+            frame_velocity: self.loads.frame_velocity,
             sample,
         };
         let is = timed(&mut self.timers, Stage::Integration, || {
@@ -723,6 +731,12 @@ impl Simulation {
     ) -> Result<(), SimError> {
         let dt = self.dt;
         let viscous = el.viscous_power * 0.5 * (self.dt_prev + dt);
+        // The body force m·b at t works over both half steps around t (as the reactions):
+        // b·Σm·Δx, with Σm·Δx = dt·Σm·v of each half step.
+        let b = self.loads.body_acceleration;
+        let ground_before = 0.5 * b.dot(&self.momentum_before) * self.dt_prev;
+        let ground_after = 0.5 * b.dot(&is.momentum) * dt;
+        self.momentum_before = is.momentum;
         if sample {
             let a = &self.accumulated;
             self.energy = Energy {
@@ -731,6 +745,7 @@ impl Simulation {
                 gravity_work: is.gravity_work + a.gravity_work,
                 force_work: self.loads.force_work,
                 reaction_work: a.reaction_work + is.reaction_work_before,
+                ground_work: a.ground_work + ground_before,
                 mass_damping: a.mass_damping + is.damping_before,
                 viscous_damping: a.viscous_damping + 0.5 * viscous,
                 joint: js.energy,
@@ -760,6 +775,7 @@ impl Simulation {
         self.accumulated.friction += self.contact_dissipated;
         self.accumulated.mass_damping += is.damping_before + is.damping_after;
         self.accumulated.reaction_work += is.reaction_work_before + is.reaction_work_after;
+        self.accumulated.ground_work += ground_before + ground_after;
         Ok(())
     }
 

@@ -61,6 +61,13 @@ pub const GROUND_MOTION_KEYS: &[Key] = &[
     key("baseline", "bool", "", "false", "Remove c₀ + c₁·t/T from the acceleration so that the final velocity and displacement are zero (no drift after the record)."),
 ];
 
+pub const SHAKE_KEYS: &[Key] = &[
+    key("x", "GroundMotion", "", "-", "Record of the ground acceleration along x (from `ground_motion(..)`)."),
+    key("y", "GroundMotion", "", "-", "Record along y."),
+    key("z", "GroundMotion", "", "-", "Record along z (vertical). At least one of x, y, z."),
+    key("start", "float", "s", "now", "Simulation time at which the records' t = 0 falls; not before the current time. Before it and after each record the ground acceleration is zero."),
+];
+
 pub const SIMULATION_KEYS: &[Key] = &[
     key("name", "string", "", "script file stem", "Name used in output file names."),
     key("out_dir", "string", "", "\"out/<name>\"", "Output directory (created when first written). `fdem run --out DIR` overrides it."),
@@ -528,6 +535,12 @@ pub const API: &[FnDoc] = &[
         summary: "Ground acceleration [m/s²] (linear between samples, zero after the record), velocity [m/s] and displacement [m] (integrated from rest as the central-difference step does; after the record the final velocity is held, zero with `baseline`).", keys: &[], laws: &[] },
     FnDoc { section: "Earthquake records", name: "record.spectrum", signature: "record.spectrum(periods, damping) -> array",
         summary: "Pseudo-acceleration response spectrum Sa(T) = ω²·max|u| [m/s²] of linear oscillators with periods `periods` [s] and damping ratio `damping` (0.05 for 5 %), integrated exactly for the piecewise-linear record (Nigam & Jennings 1969).", keys: &[], laws: &[] },
+    FnDoc { section: "Earthquake records", name: "sim.shake_base", signature: "sim.shake_base(nodes, #{ x, y, z, start })",
+        summary: "Way (a), prescribed base motion: the nodes (a base body, a foundation, a shaking table) follow the ground in all three components (directions without a record stay still), over any other prescription of theirs. The ground is the records integrated with the engine's own step from rest at `start` (its displacement is the record's double integral at the simulation step; records with another dt are interpolated). The structure is moved through whatever holds it to the base: shared elements, joints, or contact and friction alone. Mass damping then acts on velocities relative to the ground. The earthquake's input is booked as constraint (reaction) work. Several base motions may drive different node sets.", keys: SHAKE_KEYS, laws: &[] },
+    FnDoc { section: "Earthquake records", name: "sim.shake_relative", signature: "sim.shake_relative(#{ x, y, z, start })",
+        summary: "Way (b), the relative frame: every node carries the body force −m·a_g(t) (added to gravity's acceleration), so displacements and velocities are relative to the ground; fix the base yourself (`sim.fix(base)`). Its work is the energy term `ground_work`. For a structure whose base is fixed this gives the same relative response as `shake_base` (identical to round-off for the same records and dt; tested).", keys: SHAKE_KEYS, laws: &[] },
+    FnDoc { section: "Earthquake records", name: "s.ground", signature: "s.ground() -> #{ acceleration, velocity, displacement, start, end }",
+        summary: "The first shaking's ground: acceleration applied on the last step [m/s²], velocity v(t − dt/2) [m/s] (the half-step value, as node velocities), displacement at t [m] (3-arrays), the start time and the time the longest record ends [s]. Relative displacement under `shake_base` = node displacement − ground displacement.", keys: &[], laws: &[] },
     // ── Hooks and output
     FnDoc { section: "Hooks, monitors and output", name: "sim.every", signature: "sim.every(#{ … }, |s| …)", summary: "Call a closure periodically during runs (e.g. `|s| s.write_vtk()`).", keys: EVERY_KEYS, laws: &[] },
     FnDoc { section: "Hooks, monitors and output", name: "sim.monitor", signature: "sim.monitor(name, #{ … }, |s| value) -> Monitor",
@@ -537,7 +550,7 @@ pub const API: &[FnDoc] = &[
     // ── Queries
     FnDoc { section: "Queries", name: "s.time", signature: "s.time, s.step, s.dt, s.n_nodes, s.n_tets", summary: "Simulated time [s], steps done, time step [s], sizes.", keys: &[], laws: &[] },
     FnDoc { section: "Queries", name: "s.kinetic_energy", signature: "s.kinetic_energy(), s.strain_energy()", summary: "Current kinetic and strain energy [J].", keys: &[], laws: &[] },
-    FnDoc { section: "Queries", name: "s.energy", signature: "s.energy() -> map", summary: "Energy account at the last sample [J]: kinetic, strain, joint (elastic energy of the joints), external_work, gravity_work, force_work, reaction_work, damping (mass-proportional + viscous), fracture (dissipated by joints), initial, balance_error, relative_error.", keys: &[], laws: &[] },
+    FnDoc { section: "Queries", name: "s.energy", signature: "s.energy() -> map", summary: "Energy account at the last sample [J]: kinetic, strain, joint (elastic energy of the joints), external_work, gravity_work, force_work, reaction_work, ground_work (relative-frame ground motion), damping (mass-proportional + viscous), fracture (dissipated by joints), initial, balance_error, relative_error.", keys: &[], laws: &[] },
     FnDoc { section: "Queries", name: "s.displacement", signature: "s.displacement(nodes) -> [x, y, z]", summary: "Mean displacement of the nodes [m]. Also `s.position(nodes)` [m] and `s.velocity(nodes)` [m/s] (means).", keys: &[], laws: &[] },
     FnDoc { section: "Queries", name: "s.reaction", signature: "s.reaction(nodes) -> [x, y, z]", summary: "Sum of the constraint forces on the nodes in the last step [N].", keys: &[], laws: &[] },
     FnDoc { section: "Queries", name: "s.mean_stress", signature: "s.mean_stress(elements) -> [[..], [..], [..]]", summary: "Volume-weighted mean Cauchy stress of the elements [Pa]; `s.max_von_mises(elements)` the largest von Mises stress [Pa].", keys: &[], laws: &[] },

@@ -1,14 +1,19 @@
 //! Script bindings of the section "Earthquake records": `ground_motion(path, #{ … })` reads a
 //! record with `loads::ground_motion::GroundMotion::read` and returns it with its properties
-//! (PGA, PGV, Arias, …) and methods (`at`, `velocity_at`, `displacement_at`, `spectrum`).
+//! (PGA, PGV, Arias, …) and methods (`at`, `velocity_at`, `displacement_at`, `spectrum`);
+//! `sim.shake_base(nodes, #{ x, y, z })` and `sim.shake_relative(#{ x, y, z })` shake a model
+//! with records (`Simulation::shake`), and `s.ground()` reports the ground's motion.
 
 use super::api::keys_of;
+use super::opts::vec3_to_array;
 use super::opts::{err, num, to_float, Opts, RhaiResult};
-use super::types::Record;
+use super::types::{NodeSet, Record, SimHandle};
 use crate::loads::ground_motion::{units_factor, Format, GroundMotion, ReadOptions};
+use crate::loads::{GroundRecord, ShakingKind};
 use crate::math::Real;
 use rhai::{Array, Dynamic, Engine, Map, NativeCallContext};
 use std::rc::Rc;
+use std::sync::Arc;
 
 /// A numeric property of a record.
 type Property = fn(&GroundMotion) -> Real;
@@ -50,6 +55,52 @@ pub fn register(engine: &mut Engine) {
         },
     );
     engine.register_fn("spectrum", spectrum);
+    engine.register_fn(
+        "shake_base",
+        |s: &mut SimHandle, n: NodeSet, m: Map| -> RhaiResult<()> {
+            shake(s, m, "sim.shake_base", ShakingKind::Base(n.0.to_vec()))
+        },
+    );
+    engine.register_fn(
+        "shake_relative",
+        |s: &mut SimHandle, m: Map| -> RhaiResult<()> {
+            shake(s, m, "sim.shake_relative", ShakingKind::Relative)
+        },
+    );
+    engine.register_fn("ground", ground);
+}
+
+/// `sim.shake_base(nodes, #{ x, y, z, start })`, `sim.shake_relative(#{ … })`.
+fn shake(s: &mut SimHandle, m: Map, name: &'static str, kind: ShakingKind) -> RhaiResult<()> {
+    let o = Opts::new(name, m, keys_of(name))?;
+    let mut records: [Option<Arc<GroundRecord>>; 3] = Default::default();
+    for (k, c) in ["x", "y", "z"].iter().enumerate() {
+        records[k] = o
+            .typed::<Record>(c, "a record from ground_motion(..)")?
+            .map(|r| Arc::new(GroundRecord::new(r.0 .0.clone())));
+    }
+    let start = o.float("start")?;
+    s.0.borrow_mut()
+        .sim
+        .shake(records, start, kind)
+        .map_err(|e| format!("{name}(): {e}").into())
+}
+
+/// `s.ground()`: the first shaking's ground motion at the current time.
+fn ground(s: &mut SimHandle) -> RhaiResult<Map> {
+    let st = s.0.borrow();
+    let Some(g) = st.sim.loads.shaking.first() else {
+        return err(
+            "ground(): the model is not shaken; use sim.shake_base(..) or sim.shake_relative(..)",
+        );
+    };
+    let mut m = Map::new();
+    m.insert("acceleration".into(), vec3_to_array(g.acceleration).into());
+    m.insert("velocity".into(), vec3_to_array(g.velocity).into());
+    m.insert("displacement".into(), vec3_to_array(g.displacement).into());
+    m.insert("start".into(), g.start.into());
+    m.insert("end".into(), g.end().into());
+    Ok(m)
 }
 
 /// `record.spectrum(periods, damping)`: Sa [m/s²] per period.

@@ -80,6 +80,7 @@ fn energy(s: &mut SimHandle) -> Map {
         ("gravity_work", e.gravity_work),
         ("force_work", e.force_work),
         ("reaction_work", e.reaction_work),
+        ("ground_work", e.ground_work),
         ("damping", e.mass_damping + e.viscous_damping),
         ("joint", e.joint),
         ("fracture", e.fracture),

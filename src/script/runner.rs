@@ -377,6 +377,7 @@ fn write_run_output(s: &SimHandle) -> Result<(), String> {
             en.gravity_work,
             en.force_work,
             en.reaction_work,
+            en.ground_work,
             en.mass_damping,
             en.viscous_damping,
             en.joint,
@@ -394,6 +395,7 @@ fn write_run_output(s: &SimHandle) -> Result<(), String> {
         "gravity_work",
         "force_work",
         "reaction_work",
+        "ground_work",
         "mass_damping",
         "viscous_damping",
         "joint",
@@ -487,8 +489,13 @@ pub fn summary(
     ));
     s.push_str(&format!("   {:<20} {:>12}\n", "kinetic", joules(e.kinetic)));
     s.push_str(&format!("   {:<20} {:>12}\n", "strain", joules(e.strain)));
+    let ground = if e.ground_work != 0.0 {
+        format!(", ground motion {}", joules(e.ground_work))
+    } else {
+        String::new()
+    };
     s.push_str(&format!(
-        "   {:<20} {:>12}   (gravity {}, forces {}, constraints {})\n",
+        "   {:<20} {:>12}   (gravity {}, forces {}, constraints {}{ground})\n",
         "external work",
         joules(e.external_work()),
         joules(e.gravity_work),
