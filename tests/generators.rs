@@ -168,6 +168,16 @@ fn quality_table() {
             masonry::dome(&DOME, 0.25).unwrap(),
             dome_volume(&DOME),
         ),
+        (
+            "cloister vault",
+            masonry::cloister_vault(&VAULT, VAULT_SIZE).unwrap(),
+            VAULT.web_volume().unwrap(),
+        ),
+        (
+            "cloister vault, Florence",
+            masonry::cloister_vault(&FLORENCE, 1.0).unwrap(),
+            FLORENCE.web_volume().unwrap(),
+        ),
     ] {
         let q = a.quality().unwrap();
         rows.push((
@@ -667,7 +677,29 @@ if bodies[3].name != "v_3" { throw "names"; }
 let law = joint_law("tied", #{});
 let n = sim.insert_joints(#{ between: bodies, law: law });
 if n != 4 * 3 * 5 * 2 { throw `joints ${n}`; }
+let v = cloister_vault(#{ span: 10.0, thickness: 0.5, courses: 2, blocks_per_web: 2, oculus: 2.0, ribs: true, rib_depth: 0.3, size: 0.5, center: [0.0, 0.0, 20.0] });
+if v.kind != "cloister_vault" || v.n_courses != 2 || v.len() != 8 * (1 + 2) + 8 * (1 + 3) { throw `vault blocks ${v.len()}`; }
+if !v.block(0).springer || v.block(24).springer || v.block(24).course != 1 { throw "vault courses"; }
+if !v.mesh(23).sets().contains("rib") || v.mesh(0).sets().contains("rib") { throw "vault ribs"; }
+let vb = sim.add_blocks(v, stone, #{ prefix: "vault" });
+let nv = sim.insert_joints(#{ between: vb, law: law });
+if nv != @VAULT_JOINTS@ { throw `vault joints ${nv}`; }
 "#;
+    let script_vault = CloisterVault {
+        span: 10.0,
+        thickness: 0.5,
+        courses: 2,
+        blocks_per_web: 2,
+        profile_ratio: 0.8,
+        oculus: 2.0,
+        ribs: Some(Ribs {
+            width: None,
+            depth: 0.3,
+        }),
+    };
+    let vault_joints = joints_between(&masonry::cloister_vault(&script_vault, 0.5).unwrap());
+    let text = text.replace("@VAULT_JOINTS@", &vault_joints.to_string());
+    let text = text.as_str();
     let dir = std::env::temp_dir().join(format!("fdem-gen-script-{}", std::process::id()));
     let path = dir.join("gen.rhai");
     let report = fdem::script::run_source(
@@ -694,6 +726,25 @@ if n != 4 * 3 * 5 * 2 { throw `joints ${n}`; }
         .err()
         .unwrap();
     assert!(e.0.contains("selection region only"), "{e}");
+    for (bad, want) in [
+        (
+            "let v = cloister_vault(#{ span: 10.0, thickness: 0.5, courses: 2, blocks_per_web: 2, rib_width: 1.0 });",
+            "cloister_vault(): key 'rib_width' applies only with 'ribs: true'",
+        ),
+        (
+            "let v = cloister_vault(#{ span: 10.0, thickness: 0.5, courses: 2, blocks_per_web: 2, profile_ratio: 0.4 });",
+            "cloister_vault(): 'profile_ratio' must be ≥ cos(22.5°)/2",
+        ),
+        (
+            "let v = cloister_vault(#{ span: 10.0, thickness: 0.5, courses: 2, blocks_per_web: 0 });",
+            "cloister_vault(): key 'blocks_per_web' must be ≥ 1, got 0",
+        ),
+    ] {
+        let e = fdem::script::run_source(&path, bad, Default::default())
+            .err()
+            .unwrap();
+        assert!(e.0.contains(want), "{e}");
+    }
 }
 
 // ─── Cloister vault ──────────────────────────────────────────────────────────────
@@ -1107,6 +1158,17 @@ fn cloister_vault_volume_against_quadrature() {
     let e = rel(a.volume(), exact);
     println!("vault volume {:.6} m³, exact {exact:.6}, error {:.3e} (bound {bound:.3e}, Δψ_max {dmax:.4})", a.volume(), e);
     assert!(e.abs() <= bound && e < 0.0, "{e} vs {bound}");
+    // 4. Second order: halving `size` multiplies the ψ cells by n₂/n₁ (about 1.8: the ψ cells
+    //    follow the geometric mean of size and the around-cell width, and the around-grid is
+    //    rounded to whole pairs of cells per block), and the error by (n₁/n₂)².
+    let err_cells = |h: Real| {
+        let a = masonry::cloister_vault(&v, h).unwrap();
+        (rel(a.volume(), exact), vault_psi_grid(&v, &a).len() - 1)
+    };
+    let ((e1, n1), (e2, n2)) = (err_cells(0.25), err_cells(0.125));
+    let predicted = (n1 as Real / n2 as Real).powi(2);
+    println!("vault: error {e1:.3e} ({n1} ψ cells), {e2:.3e} ({n2}): ratio {:.3}, (n₁/n₂)² {predicted:.3}", e2 / e1);
+    assert!((e2 / e1 / predicted - 1.0).abs() < 0.1);
 }
 
 /// Where the head faces of a block are around the octagon, in sides from corner 0
@@ -1210,6 +1272,14 @@ fn cloister_vault_ribs_straddle_the_corners_and_glue_to_the_webs() {
     }
     let (joints, free, total) = vault_face_account(&a);
     assert_eq!(total, 2 * joints + free);
+    let q = a.quality().unwrap();
+    println!(
+        "ribbed vault: {} blocks, {} tets, {joints} joint triangles, min dihedral {:.1}°, max aspect {:.2}",
+        a.blocks.len(),
+        a.n_tets(),
+        q.min_dihedral_deg,
+        q.max_aspect_ratio
+    );
     // Volume: the shell's chord volume plus the ribs' part beyond the web (their fraction of
     // each side, from the ξ of their heads).
     let fraction = width_u(&v, ribs[0]);
@@ -1318,6 +1388,30 @@ fn cloister_vault_florence_numbers() {
         let (ta, tm) = vault_volume_terms(&v, r0, r0 + to, p.psi_top);
         println!("  outer shell {to} m: {:.0} m³", 8.0 * (ta + tm));
     }
+    // With corner ribs as wide as the 1420 programme's corner spurs at their foot (7 braccia,
+    // 4.1 m) and as deep as the gap between the shells (1.2 m).
+    let ribbed = CloisterVault {
+        ribs: Some(Ribs {
+            width: Some(4.1),
+            depth: 1.2,
+        }),
+        ..v
+    };
+    let t0 = std::time::Instant::now();
+    let ar = masonry::cloister_vault(&ribbed, 1.0).unwrap();
+    let dtr = t0.elapsed();
+    let qr = ar.quality().unwrap();
+    println!(
+        "  ribbed: {} blocks, {} tets, min dihedral {:.1}°, max aspect {:.2}, volume {:.0} m³ (+{:.0} m³ of ribs), {:.0} ms",
+        ar.blocks.len(),
+        ar.n_tets(),
+        qr.min_dihedral_deg,
+        qr.max_aspect_ratio,
+        ar.volume(),
+        ar.volume() - a.volume(),
+        dtr.as_secs_f64() * 1e3
+    );
+    assert!(ar.blocks.iter().all(|b| b.mesh.check().is_empty()));
     assert_eq!(a.blocks.len(), 12 * 32);
     assert!(a.blocks.iter().all(|b| b.mesh.check().is_empty()));
     assert!(q.min_dihedral_deg > 10.0);
