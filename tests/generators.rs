@@ -749,10 +749,10 @@ if nv != @VAULT_JOINTS@ { throw `vault joints ${nv}`; }
 
 // ─── Cloister vault ──────────────────────────────────────────────────────────────
 //
-// The references below are written from the geometry of the brief, not from the generator's
-// code: web k of the octagon (corner 0 on +x) faces n_k at (k + ½)·45°; its point (ψ, ρ, ξ)
-// is s = s_c + ρ cos ψ along n_k, ξ·s·tan 22.5° along the side, z = ρ sin ψ, with
-// a = span/2, D_c = 2a/cos 22.5°, r = ratio·D_c, s_c = a − r.
+// The references below are written from the geometry stated in docs/generators.md, not
+// from the generator's code: web k of the octagon (corner 0 on +x) faces n_k at (k + ½)·45°;
+// its point (ψ, ρ, ξ) is s = s_c + ρ cos ψ along n_k, ξ·s·tan 22.5° along the side,
+// z = ρ sin ψ, with a = span/2, D_c = 2a/cos 22.5°, r = ratio·D_c, s_c = a − r.
 
 const VAULT: CloisterVault = CloisterVault {
     span: 10.0,
@@ -1245,7 +1245,7 @@ fn cloister_vault_ribs_straddle_the_corners_and_glue_to_the_webs() {
     }
     // The last block of every course is the rib at corner 0, straddling +x.
     for c in 0..6 {
-        let last = a.blocks.iter().filter(|b| b.course == c).last().unwrap();
+        let last = a.blocks.iter().rfind(|b| b.course == c).unwrap();
         let [l, rr] = head_u(&v, last);
         assert!(
             last.mesh.sets.faces.contains_key("rib") && l > 7.0 && rr < 1.0,

@@ -534,12 +534,14 @@ impl CloisterVault {
 /// corners), and two neighbouring webs give the same point there for the same (ψ, ρ): the
 /// meshes conform across the corners exactly. The corner sections (intersections of two
 /// neighbouring cylinders) are then pointed arcs of ellipses with semi-axes r / cos 22.5°
-/// (horizontal) and r (vertical), as the groins of a cloister vault are. In Florence the
-/// 1420 programme and the usual description put the "quinto acuto" circle (radius 4/5 of the
-/// span across corners) on the eight corner ribs, not on the webs' mid-lines; that is a
-/// different surface. Its crown is at D_c √(p − 1/4) = 0.742 D_c for p = 4/5 instead of
-/// 0.725 D_c here; profile_ratio = (p − 1/4 + cos² 22.5°/4) / cos 22.5° (0.826 for 4/5)
-/// gives this model the same crown height. See docs/generators.md.
+/// (horizontal) and r (vertical), as the groins of a cloister vault are. This is a choice:
+/// the usual description of Florence (e.g. Museo Galileo, "Brunelleschi and the dome of
+/// Florence Cathedral": the vertical ribs of the inner shell have a pointed-fifth curvature
+/// whose radius is 4/5 of the diagonal of the base octagon) puts the circle of radius
+/// p·D_c on the eight corner ribs, not on the webs' mid-lines, which is a different surface
+/// (circular corners, elliptical mid-lines). Its crown is at D_c √(p − 1/4) = 0.742 D_c for
+/// p = 4/5 instead of 0.725 D_c here; profile_ratio = (p − 1/4 + cos² 22.5°/4) / cos 22.5°
+/// (0.826 for 4/5) gives this model the same crown height. See docs/generators.md.
 ///
 /// **Oculus.** The webs end at the top bed ψ_top, where the intrados mid-line reaches
 /// s = oculus/2 (height r sin ψ_top); the opening there is a regular octagon `oculus` across
@@ -563,7 +565,8 @@ impl CloisterVault {
 /// quad grid cut into triangles, extruded through ρ into prisms of 3 tetrahedra (as `dome`).
 /// Head and bed faces are planar and every cell is a hexahedron with planar faces, so the
 /// mesh is exact except for the chords of the intrados and extrados arcs in ψ: its volume is
-/// low by O(Δψ²).
+/// low by O(Δψ²) (the extrados chords cut off more than the intrados chords add, being
+/// longer and farther from the axis).
 ///
 /// **Numbering.** Blocks are numbered course by course from the springing (course 0, flagged
 /// springers) and, within a course, counter-clockwise seen from above, starting with the
@@ -803,5 +806,55 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.contains("'thickness' must be > 0"), "{e}");
+    }
+
+    #[test]
+    fn cloister_vault_courses_ribs_and_top_bed() {
+        let v = CloisterVault {
+            span: 6.0,
+            thickness: 0.4,
+            courses: 3,
+            blocks_per_web: 2,
+            profile_ratio: 0.8,
+            oculus: 1.0,
+            ribs: Some(Ribs {
+                width: None,
+                depth: 0.2,
+            }),
+        };
+        let a = cloister_vault(&v, 0.4).unwrap();
+        // Per course 8 ribs + 8 × 2 web blocks (even) or 8 × 3 (odd: two halves + one).
+        assert_eq!(a.blocks.len(), 24 + 32 + 24);
+        assert!(a.blocks.iter().all(|b| b.mesh.check().is_empty()));
+        assert_eq!(a.blocks.iter().filter(|b| b.springer).count(), 24);
+        // The oculus set of a web block of the top course: its intrados edge is at the
+        // documented height r sin ψ_top, and the ribs carry `rib`.
+        let p = v.profile().unwrap();
+        let top = &a.blocks[24 + 32].mesh;
+        let z = top.sets.nodes["oculus"]
+            .iter()
+            .map(|&n| top.nodes[n as usize].z)
+            .fold(Real::INFINITY, Real::min);
+        assert!((z - p.oculus_height).abs() < 1e-12 * v.span, "{z}");
+        assert_eq!(
+            a.blocks
+                .iter()
+                .filter(|b| b.mesh.sets.faces.contains_key("rib"))
+                .count(),
+            24
+        );
+        // A rib as wide as the side would leave no web between the ribs.
+        let e = cloister_vault(
+            &CloisterVault {
+                ribs: Some(Ribs {
+                    width: Some(6.0 * (PI / 8.0).tan()),
+                    depth: 0.2,
+                }),
+                ..v
+            },
+            0.4,
+        )
+        .unwrap_err();
+        assert!(e.contains("'rib_width' must lie in (0, side length"), "{e}");
     }
 }
