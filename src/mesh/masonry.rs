@@ -1,5 +1,6 @@
 //! Masonry generators: an arch of voussoirs, a wall of bricks in running bond, a dome of
-//! voussoir blocks in courses. Each returns an [`Assembly`]: one [`Mesh`] per block, with
+//! voussoir blocks in courses, an octagonal cloister vault (the dome of Florence in outline)
+//! with optional corner ribs. Each returns an [`Assembly`]: one [`Mesh`] per block, with
 //! named face/node sets and the block's course, index and springer flag.
 //!
 //! Neighbouring blocks share their faces exactly: the same nodes (computed by the same
@@ -9,7 +10,7 @@
 
 use super::generators::box_mesh;
 use super::solids::{need_positive, need_reasonable};
-use super::structured::{add_all_elements, add_face_set, cells, lerp, Tri2};
+use super::structured::{add_all_elements, add_face_set, add_face_set_by_ids, cells, lerp, Tri2};
 use super::Mesh;
 use crate::math::{Real, Vec3};
 use std::f64::consts::PI;
@@ -30,7 +31,7 @@ pub struct Block {
 /// Blocks of a masonry structure, with what generated them.
 #[derive(Clone, Debug)]
 pub struct Assembly {
-    /// "arch", "wall" or "dome".
+    /// "arch", "wall", "dome" or "cloister_vault".
     pub kind: &'static str,
     pub blocks: Vec<Block>,
     pub courses: usize,
@@ -393,6 +394,356 @@ pub fn dome(d: &Dome, h: Real) -> Result<Assembly, String> {
     })
 }
 
+// ─── Cloister vault ──────────────────────────────────────────────────────────────
+
+/// Half the angle that a side of the octagon subtends at the axis: π/8 = 22.5°.
+const HALF_SIDE: Real = PI / 8.0;
+
+/// Corner ribs of a [`CloisterVault`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ribs {
+    /// Width of a rib across its corner [m], measured along the intrados at the springing
+    /// (half on each side of the corner); in (0, 2a·tan 22.5°), the side length there. It is
+    /// rounded to an even number of cells of the around-grid. `None`: one block width.
+    pub width: Option<Real>,
+    /// How far a rib projects beyond the web extrados, along the web normal [m], > 0.
+    pub depth: Real,
+}
+
+/// An octagonal cloister vault (a domical vault of eight cylindrical webs) on a regular
+/// octagon, axis on +z through the origin, springing at z = 0: the dome of Santa Maria del
+/// Fiore in Florence in outline (one shell, no void between an inner and an outer shell).
+/// The octagon has a corner on +x; corner k is at the angle k·45°, web k lies between corners
+/// k and k + 1 and faces the outward normal at k·45° + 22.5°.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CloisterVault {
+    /// Inner span across flats at the springing, 2a [m] (a: apothem of the intrados octagon).
+    pub span: Real,
+    /// Shell thickness t, measured along the web normal [m].
+    pub thickness: Real,
+    /// Courses (≥ 1): equal steps of the arc angle ψ from the springing to the top bed.
+    pub courses: usize,
+    /// Blocks across each web in every course (≥ 1); with ribs, the web blocks between two
+    /// ribs (in the even courses).
+    pub blocks_per_web: usize,
+    /// Radius of the web arcs over the span across corners, r / D_c; 4/5 is Brunelleschi's
+    /// "quinto acuto". At least cos(22.5°)/2 ≈ 0.462 (r = a: round crown).
+    pub profile_ratio: Real,
+    /// Inner opening across flats at the top bed [m], in (0, span): the intrados of every
+    /// web's mid-line ends at s = oculus/2 from the axis.
+    pub oculus: Real,
+    /// Corner ribs, or none.
+    pub ribs: Option<Ribs>,
+}
+
+/// The profile of a [`CloisterVault`], derived from its parameters (lengths in m, angles in
+/// radians; s is the horizontal distance from the axis in a web's mid-plane).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VaultProfile {
+    /// Apothem a = span/2 of the intrados octagon at the springing.
+    pub apothem: Real,
+    /// Span across corners at the springing, D_c = 2a / cos 22.5°.
+    pub corner_span: Real,
+    /// Intrados radius of every web's arc, r = profile_ratio · D_c.
+    pub radius: Real,
+    /// s of the arc centre, s_c = a − r ≤ 0: on the springing plane, r − a beyond the axis.
+    pub centre: Real,
+    /// ψ of the top bed, where the intrados mid-line reaches s = oculus/2:
+    /// cos ψ_top = (oculus/2 − s_c)/r.
+    pub psi_top: Real,
+    /// ψ where the intrados arc reaches the axis (the pointed crown, cut off by the oculus):
+    /// cos ψ_crown = −s_c/r.
+    pub psi_crown: Real,
+    /// Height of that crown above the springing, r sin ψ_crown = √(2ra − a²).
+    pub crown_height: Real,
+    /// Height of the intrados at the top bed, r sin ψ_top.
+    pub oculus_height: Real,
+}
+
+impl CloisterVault {
+    /// The profile, checking `span`, `profile_ratio` and `oculus`.
+    pub fn profile(&self) -> Result<VaultProfile, String> {
+        need_positive("span", self.span)?;
+        let c = HALF_SIDE.cos();
+        let p_min = 0.5 * c;
+        if !(self.profile_ratio >= p_min && self.profile_ratio.is_finite()) {
+            return Err(format!(
+                "'profile_ratio' must be ≥ cos(22.5°)/2 = {p_min:.6} (with a smaller radius the arc would pass its top and come down before it reached the axis), got {}",
+                self.profile_ratio
+            ));
+        }
+        if !(self.oculus > 0.0 && self.oculus < self.span) {
+            return Err(format!(
+                "'oculus' must lie in (0, span = {}) m, got {} (a vault closed at the crown is not generated)",
+                self.span, self.oculus
+            ));
+        }
+        let a = 0.5 * self.span;
+        let corner_span = 2.0 * a / c;
+        let r = self.profile_ratio * corner_span;
+        let sc = a - r;
+        let psi_crown = (-sc / r).clamp(-1.0, 1.0).acos();
+        let psi_top = ((0.5 * self.oculus - sc) / r).clamp(-1.0, 1.0).acos();
+        Ok(VaultProfile {
+            apothem: a,
+            corner_span,
+            radius: r,
+            centre: sc,
+            psi_top,
+            psi_crown,
+            crown_height: r * psi_crown.sin(),
+            oculus_height: r * psi_top.sin(),
+        })
+    }
+
+    /// Exact volume of the eight webs, ribs left out [m³]. A web is the image of
+    /// (ψ, ρ, ξ) ∈ [0, ψ_top] × [r, r + t] × [−1, 1], whose volume element is
+    /// ρ · 2 s tan 22.5° dρ dψ after integrating over ξ, so
+    /// V = 16 tan 22.5° · [s_c ψ_top (R₁² − R₀²)/2 + sin ψ_top (R₁³ − R₀³)/3],
+    /// R₀ = r, R₁ = r + t.
+    pub fn web_volume(&self) -> Result<Real, String> {
+        let p = self.profile()?;
+        let (r0, r1) = (p.radius, p.radius + self.thickness);
+        Ok(16.0
+            * HALF_SIDE.tan()
+            * (p.centre * p.psi_top * (r1 * r1 - r0 * r0) / 2.0
+                + p.psi_top.sin() * (r1.powi(3) - r0.powi(3)) / 3.0))
+    }
+}
+
+/// Blocks of an octagonal cloister vault ([`CloisterVault`]), meshed at target edge length `h`.
+///
+/// **Profile.** In the mid-plane of web k (the vertical plane through the axis along its
+/// outward normal n_k, s the distance from the axis) the intrados is the circle of radius
+/// r = profile_ratio · D_c centred on the springing plane at s_c = a − r, i.e. r − a beyond the
+/// axis on the opposite side:
+///
+/// (s − s_c)² + z² = r²,
+///
+/// which passes through the springing line (s = a, z = 0) with a vertical tangent and would
+/// meet the opposite web's arc on the axis in a pointed crown (at ψ_crown, height
+/// √(2ra − a²); for 4/5: 0.725 D_c). The extrados is the coaxial circle of radius r + t.
+///
+/// **Webs.** Each web's intrados is the cylinder on that circle with a horizontal axis
+/// parallel to its side. With ψ the angle on the arc (0 at the springing), ρ ∈ [r, r + t] and
+/// ξ ∈ [−1, 1] across the web, a point of web k is
+///
+/// s = s_c + ρ cos ψ,  z = ρ sin ψ,  offset along the side = ξ · s · tan 22.5°,
+///
+/// so ξ = ±1 lies on the corner planes (the vertical planes through the axis and the
+/// corners), and two neighbouring webs give the same point there for the same (ψ, ρ): the
+/// meshes conform across the corners exactly. The corner sections (intersections of two
+/// neighbouring cylinders) are then pointed arcs of ellipses with semi-axes r / cos 22.5°
+/// (horizontal) and r (vertical), as the groins of a cloister vault are. This is a choice:
+/// the usual description of Florence (e.g. Museo Galileo, "Brunelleschi and the dome of
+/// Florence Cathedral": the vertical ribs of the inner shell have a pointed-fifth curvature
+/// whose radius is 4/5 of the diagonal of the base octagon) puts the circle of radius
+/// p·D_c on the eight corner ribs, not on the webs' mid-lines, which is a different surface
+/// (circular corners, elliptical mid-lines). Its crown is at D_c √(p − 1/4) = 0.742 D_c for
+/// p = 4/5 instead of 0.725 D_c here; profile_ratio = (p − 1/4 + cos² 22.5°/4) / cos 22.5°
+/// (0.826 for 4/5) gives this model the same crown height. See docs/generators.md.
+///
+/// **Oculus.** The webs end at the top bed ψ_top, where the intrados mid-line reaches
+/// s = oculus/2 (height r sin ψ_top); the opening there is a regular octagon `oculus` across
+/// flats. **Courses** are equal steps of ψ; bed joints are the planes through each web's
+/// cylinder axis (radial to its arc), so a bed is horizontal only at the springing. Head
+/// joints are vertical planes through the vault's axis.
+///
+/// **Blocks and mesh.** One around-grid serves every course: N cells per side (an even
+/// number per block, so the mid-line, the half-block offset and the corners are grid lines),
+/// sized where s is the geometric mean of its extremes over the mid-surface (as the dome's
+/// φ grid). Course c has `blocks_per_web` blocks across each web; odd courses are offset by
+/// half a block (running bond), so in them one block straddles each corner: one mesh, bent
+/// across the corner plane (each tetrahedron lies in one web). With ribs, every course has a
+/// rib block straddling each corner (so the running bond stops at the corners), `width`
+/// wide at the springing intrados and reaching from r to r + t + depth: its radial layers
+/// include the web's, so its faces shared with the web blocks match node for node, and the
+/// part beyond the web is free surface. Between two ribs the even courses have
+/// `blocks_per_web` blocks, the odd ones a half block at each end and one full block fewer.
+/// The ψ cells of a course are sized by the geometric mean of `h` and the around-cell width
+/// (as the dome's θ cells), the thickness by `h`. Each block is a structured (ψ, around)
+/// quad grid cut into triangles, extruded through ρ into prisms of 3 tetrahedra (as `dome`).
+/// Head and bed faces are planar and every cell is a hexahedron with planar faces, so the
+/// mesh is exact except for the chords of the intrados and extrados arcs in ψ: its volume is
+/// low by O(Δψ²) (the extrados chords cut off more than the intrados chords add, being
+/// longer and farther from the axis).
+///
+/// **Numbering.** Blocks are numbered course by course from the springing (course 0, flagged
+/// springers) and, within a course, counter-clockwise seen from above, starting with the
+/// first block whose clockwise edge is at or after corner 0 (+x): the block straddling
+/// corner 0 (odd courses, and every rib at corner 0) is the last of its course.
+///
+/// Sets of each block (faces + nodes): `intrados` (ρ = r), `extrados` (ρ = r + t; a rib's
+/// outer face at r + t + depth), `bed_lower` (towards the springing), `bed_upper` (towards
+/// the oculus), `head_left` (its clockwise edge, seen from above), `head_right`
+/// (counter-clockwise), `base` (= `bed_lower`, course 0), `oculus` (= `bed_upper`, top
+/// course), and on rib blocks `rib`: the free faces beyond the web extrados (the outer face
+/// and the two flanks).
+pub fn cloister_vault(v: &CloisterVault, h: Real) -> Result<Assembly, String> {
+    let pr = v.profile()?;
+    need_positive("thickness", v.thickness)?;
+    need_positive("size", h)?;
+    need_count("courses", v.courses, 1)?;
+    need_count("blocks_per_web", v.blocks_per_web, 1)?;
+    let tan = HALF_SIDE.tan();
+    let side0 = 2.0 * pr.apothem * tan; // intrados side length at the springing
+    if let Some(rb) = v.ribs {
+        need_positive("rib_depth", rb.depth)?;
+        if let Some(w) = rb.width {
+            if !(w > 0.0 && w < side0) {
+                return Err(format!(
+                    "'rib_width' must lie in (0, side length at the springing = {side0:.6}) m, got {w}"
+                ));
+            }
+        }
+    }
+    let (r0, r1) = (pr.radius, pr.radius + v.thickness);
+    let r2 = r1 + v.ribs.map_or(0.0, |rb| rb.depth);
+    let (sc, psi_t) = (pr.centre, pr.psi_top);
+    let rm = 0.5 * (r0 + r1);
+    let nb = v.blocks_per_web;
+    // Around-grid: n_side cells from corner to corner, m (even) per block, w (even) per rib,
+    // sized where s is the geometric mean of its extremes on the mid-surface.
+    let s_ref = ((sc + rm) * (sc + rm * psi_t.cos())).sqrt();
+    let rib_fraction = v.ribs.map(|rb| rb.width.map(|w| w / side0));
+    let free = 1.0 - rib_fraction.flatten().unwrap_or(0.0);
+    let block_width = 2.0 * s_ref * tan * free / nb as Real;
+    let m_half = (block_width / (2.0 * h)).ceil();
+    need_reasonable(8.0 * nb as Real * 2.0 * m_half * 6.0)?;
+    let m = 2 * (m_half as usize).max(1);
+    let w = match rib_fraction {
+        None => 0,
+        Some(None) => m,
+        Some(Some(f)) => 2 * ((0.5 * f * (nb * m) as Real / free).round() as usize).max(1),
+    };
+    let n_side = nb * m + w;
+    let n_around = 8 * n_side;
+    let nr = cells(v.thickness, h, 1);
+    let nd = v.ribs.map_or(0, |rb| cells(rb.depth, h, 1));
+    let psi_edge = |c: usize| lerp(0.0, psi_t, c, v.courses);
+    let mut estimate = 0.0;
+    let n_psi: Vec<usize> = (0..v.courses)
+        .map(|c| {
+            let (lo, hi) = (psi_edge(c), psi_edge(c + 1));
+            let width = 2.0 * (sc + rm * (0.5 * (lo + hi)).cos()) * tan / n_side as Real;
+            let n = cells(rm * (hi - lo), (h * width).sqrt(), 1);
+            let prisms = n_around as Real * nr as Real + 8.0 * w as Real * nd as Real;
+            estimate += 6.0 * n as Real * prisms;
+            n
+        })
+        .collect();
+    need_reasonable(estimate)?;
+    let rho: Vec<Real> = (0..=nr)
+        .map(|k| lerp(r0, r1, k, nr))
+        .chain((1..=nd).map(|k| lerp(r1, r2, k, nd)))
+        .collect();
+    let corners: [[Real; 2]; 8] = std::array::from_fn(|k| {
+        let t = k as Real * PI / 4.0;
+        [t.cos(), t.sin()]
+    });
+    let inv_cos = 1.0 / HALF_SIDE.cos();
+    // The point at radius ρ, arc angle ψ and around-grid line q (any integer; wrapped): on
+    // side k = q div n_side at the fraction f of the way from corner k to corner k + 1, the
+    // horizontal position is (s / cos 22.5°)·((1 − f)·c_k + f·c_{k+1}), i.e. s along the
+    // web normal and ξ·s·tan 22.5° along the side with ξ = 2f − 1. Grid line q is computed
+    // the same way in every block (exactly c_k at a corner), so shared nodes are equal.
+    let point = |rho: Real, psi: Real, q: Real| -> Vec3 {
+        let q = (q.round() as i64).rem_euclid(n_around as i64) as usize;
+        let (k, j) = (q / n_side, q % n_side);
+        let f = j as Real / n_side as Real;
+        let (c0, c1) = (corners[k], corners[(k + 1) % 8]);
+        let s = (sc + rho * psi.cos()) * inv_cos;
+        Vec3::new(
+            s * ((1.0 - f) * c0[0] + f * c1[0]),
+            s * ((1.0 - f) * c0[1] + f * c1[1]),
+            rho * psi.sin(),
+        )
+    };
+    let mut blocks = Vec::new();
+    for (c, &nt) in n_psi.iter().enumerate() {
+        let odd = c % 2 == 1;
+        // (first around-grid line, cells, rib) of each block, counter-clockwise from corner 0.
+        let mut pieces: Vec<(usize, usize, bool)> = Vec::new();
+        if w == 0 {
+            let offset = if odd { m / 2 } else { 0 };
+            pieces.extend((0..8 * nb).map(|j| (j * m + offset, m, false)));
+        } else {
+            for k in 0..8 {
+                let mut q = k * n_side + w / 2;
+                let mut widths = Vec::with_capacity(nb + 1);
+                if odd {
+                    widths.push(m / 2);
+                    widths.extend(std::iter::repeat_n(m, nb - 1));
+                    widths.push(m / 2);
+                } else {
+                    widths.extend(std::iter::repeat_n(m, nb));
+                }
+                for cw in widths {
+                    pieces.push((q, cw, false));
+                    q += cw;
+                }
+                pieces.push((q, w, true));
+            }
+        }
+        let (psi_lo, psi_hi) = (psi_edge(c), psi_edge(c + 1));
+        for (index, &(q0, nq, rib)) in pieces.iter().enumerate() {
+            let mut tri = Tri2::new(1e-12);
+            tri.quad_grid(
+                nt,
+                nq,
+                |it, iq| [lerp(psi_lo, psi_hi, it, nt), (q0 + iq) as Real],
+                |p| point(r0, p[0], p[1]),
+            );
+            let layers = if rib { nr + nd } else { nr };
+            let mut mesh = tri.extrude(layers, |p, k| point(rho[k], p[0], p[1]));
+            // Sets from the grid indices of the nodes: node n is 2-D point n mod n2 of layer
+            // n div n2, and the 2-D points hold (ψ, q) exactly as the grid computed them.
+            let n2 = tri.pts.len() as u32;
+            let layer = |n: u32| (n / n2) as usize;
+            let psi = |n: u32| tri.pts[(n % n2) as usize][0];
+            let q = |n: u32| tri.pts[(n % n2) as usize][1];
+            let (q_left, q_right) = (q0 as Real, (q0 + nq) as Real);
+            let all = |f: &[u32; 3], t: &dyn Fn(u32) -> bool| f.iter().all(|&n| t(n));
+            add_face_set_by_ids(&mut mesh, "intrados", |f| all(f, &|n| layer(n) == 0));
+            add_face_set_by_ids(&mut mesh, "extrados", |f| all(f, &|n| layer(n) == layers));
+            add_face_set_by_ids(&mut mesh, "bed_lower", |f| all(f, &|n| psi(n) == psi_lo));
+            add_face_set_by_ids(&mut mesh, "bed_upper", |f| all(f, &|n| psi(n) == psi_hi));
+            add_face_set_by_ids(&mut mesh, "head_left", |f| all(f, &|n| q(n) == q_left));
+            add_face_set_by_ids(&mut mesh, "head_right", |f| all(f, &|n| q(n) == q_right));
+            if rib {
+                add_face_set_by_ids(&mut mesh, "rib", |f| {
+                    all(f, &|n| layer(n) == layers)
+                        || all(f, &|n| layer(n) >= nr && q(n) == q_left)
+                        || all(f, &|n| layer(n) >= nr && q(n) == q_right)
+                });
+            }
+            for (is, from, to) in [
+                (c == 0, "bed_lower", "base"),
+                (c + 1 == v.courses, "bed_upper", "oculus"),
+            ] {
+                if is {
+                    let faces = mesh.sets.faces[from].clone();
+                    let nodes = mesh.sets.nodes[from].clone();
+                    mesh.sets.faces.insert(to.into(), faces);
+                    mesh.sets.nodes.insert(to.into(), nodes);
+                }
+            }
+            add_all_elements(&mut mesh);
+            blocks.push(Block {
+                mesh,
+                course: c,
+                index,
+                springer: c == 0,
+            });
+        }
+    }
+    Ok(Assembly {
+        kind: "cloister_vault",
+        blocks,
+        courses: v.courses,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -455,5 +806,55 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.contains("'thickness' must be > 0"), "{e}");
+    }
+
+    #[test]
+    fn cloister_vault_courses_ribs_and_top_bed() {
+        let v = CloisterVault {
+            span: 6.0,
+            thickness: 0.4,
+            courses: 3,
+            blocks_per_web: 2,
+            profile_ratio: 0.8,
+            oculus: 1.0,
+            ribs: Some(Ribs {
+                width: None,
+                depth: 0.2,
+            }),
+        };
+        let a = cloister_vault(&v, 0.4).unwrap();
+        // Per course 8 ribs + 8 × 2 web blocks (even) or 8 × 3 (odd: two halves + one).
+        assert_eq!(a.blocks.len(), 24 + 32 + 24);
+        assert!(a.blocks.iter().all(|b| b.mesh.check().is_empty()));
+        assert_eq!(a.blocks.iter().filter(|b| b.springer).count(), 24);
+        // The oculus set of a web block of the top course: its intrados edge is at the
+        // documented height r sin ψ_top, and the ribs carry `rib`.
+        let p = v.profile().unwrap();
+        let top = &a.blocks[24 + 32].mesh;
+        let z = top.sets.nodes["oculus"]
+            .iter()
+            .map(|&n| top.nodes[n as usize].z)
+            .fold(Real::INFINITY, Real::min);
+        assert!((z - p.oculus_height).abs() < 1e-12 * v.span, "{z}");
+        assert_eq!(
+            a.blocks
+                .iter()
+                .filter(|b| b.mesh.sets.faces.contains_key("rib"))
+                .count(),
+            24
+        );
+        // A rib as wide as the side would leave no web between the ribs.
+        let e = cloister_vault(
+            &CloisterVault {
+                ribs: Some(Ribs {
+                    width: Some(6.0 * (PI / 8.0).tan()),
+                    depth: 0.2,
+                }),
+                ..v
+            },
+            0.4,
+        )
+        .unwrap_err();
+        assert!(e.contains("'rib_width' must lie in (0, side length"), "{e}");
     }
 }

@@ -270,9 +270,27 @@ pub(crate) fn hex_grid(
 /// Add the boundary faces whose three vertices all satisfy `on` as face set `name`, and
 /// their nodes as node set `name`. Returns the number of faces.
 pub(crate) fn add_face_set(mesh: &mut Mesh, name: &str, on: impl Fn(&Vec3) -> bool) -> usize {
+    let set = face_set(mesh, |f| f.iter().all(|&n| on(&mesh.nodes[n as usize])));
+    insert_face_set(mesh, name, set)
+}
+
+/// Add the boundary faces for which `on` holds (given the face's three node ids) as face set
+/// `name`, and their nodes as node set `name`: for generators that know each node's grid
+/// indices, so their sets need no geometric tolerance. Returns the number of faces.
+pub(crate) fn add_face_set_by_ids(
+    mesh: &mut Mesh,
+    name: &str,
+    on: impl Fn(&[u32; 3]) -> bool,
+) -> usize {
+    let set = face_set(mesh, on);
+    insert_face_set(mesh, name, set)
+}
+
+/// The boundary faces for which `on` holds, and their nodes (sorted).
+fn face_set(mesh: &Mesh, on: impl Fn(&[u32; 3]) -> bool) -> (Vec<(u32, u8)>, Vec<u32>) {
     let faces: Vec<(u32, u8)> = boundary_faces(mesh)
         .into_iter()
-        .filter(|f| f.nodes.iter().all(|&n| on(&mesh.nodes[n as usize])))
+        .filter(|f| on(&f.nodes))
         .map(|f| (f.tet, f.local))
         .collect();
     let mut nodes: Vec<u32> = faces
@@ -281,6 +299,11 @@ pub(crate) fn add_face_set(mesh: &mut Mesh, name: &str, on: impl Fn(&Vec3) -> bo
         .collect();
     nodes.sort_unstable();
     nodes.dedup();
+    (faces, nodes)
+}
+
+fn insert_face_set(mesh: &mut Mesh, name: &str, set: (Vec<(u32, u8)>, Vec<u32>)) -> usize {
+    let (faces, nodes) = set;
     let count = faces.len();
     mesh.sets.faces.insert(name.to_string(), faces);
     mesh.sets.nodes.insert(name.to_string(), nodes);

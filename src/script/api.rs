@@ -223,6 +223,19 @@ pub const DOME_KEYS: &[Key] = &[
     key("center", "vec3", "m", "[0, 0, 0]", "Centre of the sphere; the pole is on +z."),
     key("size", "float", "m", "thickness/2", "Target edge length."),
 ];
+pub const CLOISTER_VAULT_KEYS: &[Key] = &[
+    key("span", "float", "m", "required", "Inner span across flats at the springing, 2a (a: apothem of the intrados octagon). Florence: about 45."),
+    key("thickness", "float", "m", "required", "Shell thickness t, along the web normal (the extrados is the coaxial cylinder of radius r + t)."),
+    key("courses", "int", "", "required", "Number of courses (≥ 1): equal steps of the arc angle ψ from the springing (course 0, springers) to the top bed. Bed joints are planes through each web's cylinder axis."),
+    key("blocks_per_web", "int", "", "required", "Blocks across each web per course (≥ 1); odd courses are offset by half a block, so a bent block straddles each corner. With ribs: web blocks between two ribs in even courses (odd: a half block at each end and one full block fewer)."),
+    key("profile_ratio", "float", "-", "0.8", "Radius of each web's intrados arc (in its mid-plane) over the span across corners D_c = span / cos 22.5°: r = profile_ratio · D_c, centre on the springing plane r − span/2 beyond the axis. 0.8 is the \"quinto acuto\". At least cos(22.5°)/2 ≈ 0.462 (round crown)."),
+    key("oculus", "float", "m", "span/8", "Inner opening across flats at the top: the webs end where the intrados mid-line is oculus/2 from the axis. In (0, span)."),
+    key("ribs", "bool", "", "false", "A rib block at each corner in every course, straddling it (the running bond stops there), projecting beyond the web extrados; set `rib` on its free faces."),
+    key("rib_width", "float", "m", "one block width", "Only with `ribs: true`. Rib width across the corner, along the intrados at the springing, in (0, span · tan 22.5°); rounded to an even number of mesh cells."),
+    key("rib_depth", "float", "m", "thickness", "Only with `ribs: true`. How far a rib projects beyond the web extrados (along the web normal)."),
+    key("center", "vec3", "m", "[0, 0, 0]", "Centre of the springing octagon; the axis is vertical (+z), corner 0 of the octagon on +x."),
+    key("size", "float", "m", "thickness/2", "Target edge length."),
+];
 pub const ADD_BLOCKS_KEYS: &[Key] = &[
     key(
         "layout",
@@ -476,6 +489,8 @@ pub const API: &[FnDoc] = &[
         summary: "Bricks in running bond with straight ends (half bricks at the ends of odd courses), each brick a Kuhn box mesh. Sets per brick: `top`, `bottom`, `left`, `right`, `front`, `back`. Bricks of course 0 are springers. With zero gaps neighbouring bricks share faces triangle for triangle.", keys: WALL_KEYS, laws: &[] },
     FnDoc { section: "Generators", name: "dome", signature: "dome(#{ … }) -> Assembly",
         summary: "Voussoir blocks of a spherical dome with an oculus, in courses from the base (course 0, springers) to the crown, running bond. Each block is a spherical-shell patch meshed structured in (θ, φ, r). Sets per block: `intrados`, `extrados`, `bed_lower`, `bed_upper`, `head_left` (smaller longitude), `head_right`, and `base` on course 0. Neighbouring blocks share faces exactly.", keys: DOME_KEYS, laws: &[] },
+    FnDoc { section: "Generators", name: "cloister_vault", signature: "cloister_vault(#{ … }) -> Assembly",
+        summary: "An octagonal cloister vault with a pointed profile, the dome of Santa Maria del Fiore in outline (one shell): eight webs, each a cylinder with a horizontal axis parallel to its side whose mid-plane section is the arc (s − s_c)² + z² = r² (s: distance from the axis, s_c = span/2 − r), springing at z = 0 and cut at the oculus; the corner sections are pointed elliptical arcs. Courses of blocks in running bond from the springing (course 0, springers) to the oculus, each block a structured (ψ, around, ρ) grid of prisms cut into tetrahedra; blocks are numbered per course counter-clockwise from corner 0 (+x). Sets per block: `intrados`, `extrados`, `bed_lower`, `bed_upper`, `head_left` (clockwise edge), `head_right`, `base` (course 0), `oculus` (top course), `rib` (rib blocks: free faces beyond the web). Neighbouring blocks share faces exactly, also across the corners. Example: `let v = cloister_vault(#{ span: 45.0, thickness: 2.2, courses: 12, blocks_per_web: 4, oculus: 5.6, size: 1.0 });` (Florence in outline: 384 blocks, 26 112 tetrahedra).", keys: CLOISTER_VAULT_KEYS, laws: &[] },
     FnDoc { section: "Generators", name: "assembly.block", signature: "assembly.block(i) -> #{ index, course, springer, mesh }",
         summary: "Block i of an assembly: its index in its course, its course, whether it rests on a support, and its mesh (also `assembly.mesh(i)`). Properties: `n_blocks` (also `len()`), `n_courses`, `n_tets`, `volume` [m³], `kind`; `assembly.quality()` as `mesh.quality()`.", keys: &[], laws: &[] },
     FnDoc { section: "Generators", name: "sim.add_blocks", signature: "sim.add_blocks(assembly, material [, #{ … }]) -> Array of Body",

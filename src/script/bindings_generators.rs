@@ -1,5 +1,5 @@
 //! Script bindings of the mesh generators: meshing cylinders and spheres, discs, hollow
-//! cylinders, notched beams, and the masonry assemblies (arch, wall, dome) that
+//! cylinders, notched beams, and the masonry assemblies (arch, wall, dome, cloister vault) that
 //! `sim.add_blocks` turns into one body per block.
 
 use super::api::keys_of;
@@ -14,7 +14,7 @@ use rhai::{Array, Dynamic, Engine, Map};
 use std::f64::consts::PI;
 use std::rc::Rc;
 
-/// Blocks from `arch(..)`, `wall(..)` or `dome(..)`.
+/// Blocks from `arch(..)`, `wall(..)`, `dome(..)` or `cloister_vault(..)`.
 #[derive(Clone, Debug)]
 pub struct AssemblyValue(pub Rc<Assembly>);
 
@@ -35,6 +35,7 @@ pub fn register(engine: &mut Engine) {
     engine.register_fn("arch", arch);
     engine.register_fn("wall", wall);
     engine.register_fn("dome", dome);
+    engine.register_fn("cloister_vault", cloister_vault);
     engine.register_fn("len", |a: &mut AssemblyValue| a.0.blocks.len() as i64);
     engine.register_get("n_blocks", |a: &mut AssemblyValue| a.0.blocks.len() as i64);
     engine.register_get("n_courses", |a: &mut AssemblyValue| a.0.courses as i64);
@@ -157,7 +158,7 @@ pub fn mesh_region(region: &Region, o: &Opts) -> RhaiResult<MeshValue> {
         }
         other => {
             return err(format!(
-                "mesh(): a {} is a selection region only; meshable shapes are box, cylinder and sphere (and the generators disc, hollow_cylinder, notched_beam, arch, wall, dome)",
+                "mesh(): a {} is a selection region only; meshable shapes are box, cylinder and sphere (and the generators disc, hollow_cylinder, notched_beam, arch, wall, dome, cloister_vault)",
                 other.kind()
             ))
         }
@@ -273,6 +274,39 @@ fn dome(m: Map) -> RhaiResult<AssemblyValue> {
     let h = o.positive("size")?.unwrap_or(d.thickness / 2.0);
     Ok(finish(
         gen("dome", masonry::dome(&d, h))?,
+        o.vec3("center")?,
+    ))
+}
+
+fn cloister_vault(m: Map) -> RhaiResult<AssemblyValue> {
+    let o = Opts::new("cloister_vault", m, keys_of("cloister_vault"))?;
+    let span = req_positive(&o, "span")?;
+    let thickness = req_positive(&o, "thickness")?;
+    let ribs = if o.typed::<bool>("ribs", "true or false")?.unwrap_or(false) {
+        Some(masonry::Ribs {
+            width: o.positive("rib_width")?,
+            depth: o.positive("rib_depth")?.unwrap_or(thickness),
+        })
+    } else {
+        if let Some(k) = ["rib_width", "rib_depth"].into_iter().find(|k| o.has(k)) {
+            return err(format!(
+                "cloister_vault(): key '{k}' applies only with 'ribs: true'"
+            ));
+        }
+        None
+    };
+    let v = masonry::CloisterVault {
+        span,
+        thickness,
+        courses: count(&o, "courses", 1)?,
+        blocks_per_web: count(&o, "blocks_per_web", 1)?,
+        profile_ratio: o.float("profile_ratio")?.unwrap_or(0.8),
+        oculus: o.float("oculus")?.unwrap_or(span / 8.0),
+        ribs,
+    };
+    let h = o.positive("size")?.unwrap_or(thickness / 2.0);
+    Ok(finish(
+        gen("cloister_vault", masonry::cloister_vault(&v, h))?,
         o.vec3("center")?,
     ))
 }
