@@ -520,7 +520,7 @@ pub const API: &[FnDoc] = &[
     FnDoc { section: "Joints and fracture", name: "sim.fracture_criterion", signature: "sim.fracture_criterion(#{ … })",
         summary: "A user rule for when joints break, written in Rhai and compiled like the joint laws. A joint broken by it before full damage releases its stored energy as fracture dissipation.", keys: crate::fracture::CRITERION_PARAMS, laws: &[] },
     FnDoc { section: "Joints and fracture", name: "sim.on_joint_broken", signature: "sim.on_joint_broken(|s, joint| …)",
-        summary: "Called after each step for every joint that broke (all its points reached D = 1): `joint` is #{ id, time, centroid, mode (\"I\", \"II\", \"mixed\"), body }. Every run also writes `cracks.csv`.", keys: &[], laws: &[] },
+        summary: "Called after each step for every joint that broke (all its points reached D = 1): `joint` is #{ id, time, centroid, mode (\"I\", \"II\", \"mixed\"), body (name of the body on side A), bodies ([id A, id B]: indices of the two bodies in the order they were added; for `sim.add_blocks` added first, block indices), normal (unit normal of the joint face in the reference configuration, from side A to side B) }. Every run also writes `cracks.csv`.", keys: &[], laws: &[] },
     FnDoc { section: "Joints and fracture", name: "s.fragments", signature: "s.fragments() -> #{ count, volumes, masses }",
         summary: "Fragments: connected components of tetrahedra over intact joints and shared nodes, with their volumes [m³] and masses [kg]. Also `s.broken_joints()` and `s.n_joints`.", keys: &[], laws: &[] },
     // ── Loads
