@@ -585,3 +585,34 @@ fn friction_law_example_runs_and_bad_laws_are_named() {
         assert!(err.contains("bad_friction_law.rhai:"), "{err}");
     }
 }
+
+/// Reference: the geometry of the model. Two boxes stacked on z = 0.5 and glued, the upper
+/// one pulled up: every broken joint reports the two bodies (0 below, 1 above, in the
+/// order added) and the unit normal of its face from side A to side B (±z, pointing from
+/// the body of side A to the other).
+#[test]
+fn broken_joint_events_name_both_bodies_and_the_normal() {
+    let text = r#"
+let sim = simulation(#{ name: "events" });
+let m = material("elastic/munjiza", #{ density: 2000.0, young: 1.0e9, poisson: 0.2 });
+let a = sim.add_body("a", box(#{ min: [0.0, 0.0, 0.0], max: [0.2, 0.2, 0.5] }).mesh(#{ divisions: [1, 1, 2] }), m);
+let b = sim.add_body("b", box(#{ min: [0.0, 0.0, 0.5], max: [0.2, 0.2, 1.0] }).mesh(#{ divisions: [1, 1, 2] }), m);
+let glue = joint_law("cohesive/munjiza", #{ tensile_strength: 1.0e5, cohesion: 2.0e5, g_i: 1.0, g_ii: 5.0 });
+sim.insert_joints(#{ between: [a, b], law: glue });
+sim.fix(a.nodes(half_space(#{ point: [0.0, 0.0, 0.0], normal: [0.0, 0.0, -1.0] })));
+sim.prescribe_velocity(b.nodes(half_space(#{ point: [0.0, 0.0, 1.0], normal: [0.0, 0.0, 1.0] })), [0.0, 0.0, 0.5]);
+let events = [];
+sim.on_joint_broken(|s, j| events.push(j));
+sim.run(#{ max_time: 0.01 });
+expect_within("joints broken", events.len(), 1, 100);
+for j in events {
+    let ids = j.bodies;
+    expect_within("two different bodies", abs(ids[0] - ids[1]), 1, 1);
+    let up = if ids[0] == 0 { 1.0 } else { -1.0 };
+    expect_near("normal z", j.normal[2], up, 1e-12);
+    expect_within("normal x", abs(j.normal[0]), 0.0, 1e-12);
+}
+"#;
+    let (ok, out, err) = run_text("events", text, &[]);
+    assert!(ok, "{out}\n{err}");
+}
