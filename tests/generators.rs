@@ -7,7 +7,7 @@
 use fdem::joints::JointLaw;
 use fdem::material::{Formulation, Material};
 use fdem::math::{Real, Vec3};
-use fdem::mesh::masonry::{self, Arch, Assembly, CloisterVault, Dome, Ribs, Wall};
+use fdem::mesh::masonry::{self, Arch, Assembly, CloisterVault, Dome, ProfileOn, Ribs, Wall};
 use fdem::mesh::solids::{self, NotchedBeam};
 use fdem::mesh::{Mesh, TET_FACES};
 use fdem::{Layout, Simulation};
@@ -169,12 +169,12 @@ fn quality_table() {
             dome_volume(&DOME),
         ),
         (
-            "cloister vault",
+            "cloister vault (corners)",
             masonry::cloister_vault(&VAULT, VAULT_SIZE).unwrap(),
             VAULT.web_volume().unwrap(),
         ),
         (
-            "cloister vault, Florence",
+            "cloister vault, Florence (corners)",
             masonry::cloister_vault(&FLORENCE, 1.0).unwrap(),
             FLORENCE.web_volume().unwrap(),
         ),
@@ -597,11 +597,20 @@ fn bad_parameters_are_errors_naming_the_key_and_range() {
         ),
         (
             CloisterVault {
-                profile_ratio: 0.45,
+                profile_ratio: 0.49,
                 ..VAULT
             },
             0.25,
-            "'profile_ratio' must be ≥ cos(22.5°)/2 = 0.461940",
+            "'profile_ratio' must be ≥ 1/2 = 0.500000 with profile \"corners\"",
+        ),
+        (
+            CloisterVault {
+                profile_ratio: 0.45,
+                profile: ProfileOn::Webs,
+                ..VAULT
+            },
+            0.25,
+            "'profile_ratio' must be ≥ cos(22.5°)/2 = 0.461940 with profile \"webs\"",
         ),
         (
             CloisterVault {
@@ -646,12 +655,15 @@ fn bad_parameters_are_errors_naming_the_key_and_range() {
         let e = vault_err(v, h);
         assert!(e.contains(want), "{e}");
     }
-    // The least ratio (r = a, round crown) is allowed.
-    let round = CloisterVault {
-        profile_ratio: 0.5 * (PI / 8.0).cos(),
-        ..VAULT
-    };
-    assert!(masonry::cloister_vault(&round, 0.5).is_ok());
+    // The least ratios (r = R_c on the corners, r = a on the webs: round crowns) are allowed.
+    for (on, least) in [(ProfileOn::Corners, 0.5), (ProfileOn::Webs, 0.5 * COS8)] {
+        let round = CloisterVault {
+            profile_ratio: least,
+            profile: on,
+            ..VAULT
+        };
+        assert!(masonry::cloister_vault(&round, 0.5).is_ok());
+    }
 }
 
 #[test]
@@ -684,6 +696,10 @@ if !v.mesh(23).sets().contains("rib") || v.mesh(0).sets().contains("rib") { thro
 let vb = sim.add_blocks(v, stone, #{ prefix: "vault" });
 let nv = sim.insert_joints(#{ between: vb, law: law });
 if nv != @VAULT_JOINTS@ { throw `vault joints ${nv}`; }
+let vc = cloister_vault(#{ span: 10.0, thickness: 0.5, courses: 2, blocks_per_web: 2, oculus: 2.0, size: 0.5, profile: "corners" });
+let vw = cloister_vault(#{ span: 10.0, thickness: 0.5, courses: 2, blocks_per_web: 2, oculus: 2.0, size: 0.5, profile: "webs" });
+expect_near("vault volume, corners", vc.volume, @CORNERS_VOLUME@, 1.0e-12);
+expect_near("vault volume, webs", vw.volume, @WEBS_VOLUME@, 1.0e-12);
 "#;
     let script_vault = CloisterVault {
         span: 10.0,
@@ -691,6 +707,7 @@ if nv != @VAULT_JOINTS@ { throw `vault joints ${nv}`; }
         courses: 2,
         blocks_per_web: 2,
         profile_ratio: 0.8,
+        profile: ProfileOn::Corners,
         oculus: 2.0,
         ribs: Some(Ribs {
             width: None,
@@ -698,7 +715,21 @@ if nv != @VAULT_JOINTS@ { throw `vault joints ${nv}`; }
         }),
     };
     let vault_joints = joints_between(&masonry::cloister_vault(&script_vault, 0.5).unwrap());
-    let text = text.replace("@VAULT_JOINTS@", &vault_joints.to_string());
+    let mut text = text.replace("@VAULT_JOINTS@", &vault_joints.to_string());
+    // Without ribs, the profile key: "corners" (the default) and "webs" give the Rust
+    // generator's meshes.
+    for (on, tag) in [
+        (ProfileOn::Corners, "@CORNERS_VOLUME@"),
+        (ProfileOn::Webs, "@WEBS_VOLUME@"),
+    ] {
+        let plain = CloisterVault {
+            profile: on,
+            ribs: None,
+            ..script_vault
+        };
+        let volume = masonry::cloister_vault(&plain, 0.5).unwrap().volume();
+        text = text.replace(tag, &format!("{volume:e}"));
+    }
     let text = text.as_str();
     let dir = std::env::temp_dir().join(format!("fdem-gen-script-{}", std::process::id()));
     let path = dir.join("gen.rhai");
@@ -732,8 +763,16 @@ if nv != @VAULT_JOINTS@ { throw `vault joints ${nv}`; }
             "cloister_vault(): key 'rib_width' applies only with 'ribs: true'",
         ),
         (
-            "let v = cloister_vault(#{ span: 10.0, thickness: 0.5, courses: 2, blocks_per_web: 2, profile_ratio: 0.4 });",
-            "cloister_vault(): 'profile_ratio' must be ≥ cos(22.5°)/2",
+            "let v = cloister_vault(#{ span: 10.0, thickness: 0.5, courses: 2, blocks_per_web: 2, profile_ratio: 0.48 });",
+            "cloister_vault(): 'profile_ratio' must be ≥ 1/2 = 0.500000 with profile \"corners\"",
+        ),
+        (
+            "let v = cloister_vault(#{ span: 10.0, thickness: 0.5, courses: 2, blocks_per_web: 2, profile_ratio: 0.4, profile: \"webs\" });",
+            "cloister_vault(): 'profile_ratio' must be ≥ cos(22.5°)/2 = 0.461940 with profile \"webs\"",
+        ),
+        (
+            "let v = cloister_vault(#{ span: 10.0, thickness: 0.5, courses: 2, blocks_per_web: 2, profile: \"ribs\" });",
+            "cloister_vault(): profile \"ribs\" is not \"corners\" or \"webs\"",
         ),
         (
             "let v = cloister_vault(#{ span: 10.0, thickness: 0.5, courses: 2, blocks_per_web: 0 });",
@@ -751,8 +790,10 @@ if nv != @VAULT_JOINTS@ { throw `vault joints ${nv}`; }
 //
 // The references below are written from the geometry stated in docs/generators.md, not
 // from the generator's code: web k of the octagon (corner 0 on +x) faces n_k at (k + ½)·45°;
-// its point (ψ, ρ, ξ) is s = s_c + ρ cos ψ along n_k, ξ·s·tan 22.5° along the side,
-// z = ρ sin ψ, with a = span/2, D_c = 2a/cos 22.5°, r = ratio·D_c, s_c = a − r.
+// its point (ψ, ρ, ξ) is s = κ (c + ρ cos ψ) along n_k, ξ·s·tan 22.5° along the side,
+// z = ρ sin ψ, with a = span/2, D_c = 2a/cos 22.5°, r = ratio·D_c and, for the circle on the
+// corners, c = q_c = D_c/2 − r and κ = cos 22.5° (the corner-plane distance q = s/cos 22.5°
+// is c + ρ cos ψ); for the circle on the webs' mid-lines, c = s_c = a − r and κ = 1.
 
 const VAULT: CloisterVault = CloisterVault {
     span: 10.0,
@@ -760,25 +801,33 @@ const VAULT: CloisterVault = CloisterVault {
     courses: 6,
     blocks_per_web: 3,
     profile_ratio: 0.8,
+    profile: ProfileOn::Corners,
     oculus: 1.5,
     ribs: None,
 };
+const PROFILES: [ProfileOn; 2] = [ProfileOn::Corners, ProfileOn::Webs];
+const COS8: Real = 0.9238795325112867; // cos 22.5°
 const VAULT_SIZE: Real = 0.25;
 const TAN8: Real = 0.41421356237309503; // tan 22.5° = √2 − 1
 
-/// (a, r, s_c) of a vault.
-fn vault_arc(v: &CloisterVault) -> (Real, Real, Real) {
+/// (a, r, c, κ) of a vault: apothem, radius, the circle's centre (distance from the axis in
+/// the section that carries it) and κ = s / (that section's distance).
+fn vault_arc(v: &CloisterVault) -> (Real, Real, Real, Real) {
     let a = 0.5 * v.span;
-    let r = v.profile_ratio * 2.0 * a / (PI / 8.0).cos();
-    (a, r, a - r)
+    let dc = 2.0 * a / COS8;
+    let r = v.profile_ratio * dc;
+    match v.profile {
+        ProfileOn::Corners => (a, r, 0.5 * dc - r, COS8),
+        ProfileOn::Webs => (a, r, a - r, 1.0),
+    }
 }
 
 /// Web k's point at (ψ, ρ, ξ).
 fn web_point(v: &CloisterVault, k: usize, psi: Real, rho: Real, xi: Real) -> Vec3 {
-    let (_, _, sc) = vault_arc(v);
+    let (_, _, c, kappa) = vault_arc(v);
     let beta = (k as Real + 0.5) * PI / 4.0;
     let (n, e) = ([beta.cos(), beta.sin()], [-beta.sin(), beta.cos()]);
-    let s = sc + rho * psi.cos();
+    let s = kappa * (c + rho * psi.cos());
     let lat = xi * s * TAN8;
     Vec3::new(
         s * n[0] + lat * e[0],
@@ -790,13 +839,13 @@ fn web_point(v: &CloisterVault, k: usize, psi: Real, rho: Real, xi: Real) -> Vec
 /// The web of a point (by its azimuth; a point on a corner plane may get either web) and the
 /// point's (ψ, ρ, ξ) in it.
 fn web_coords(v: &CloisterVault, p: &Vec3) -> (usize, Real, Real, Real) {
-    let (_, _, sc) = vault_arc(v);
+    let (_, _, c, kappa) = vault_arc(v);
     let phi = p.y.atan2(p.x).rem_euclid(2.0 * PI);
     let k = ((phi / (PI / 4.0)).floor() as usize).min(7);
     let beta = (k as Real + 0.5) * PI / 4.0;
     let s = p.x * beta.cos() + p.y * beta.sin();
     let lat = -p.x * beta.sin() + p.y * beta.cos();
-    let (ds, z) = (s - sc, p.z);
+    let (ds, z) = (s / kappa - c, p.z);
     (k, z.atan2(ds), ds.hypot(z), lat / (s * TAN8))
 }
 
@@ -834,26 +883,31 @@ fn vault_psi_grid(v: &CloisterVault, a: &Assembly) -> Vec<Real> {
 
 /// Volume between the arcs of radii ρ0 < ρ1 replaced by their chords at the nodes `psi`
 /// (what a mesh with nodes on both arcs encloses), times the web width 2 s tan 22.5°
-/// integrated over the cross-section, for `fraction` of each side, 8 sides [m³]. Triangle
-/// (centre, ρ at ψ_i, ρ at ψ_{i+1}): area ρ² sin Δψ / 2, first moment of s: area × the mean
-/// s of its vertices.
-fn chord_volume(sc: Real, rho0: Real, rho1: Real, psi: &[Real], fraction: Real) -> Real {
+/// integrated over the mid-plane cross-section, for `fraction` of each side, 8 sides [m³].
+/// In the section of the circle (distance d = c + ρ cos ψ from the axis), triangle (centre,
+/// ρ at ψ_i, ρ at ψ_{i+1}) has area ρ² sin Δψ / 2 and first moment of d: area × the mean d
+/// of its vertices. The mid-plane is that section scaled horizontally by κ (s = κ d), which
+/// maps chords to chords and multiplies the area by κ and the moment of s by κ².
+fn chord_volume(v: &CloisterVault, rho0: Real, rho1: Real, psi: &[Real], fraction: Real) -> Real {
+    let (_, _, c, kappa) = vault_arc(v);
     let tri = |rho: Real, a: Real, b: Real| {
-        0.5 * rho * rho * (b - a).sin() * (3.0 * sc + rho * a.cos() + rho * b.cos()) / 3.0
+        0.5 * rho * rho * (b - a).sin() * (3.0 * c + rho * a.cos() + rho * b.cos()) / 3.0
     };
     let cross: Real = psi
         .windows(2)
         .map(|w| tri(rho1, w[0], w[1]) - tri(rho0, w[0], w[1]))
         .sum();
-    8.0 * fraction * 2.0 * TAN8 * cross
+    8.0 * fraction * 2.0 * TAN8 * kappa * kappa * cross
 }
 
-/// ∫ 2 s tan 22.5° dA over the annular sector ρ0..ρ1, 0..ψ_top, split into the term of s_c
-/// (negative) and the term of ρ cos ψ, per side.
+/// ∫ 2 s tan 22.5° dA over the mid-plane image of the annular sector ρ0..ρ1, 0..ψ_top
+/// (s = κ (c + ρ cos ψ), dA = κ ρ dρ dψ), split into the term of c (negative) and the term
+/// of ρ cos ψ, per side.
 fn vault_volume_terms(v: &CloisterVault, rho0: Real, rho1: Real, psi_top: Real) -> (Real, Real) {
-    let (_, _, sc) = vault_arc(v);
-    let a = 2.0 * TAN8 * sc * psi_top * (rho1 * rho1 - rho0 * rho0) / 2.0;
-    let m = 2.0 * TAN8 * psi_top.sin() * (rho1.powi(3) - rho0.powi(3)) / 3.0;
+    let (_, _, c, kappa) = vault_arc(v);
+    let k2 = kappa * kappa;
+    let a = k2 * 2.0 * TAN8 * c * psi_top * (rho1 * rho1 - rho0 * rho0) / 2.0;
+    let m = k2 * 2.0 * TAN8 * psi_top.sin() * (rho1.powi(3) - rho0.powi(3)) / 3.0;
     (a, m)
 }
 
@@ -880,14 +934,23 @@ fn vault_face_account(a: &Assembly) -> (usize, usize, usize) {
 
 #[test]
 fn cloister_vault_blocks_sets_joints_and_corners() {
-    let v = VAULT;
+    for on in PROFILES {
+        vault_blocks_sets_joints_and_corners(CloisterVault {
+            profile: on,
+            ..VAULT
+        });
+    }
+}
+
+fn vault_blocks_sets_joints_and_corners(v: CloisterVault) {
+    println!("profile \"{}\"", v.profile.name());
     let a = masonry::cloister_vault(&v, VAULT_SIZE).unwrap();
     assert_eq!(a.kind, "cloister_vault");
     assert_eq!(a.courses, 6);
     assert_eq!(a.blocks.len(), 6 * 8 * 3);
     assert_eq!(a.blocks.iter().filter(|b| b.springer).count(), 24);
     let p = v.profile().unwrap();
-    let (_, r, sc) = vault_arc(&v);
+    let (_, r, c, kappa) = vault_arc(&v);
     let t = v.thickness;
     let scale = v.span;
     let dpsi = p.psi_top / 6.0;
@@ -955,8 +1018,9 @@ fn cloister_vault_blocks_sets_joints_and_corners() {
                 continue;
             }
             on_corners += 1;
-            let (s, z) = (p.x.hypot(p.y) * (PI / 8.0).cos(), p.z);
-            let (psi, rho) = (z.atan2(s - sc), (s - sc).hypot(z));
+            // The corner plane's distance q, as the section's distance (c + ρ cos ψ).
+            let d = p.x.hypot(p.y) * COS8 / kappa - c;
+            let (psi, rho) = (p.z.atan2(d), d.hypot(p.z));
             let from_k = web_point(&v, k, psi, rho, -1.0);
             let from_prev = web_point(&v, (k + 7) % 8, psi, rho, 1.0);
             assert!((from_k - p).norm() < 1e-12 * scale, "{p:?} vs {from_k:?}");
@@ -1010,90 +1074,151 @@ fn p_top(v: &CloisterVault) -> Real {
 
 #[test]
 fn cloister_vault_profile_is_the_stated_circle_with_a_pointed_crown() {
-    let v = VAULT;
-    let a = masonry::cloister_vault(&v, VAULT_SIZE).unwrap();
-    let (aa, r, sc) = vault_arc(&v);
-    // Intrados nodes on web 2's mid-line (ξ = 0): on the circle of radius r about
-    // (s_c, 0) of that web's mid-plane, to 1e-9; extrados nodes at r + t.
-    let mut mid: Vec<(Real, Real)> = Vec::new();
-    for b in &a.blocks {
-        for (set, radius) in [("intrados", r), ("extrados", r + v.thickness)] {
-            for p in set_points(&b.mesh, set) {
-                let beta = 2.5 * PI / 4.0;
-                let (s, lat) = (
-                    p.x * beta.cos() + p.y * beta.sin(),
-                    -p.x * beta.sin() + p.y * beta.cos(),
-                );
-                if lat.abs() > 1e-9 * v.span || s < 0.0 {
-                    continue;
-                }
-                assert!(
-                    ((s - sc).hypot(p.z) - radius).abs() < 1e-9 * radius,
-                    "{p:?}"
-                );
-                if set == "intrados" {
-                    mid.push((s, p.z));
+    let dc = VAULT.span / COS8;
+    // The crown heights in closed form (D_c units, ratio 4/5): D_c √(p − 1/4) with the
+    // circle on the corners, D_c √(p cos 22.5° − cos² 22.5°/4) = √(2ra − a²) on the webs.
+    let closed = |on: ProfileOn, p: Real| match on {
+        ProfileOn::Corners => dc * (p - 0.25).sqrt(),
+        ProfileOn::Webs => dc * (p * COS8 - COS8 * COS8 / 4.0).sqrt(),
+    };
+    assert!((closed(ProfileOn::Corners, 0.8) / dc - 0.741620).abs() < 1e-6);
+    assert!((closed(ProfileOn::Webs, 0.8) / dc - 0.725063).abs() < 1e-6);
+    for on in PROFILES {
+        let v = CloisterVault {
+            profile: on,
+            ..VAULT
+        };
+        let a = masonry::cloister_vault(&v, VAULT_SIZE).unwrap();
+        let (aa, r, c, kappa) = vault_arc(&v);
+        // The section that carries the circle: the corner plane of corner 2 (+y) or the
+        // mid-plane of web 2. Its intrados nodes (those on that plane) lie on the circle of
+        // radius r about (c, 0), to 1e-9; its extrados nodes at r + t.
+        let beta = match on {
+            ProfileOn::Corners => 2.0 * PI / 4.0,
+            ProfileOn::Webs => 2.5 * PI / 4.0,
+        };
+        // The other section (web 2's mid-plane or corner 2's plane) is the circle scaled
+        // horizontally: its nodes at distance x from the axis lie on
+        // (x·λ − c)² + z² = ρ², λ = 1/κ on the mid-plane, cos 22.5°/κ on the corner plane.
+        let (other, lambda) = match on {
+            ProfileOn::Corners => (2.5 * PI / 4.0, 1.0 / kappa),
+            ProfileOn::Webs => (2.0 * PI / 4.0, COS8 / kappa),
+        };
+        let in_plane = |p: &Vec3, beta: Real| {
+            let (x, lat) = (
+                p.x * beta.cos() + p.y * beta.sin(),
+                -p.x * beta.sin() + p.y * beta.cos(),
+            );
+            (lat.abs() < 1e-9 * v.span && x > 0.0).then_some(x)
+        };
+        let mut line: Vec<(Real, Real)> = Vec::new();
+        let mut n_other = 0;
+        for b in &a.blocks {
+            for (set, radius) in [("intrados", r), ("extrados", r + v.thickness)] {
+                for p in set_points(&b.mesh, set) {
+                    if let Some(x) = in_plane(&p, beta) {
+                        assert!(
+                            ((x - c).hypot(p.z) - radius).abs() < 1e-9 * radius,
+                            "{}: {p:?}",
+                            on.name()
+                        );
+                        if set == "intrados" {
+                            line.push((x, p.z));
+                        }
+                    }
+                    if let Some(x) = in_plane(&p, other) {
+                        assert!(
+                            ((x * lambda - c).hypot(p.z) - radius).abs() < 1e-9 * radius,
+                            "{}: {p:?}",
+                            on.name()
+                        );
+                        n_other += 1;
+                    }
                 }
             }
         }
+        assert!(n_other > 0);
+        line.sort_by(|a, b| a.1.partial_cmp(&b.1).unwrap());
+        line.dedup_by(|a, b| (a.1 - b.1).abs() < 1e-12);
+        assert!(line.len() >= 3, "{}", line.len());
+        // The circle through three of those nodes, and where it meets the axis: the crown.
+        let (p1, p2, p3) = (line[0], line[line.len() / 2], line[line.len() - 1]);
+        let d = 2.0 * (p1.0 * (p2.1 - p3.1) + p2.0 * (p3.1 - p1.1) + p3.0 * (p1.1 - p2.1));
+        let n = |p: (Real, Real)| p.0 * p.0 + p.1 * p.1;
+        let cs = (n(p1) * (p2.1 - p3.1) + n(p2) * (p3.1 - p1.1) + n(p3) * (p1.1 - p2.1)) / d;
+        let cz = (n(p1) * (p3.0 - p2.0) + n(p2) * (p1.0 - p3.0) + n(p3) * (p2.0 - p1.0)) / d;
+        let rad = (p1.0 - cs).hypot(p1.1 - cz);
+        assert!((cs - c).abs() < 1e-9 * r && cz.abs() < 1e-9 * r && (rad - r).abs() < 1e-9 * r);
+        // It leaves the springing with a vertical tangent at the octagon's corner (R_c) or
+        // side (a).
+        let springing = match on {
+            ProfileOn::Corners => 0.5 * dc,
+            ProfileOn::Webs => aa,
+        };
+        assert!((cs + rad - springing).abs() < 1e-9 * r);
+        let crown = cz + (rad * rad - cs * cs).sqrt();
+        let want = closed(on, 0.8);
+        assert!((crown - want).abs() < 1e-9 * dc, "{crown} vs {want}");
+        let p = v.profile().unwrap();
+        assert!((p.crown_height - want).abs() < 1e-12 * dc);
+        assert!(
+            (p.crown_height - (2.0 * r * springing - springing * springing).sqrt()).abs()
+                < 1e-12 * dc
+        );
+        // The crown is pointed: the arc meets the axis below its own top (ψ_crown < 90°), and
+        // the vault stops below it, at the oculus.
+        assert!(p.psi_crown < PI / 2.0 && p.psi_top < p.psi_crown);
+        let zmax = a
+            .blocks
+            .iter()
+            .map(|b| b.mesh.bounds().1.z)
+            .fold(0.0, Real::max);
+        assert!(zmax < p.crown_height + v.thickness);
+        // The least ratio: r = the springing's distance from the axis (R_c, ratio 1/2, or a,
+        // ratio cos 22.5°/2), a round crown at that height (ψ_crown = 90°).
+        let least = match on {
+            ProfileOn::Corners => 0.5,
+            ProfileOn::Webs => 0.5 * COS8,
+        };
+        let round = CloisterVault {
+            profile_ratio: least,
+            ..v
+        }
+        .profile()
+        .unwrap();
+        assert!(
+            (round.crown_height - springing).abs() < 1e-9 * springing
+                && (round.psi_crown - PI / 2.0).abs() < 1e-7
+        );
     }
-    mid.sort_by(|a, b| a.1.partial_cmp(&b.1).unwrap());
-    mid.dedup_by(|a, b| (a.1 - b.1).abs() < 1e-12);
-    assert!(mid.len() >= 3, "{}", mid.len());
-    // The circle through three of those nodes, and where it meets the axis: the crown, at
-    // √(2ra − a²) = D_c √(p cos 22.5° − cos² 22.5°/4) above the springing (0.725 D_c for 4/5).
-    let (p1, p2, p3) = (mid[0], mid[mid.len() / 2], mid[mid.len() - 1]);
-    let d = 2.0 * (p1.0 * (p2.1 - p3.1) + p2.0 * (p3.1 - p1.1) + p3.0 * (p1.1 - p2.1));
-    let n = |p: (Real, Real)| p.0 * p.0 + p.1 * p.1;
-    let cs = (n(p1) * (p2.1 - p3.1) + n(p2) * (p3.1 - p1.1) + n(p3) * (p1.1 - p2.1)) / d;
-    let cz = (n(p1) * (p3.0 - p2.0) + n(p2) * (p1.0 - p3.0) + n(p3) * (p2.0 - p1.0)) / d;
-    let rad = (p1.0 - cs).hypot(p1.1 - cz);
-    assert!((cs - sc).abs() < 1e-9 * r && cz.abs() < 1e-9 * r && (rad - r).abs() < 1e-9 * r);
-    let crown = cz + (rad * rad - cs * cs).sqrt();
-    let dc = v.span / (PI / 8.0).cos();
-    let c8 = (PI / 8.0).cos();
-    let closed = dc * (0.8 * c8 - c8 * c8 / 4.0).sqrt();
-    assert!((crown - closed).abs() < 1e-9 * dc, "{crown} vs {closed}");
-    assert!((closed / dc - 0.725063).abs() < 1e-6);
-    let p = v.profile().unwrap();
-    assert!((p.crown_height - closed).abs() < 1e-12 * dc);
-    assert!((p.crown_height - (2.0 * r * aa - aa * aa).sqrt()).abs() < 1e-12 * dc);
-    // The crown is pointed: the arc meets the axis below its own top (ψ_crown < 90°), and the
-    // vault stops below it, at the oculus.
-    assert!(p.psi_crown < PI / 2.0 && p.psi_top < p.psi_crown);
-    let zmax = a
-        .blocks
-        .iter()
-        .map(|b| b.mesh.bounds().1.z)
-        .fold(0.0, Real::max);
-    assert!(zmax < p.crown_height + v.thickness);
-    // The profile reading that puts the 4/5 circle on the corners instead crowns at
-    // D_c √(p − 1/4); the ratio that gives this model the same crown is
-    // (p − 1/4 + cos² 22.5°/4)/cos 22.5° ≈ 0.826.
-    let p_eq = (0.8 - 0.25 + c8 * c8 / 4.0) / c8;
+    // The ratio that gives the circle on the webs the crown of the circle on the corners
+    // with ratio p: (p − 1/4 + cos² 22.5°/4)/cos 22.5° ≈ 0.826 for 4/5.
+    let p_eq = (0.8 - 0.25 + COS8 * COS8 / 4.0) / COS8;
     let eq = CloisterVault {
         profile_ratio: p_eq,
-        ..v
+        profile: ProfileOn::Webs,
+        ..VAULT
     };
-    assert!((eq.profile().unwrap().crown_height - dc * 0.55f64.sqrt()).abs() < 1e-12 * dc);
+    let crown_corners = VAULT.profile().unwrap().crown_height;
+    assert!((eq.profile().unwrap().crown_height - crown_corners).abs() < 1e-12 * dc);
+    assert!((crown_corners - dc * 0.55f64.sqrt()).abs() < 1e-12 * dc);
     assert!((p_eq - 0.826).abs() < 5e-4);
-    // The least ratio, cos 22.5°/2: r = a, a round crown at height a (ψ_crown = 90°).
-    let round = CloisterVault {
-        profile_ratio: 0.5 * c8,
-        ..v
-    }
-    .profile()
-    .unwrap();
-    assert!(
-        (round.crown_height - aa).abs() < 1e-9 * aa && (round.psi_crown - PI / 2.0).abs() < 1e-7
-    );
 }
 
 #[test]
 fn cloister_vault_volume_against_quadrature() {
-    let v = VAULT;
+    for on in PROFILES {
+        vault_volume_against_quadrature(CloisterVault {
+            profile: on,
+            ..VAULT
+        });
+    }
+}
+
+fn vault_volume_against_quadrature(v: CloisterVault) {
+    let name = v.profile.name();
     let p = v.profile().unwrap();
-    let (_, r, sc) = vault_arc(&v);
+    let (_, r, _, _) = vault_arc(&v);
     let t = v.thickness;
     // 1. The closed form against a numerical integral of |det J| of the map (ψ, ρ, ξ) → x
     //    (central differences, composite Simpson: 400 × 2 × 2 intervals; the integrand is
@@ -1134,14 +1259,14 @@ fn cloister_vault_volume_against_quadrature() {
             })
         });
     let exact = v.web_volume().unwrap();
-    assert!(rel(quad, exact).abs() < 1e-8, "{quad} vs {exact}");
+    assert!(rel(quad, exact).abs() < 1e-8, "{name}: {quad} vs {exact}");
     // 2. The mesh is the polyhedron whose only approximation is the chords of the arcs in ψ
     //    (bed and head faces are planar, straight along the sides): its volume equals that
     //    chord volume to rounding.
     let a = masonry::cloister_vault(&v, VAULT_SIZE).unwrap();
     let psi = vault_psi_grid(&v, &a);
     assert!((psi[0]).abs() < 1e-12 && (psi[psi.len() - 1] - p.psi_top).abs() < 1e-9);
-    let chords = chord_volume(sc, r, r + t, &psi, 1.0);
+    let chords = chord_volume(&v, r, r + t, &psi, 1.0);
     assert!(
         rel(a.volume(), chords).abs() < 1e-12,
         "{} vs {chords}",
@@ -1156,7 +1281,7 @@ fn cloister_vault_volume_against_quadrature() {
     let dmax = psi.windows(2).map(|w| w[1] - w[0]).fold(0.0, Real::max);
     let bound = 8.0 * (ta.abs() / 6.0 + tm / 4.0) * dmax * dmax / exact;
     let e = rel(a.volume(), exact);
-    println!("vault volume {:.6} m³, exact {exact:.6}, error {:.3e} (bound {bound:.3e}, Δψ_max {dmax:.4})", a.volume(), e);
+    println!("vault ({name}) volume {:.6} m³, exact {exact:.6}, error {:.3e} (bound {bound:.3e}, Δψ_max {dmax:.4})", a.volume(), e);
     assert!(e.abs() <= bound && e < 0.0, "{e} vs {bound}");
     // 4. Second order: halving `size` multiplies the ψ cells by n₂/n₁ (about 1.8: the ψ cells
     //    follow the geometric mean of size and the around-cell width, and the around-grid is
@@ -1167,7 +1292,7 @@ fn cloister_vault_volume_against_quadrature() {
     };
     let ((e1, n1), (e2, n2)) = (err_cells(0.25), err_cells(0.125));
     let predicted = (n1 as Real / n2 as Real).powi(2);
-    println!("vault: error {e1:.3e} ({n1} ψ cells), {e2:.3e} ({n2}): ratio {:.3}, (n₁/n₂)² {predicted:.3}", e2 / e1);
+    println!("vault ({name}): error {e1:.3e} ({n1} ψ cells), {e2:.3e} ({n2}): ratio {:.3}, (n₁/n₂)² {predicted:.3}", e2 / e1);
     assert!((e2 / e1 / predicted - 1.0).abs() < 0.1);
 }
 
@@ -1195,10 +1320,20 @@ fn width_u(v: &CloisterVault, b: &masonry::Block) -> Real {
 
 #[test]
 fn cloister_vault_ribs_straddle_the_corners_and_glue_to_the_webs() {
+    for on in PROFILES {
+        vault_ribs(CloisterVault {
+            profile: on,
+            ..VAULT
+        });
+    }
+}
+
+fn vault_ribs(base: CloisterVault) {
+    println!("profile \"{}\"", base.profile.name());
     let depth = 0.3;
     let v = CloisterVault {
         ribs: Some(Ribs { width: None, depth }),
-        ..VAULT
+        ..base
     };
     let a = masonry::cloister_vault(&v, VAULT_SIZE).unwrap();
     // Per course 8 ribs; between two ribs 3 web blocks (even courses) or a half block at
@@ -1207,7 +1342,7 @@ fn cloister_vault_ribs_straddle_the_corners_and_glue_to_the_webs() {
         let n = a.blocks.iter().filter(|b| b.course == c).count();
         assert_eq!(n, 8 + 8 * if c % 2 == 0 { 3 } else { 4 }, "course {c}");
     }
-    let (_, r, sc) = vault_arc(&v);
+    let (_, r, _, _) = vault_arc(&v);
     let (r1, r2) = (r + v.thickness, r + v.thickness + depth);
     let ribs: Vec<&masonry::Block> = a
         .blocks
@@ -1284,7 +1419,7 @@ fn cloister_vault_ribs_straddle_the_corners_and_glue_to_the_webs() {
     // each side, from the ξ of their heads).
     let fraction = width_u(&v, ribs[0]);
     let psi = vault_psi_grid(&v, &a);
-    let expected = chord_volume(sc, r, r1, &psi, 1.0) + chord_volume(sc, r1, r2, &psi, fraction);
+    let expected = chord_volume(&v, r, r1, &psi, 1.0) + chord_volume(&v, r1, r2, &psi, fraction);
     assert!(
         rel(a.volume(), expected).abs() < 1e-12,
         "{} vs {expected}",
@@ -1297,7 +1432,7 @@ fn cloister_vault_ribs_straddle_the_corners_and_glue_to_the_webs() {
             width: Some(w),
             depth,
         }),
-        ..VAULT
+        ..base
     };
     let aw = masonry::cloister_vault(&vw, VAULT_SIZE).unwrap();
     let rib = aw
@@ -1330,16 +1465,28 @@ fn cloister_vault_ribs_straddle_the_corners_and_glue_to_the_webs() {
 }
 
 /// The Florence-size vault of docs/generators.md: span 45 m across flats, shell 2.2 m,
-/// quinto acuto, oculus 5.6 m, 12 courses × 4 blocks per web, size 1 m.
+/// quinto acuto on the corners (the default), oculus 5.6 m, 12 courses × 4 blocks per web,
+/// size 1 m.
 const FLORENCE: CloisterVault = CloisterVault {
     span: 45.0,
     thickness: 2.2,
     courses: 12,
     blocks_per_web: 4,
     profile_ratio: 0.8,
+    profile: ProfileOn::Corners,
     oculus: 5.6,
     ribs: None,
 };
+
+/// The smallest dihedral angle of each course [°].
+fn min_dihedral_per_course(a: &Assembly) -> Vec<Real> {
+    let mut out = vec![Real::INFINITY; a.courses];
+    for b in &a.blocks {
+        let q = b.mesh.quality().unwrap();
+        out[b.course] = out[b.course].min(q.min_dihedral_deg);
+    }
+    out
+}
 
 #[test]
 fn cloister_vault_florence_numbers() {
@@ -1353,7 +1500,7 @@ fn cloister_vault_florence_numbers() {
     let exact = v.web_volume().unwrap();
     let e = rel(a.volume(), exact);
     println!(
-        "Florence: a {:.3} m, D_c {:.3} m, r {:.3} m, s_c {:.3} m, ψ_top {:.2}°, ψ_crown {:.2}°, crown {:.3} m, top bed {:.3} m",
+        "Florence: a {:.3} m, D_c {:.3} m, r {:.3} m, q_c {:.3} m, ψ_top {:.2}°, ψ_crown {:.2}°, crown {:.3} m, top bed {:.3} m",
         p.apothem,
         p.corner_span,
         p.radius,
@@ -1382,7 +1529,7 @@ fn cloister_vault_florence_numbers() {
     }
     // What one shell leaves out, with the same formula: a second, coaxial shell 1.2 m
     // outside the first, 0.6 or 0.9 m thick, over the same ψ range.
-    let (_, r, _) = vault_arc(&v);
+    let (_, r, _, _) = vault_arc(&v);
     for to in [0.6, 0.9] {
         let r0 = r + v.thickness + 1.2;
         let (ta, tm) = vault_volume_terms(&v, r0, r0 + to, p.psi_top);
@@ -1416,6 +1563,60 @@ fn cloister_vault_florence_numbers() {
     assert!(a.blocks.iter().all(|b| b.mesh.check().is_empty()));
     assert!(q.min_dihedral_deg > 10.0);
     assert!(e < 0.0 && e > -1e-3, "{e}");
-    // Crown of the quinto acuto profile: D_c √(0.8 cos 22.5° − cos² 22.5°/4).
-    assert!((p.crown_height / p.corner_span - 0.725063).abs() < 1e-6);
+    // Crown of the quinto acuto on the corners: D_c √(0.8 − 1/4).
+    assert!((p.crown_height / p.corner_span - 0.741620).abs() < 1e-6);
+    // Where the quality drops: the smallest dihedral angle per course, here and on the
+    // table's vault (with and without ribs 0.3 m deep).
+    let show = |what: &str, a: &Assembly| {
+        let per: Vec<String> = min_dihedral_per_course(a)
+            .iter()
+            .map(|d| format!("{d:.1}"))
+            .collect();
+        println!("  {what}: min dihedral per course [{}]°", per.join(", "));
+    };
+    show("Florence", &a);
+    for on in PROFILES {
+        let tv = CloisterVault {
+            profile: on,
+            ..VAULT
+        };
+        show(
+            &format!("table's vault ({})", on.name()),
+            &masonry::cloister_vault(&tv, VAULT_SIZE).unwrap(),
+        );
+    }
+    let ribbed_table = CloisterVault {
+        ribs: Some(Ribs {
+            width: None,
+            depth: 0.3,
+        }),
+        ..VAULT
+    };
+    show(
+        "table's vault, ribs 0.3 m",
+        &masonry::cloister_vault(&ribbed_table, VAULT_SIZE).unwrap(),
+    );
+    // The same vault with the circle on the webs' mid-lines, for comparison.
+    let w = CloisterVault {
+        profile: ProfileOn::Webs,
+        ..v
+    };
+    let pw = w.profile().unwrap();
+    let aw = masonry::cloister_vault(&w, 1.0).unwrap();
+    let qw = aw.quality().unwrap();
+    let exact_w = w.web_volume().unwrap();
+    println!(
+        "  profile \"webs\": s_c {:.3} m, ψ_top {:.2}°, ψ_crown {:.2}°, crown {:.3} m, top bed {:.3} m; {} tets, min dihedral {:.1}°, max aspect {:.2}, volume {:.0} m³ (exact {exact_w:.0} m³, error {:+.3} %)",
+        pw.centre,
+        pw.psi_top.to_degrees(),
+        pw.psi_crown.to_degrees(),
+        pw.crown_height,
+        pw.oculus_height,
+        aw.n_tets(),
+        qw.min_dihedral_deg,
+        qw.max_aspect_ratio,
+        aw.volume(),
+        rel(aw.volume(), exact_w) * 100.0
+    );
+    assert!((pw.crown_height / pw.corner_span - 0.725063).abs() < 1e-6);
 }

@@ -420,7 +420,7 @@ let g3 = notched_beam(#{ length: 1.0, height: 0.2, width: 0.1, notch_depth: 0.05
 let g4 = arch(#{ radius: 1.0, thickness: 0.2, depth: 0.2, voussoirs: 3, span_angle: 180.0, center: [5.0, 5.0, 5.0], size: 0.2 });
 let g5 = wall(#{ courses: 2, bricks_per_course: 2, brick: [0.2, 0.1, 0.1], head_gap: 0.0, bed_gap: 0.0, origin: [5.0, 5.0, 5.0], size: 0.1 });
 let g6 = dome(#{ radius: 1.0, thickness: 0.2, courses: 2, blocks_per_course: 4, oculus: 20.0, base: 90.0, center: [5.0, 5.0, 5.0], size: 0.2 });
-let g7 = cloister_vault(#{ span: 4.0, thickness: 0.3, courses: 1, blocks_per_web: 1, profile_ratio: 0.8, oculus: 1.0, ribs: true, rib_width: 0.5, rib_depth: 0.2, center: [5.0, 5.0, 5.0], size: 0.3 });
+let g7 = cloister_vault(#{ span: 4.0, thickness: 0.3, courses: 1, blocks_per_web: 1, profile_ratio: 0.8, profile: "webs", oculus: 1.0, ribs: true, rib_width: 0.5, rib_depth: 0.2, center: [5.0, 5.0, 5.0], size: 0.3 });
 let voussoirs = sim.add_blocks(g4, m, #{ layout: "continuous", prefix: "voussoir" });
 sim.contact_law("potential", #{ penalty: 1e7, tangential_penalty: 1e7, friction: 0.5, damping: 0.1 });
 sim.contact_law("potential", #{ between: [m, m], friction: 0.3 });

@@ -406,8 +406,59 @@ pub struct Ribs {
     /// (half on each side of the corner); in (0, 2a·tan 22.5°), the side length there. It is
     /// rounded to an even number of cells of the around-grid. `None`: one block width.
     pub width: Option<Real>,
-    /// How far a rib projects beyond the web extrados, along the web normal [m], > 0.
+    /// How far a rib projects beyond the web extrados [m], > 0, measured as
+    /// [`CloisterVault::thickness`] is (along the radius of the profile circle in the section
+    /// that carries it).
     pub depth: Real,
+}
+
+/// Which vertical section of a [`CloisterVault`] carries the circle of radius
+/// r = profile_ratio · D_c (the other sections follow from it, the webs being cylinders with
+/// horizontal axes parallel to their sides).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ProfileOn {
+    /// The eight corner ribs (the vertical planes through the axis and a corner; q the
+    /// horizontal distance from the axis in such a plane, R_c = D_c/2 the circumradius of the
+    /// intrados octagon at the springing): the intrados corner line is
+    ///
+    /// (q − q_c)² + z² = r²,  q_c = R_c − r,
+    ///
+    /// through the springing corner (q = R_c, z = 0) with a vertical tangent. A web's mid-line
+    /// is that circle compressed horizontally by cos 22.5° (s = q cos 22.5°): an ellipse with
+    /// semi-axes r cos 22.5° (horizontal) and r (vertical). Florence as usually described
+    /// (Museo Galileo: the ribs of the inner shell have a pointed-fifth curvature whose radius
+    /// is 4/5 of the diagonal of the base octagon). Needs profile_ratio ≥ 1/2. The default.
+    #[default]
+    Corners,
+    /// Each web's mid-line (the vertical plane through the axis along its normal, s the
+    /// horizontal distance from the axis, a = span/2):
+    ///
+    /// (s − s_c)² + z² = r²,  s_c = a − r,
+    ///
+    /// through the springing line (s = a, z = 0) with a vertical tangent. A corner section is
+    /// that circle stretched horizontally by 1/cos 22.5° (q = s / cos 22.5°): an ellipse with
+    /// semi-axes r / cos 22.5° (horizontal) and r (vertical). Needs profile_ratio ≥
+    /// cos(22.5°)/2.
+    Webs,
+}
+
+impl ProfileOn {
+    /// The script name: "corners" or "webs".
+    pub fn name(self) -> &'static str {
+        match self {
+            ProfileOn::Corners => "corners",
+            ProfileOn::Webs => "webs",
+        }
+    }
+
+    /// The profile of a script name, or `None`.
+    pub fn from_name(s: &str) -> Option<Self> {
+        match s {
+            "corners" => Some(ProfileOn::Corners),
+            "webs" => Some(ProfileOn::Webs),
+            _ => None,
+        }
+    }
 }
 
 /// An octagonal cloister vault (a domical vault of eight cylindrical webs) on a regular
@@ -419,16 +470,24 @@ pub struct Ribs {
 pub struct CloisterVault {
     /// Inner span across flats at the springing, 2a [m] (a: apothem of the intrados octagon).
     pub span: Real,
-    /// Shell thickness t, measured along the web normal [m].
+    /// Shell thickness t [m], measured along the radius of the profile circle in the section
+    /// that carries it ([`ProfileOn`]): the extrados is the coaxial circle of radius r + t
+    /// there. With [`ProfileOn::Webs`] that is the web normal; with [`ProfileOn::Corners`] it
+    /// is in the corner plane, and the web is thinner: t cos 22.5° across it at the
+    /// springing, rising towards t as the web turns horizontal (see [`cloister_vault`]).
     pub thickness: Real,
     /// Courses (≥ 1): equal steps of the arc angle ψ from the springing to the top bed.
     pub courses: usize,
     /// Blocks across each web in every course (≥ 1); with ribs, the web blocks between two
     /// ribs (in the even courses).
     pub blocks_per_web: usize,
-    /// Radius of the web arcs over the span across corners, r / D_c; 4/5 is Brunelleschi's
-    /// "quinto acuto". At least cos(22.5°)/2 ≈ 0.462 (r = a: round crown).
+    /// Radius of the profile circle over the span across corners, r / D_c; 4/5 is
+    /// Brunelleschi's "quinto acuto". At least 1/2 with [`ProfileOn::Corners`] (r = R_c,
+    /// round crown), cos(22.5°)/2 ≈ 0.462 with [`ProfileOn::Webs`] (r = a).
     pub profile_ratio: Real,
+    /// Which section carries the profile circle: the corner ribs (default) or each web's
+    /// mid-line.
+    pub profile: ProfileOn,
     /// Inner opening across flats at the top bed [m], in (0, span): the intrados of every
     /// web's mid-line ends at s = oculus/2 from the axis.
     pub oculus: Real,
@@ -437,27 +496,66 @@ pub struct CloisterVault {
 }
 
 /// The profile of a [`CloisterVault`], derived from its parameters (lengths in m, angles in
-/// radians; s is the horizontal distance from the axis in a web's mid-plane).
+/// radians). ψ is the angle on the profile circle (0 at the springing), ρ the radius on it
+/// (r at the intrados, r + t at the extrados); s is the horizontal distance from the axis in
+/// a web's mid-plane, q = s / cos 22.5° that in a corner plane.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VaultProfile {
+    /// Which section carries the circle.
+    pub on: ProfileOn,
     /// Apothem a = span/2 of the intrados octagon at the springing.
     pub apothem: Real,
-    /// Span across corners at the springing, D_c = 2a / cos 22.5°.
+    /// Span across corners at the springing, D_c = 2a / cos 22.5° (circumradius R_c = D_c/2).
     pub corner_span: Real,
-    /// Intrados radius of every web's arc, r = profile_ratio · D_c.
+    /// Intrados radius of the profile circle, r = profile_ratio · D_c.
     pub radius: Real,
-    /// s of the arc centre, s_c = a − r ≤ 0: on the springing plane, r − a beyond the axis.
+    /// Distance from the axis of the circle's centre in the section that carries it, ≤ 0 (on
+    /// the springing plane, beyond the axis): s_c = a − r on the webs, q_c = R_c − r on the
+    /// corners.
     pub centre: Real,
     /// ψ of the top bed, where the intrados mid-line reaches s = oculus/2:
-    /// cos ψ_top = (oculus/2 − s_c)/r.
+    /// cos ψ_top = (oculus/2 − s_c)/r on the webs, (oculus/(2 cos 22.5°) − q_c)/r on the
+    /// corners.
     pub psi_top: Real,
-    /// ψ where the intrados arc reaches the axis (the pointed crown, cut off by the oculus):
-    /// cos ψ_crown = −s_c/r.
+    /// ψ where the intrados reaches the axis (the pointed crown, cut off by the oculus):
+    /// cos ψ_crown = −centre/r.
     pub psi_crown: Real,
-    /// Height of that crown above the springing, r sin ψ_crown = √(2ra − a²).
+    /// Height of that crown above the springing, r sin ψ_crown: √(2ra − a²) on the webs,
+    /// √(2rR_c − R_c²) = D_c √(p − 1/4) on the corners (p = profile_ratio).
     pub crown_height: Real,
     /// Height of the intrados at the top bed, r sin ψ_top.
     pub oculus_height: Real,
+}
+
+impl VaultProfile {
+    /// Distance from the axis in the section that carries the circle, of the point (ρ, ψ).
+    fn section(&self, rho: Real, psi: Real) -> Real {
+        self.centre + rho * psi.cos()
+    }
+
+    /// s: distance from the axis of the point (ρ, ψ) on a web's mid-line.
+    pub fn mid_line(&self, rho: Real, psi: Real) -> Real {
+        match self.on {
+            ProfileOn::Webs => self.section(rho, psi),
+            ProfileOn::Corners => self.section(rho, psi) * HALF_SIDE.cos(),
+        }
+    }
+
+    /// q: distance from the axis of the point (ρ, ψ) on a corner line.
+    pub fn corner(&self, rho: Real, psi: Real) -> Real {
+        match self.on {
+            ProfileOn::Webs => self.section(rho, psi) / HALF_SIDE.cos(),
+            ProfileOn::Corners => self.section(rho, psi),
+        }
+    }
+
+    /// κ = ds/d(section distance): 1 on the webs, cos 22.5° on the corners.
+    fn kappa(&self) -> Real {
+        match self.on {
+            ProfileOn::Webs => 1.0,
+            ProfileOn::Corners => HALF_SIDE.cos(),
+        }
+    }
 }
 
 impl CloisterVault {
@@ -465,10 +563,18 @@ impl CloisterVault {
     pub fn profile(&self) -> Result<VaultProfile, String> {
         need_positive("span", self.span)?;
         let c = HALF_SIDE.cos();
-        let p_min = 0.5 * c;
+        let a = 0.5 * self.span;
+        let corner_span = 2.0 * a / c;
+        // The circle must reach the axis before its top: r ≥ the springing's distance from
+        // the axis in its section (a on the webs, R_c on the corners).
+        let (p_min, what) = match self.profile {
+            ProfileOn::Webs => (0.5 * c, "cos(22.5°)/2"),
+            ProfileOn::Corners => (0.5, "1/2"),
+        };
         if !(self.profile_ratio >= p_min && self.profile_ratio.is_finite()) {
             return Err(format!(
-                "'profile_ratio' must be ≥ cos(22.5°)/2 = {p_min:.6} (with a smaller radius the arc would pass its top and come down before it reached the axis), got {}",
+                "'profile_ratio' must be ≥ {what} = {p_min:.6} with profile \"{}\" (with a smaller radius the arc would pass its top and come down before it reached the axis), got {}",
+                self.profile.name(),
                 self.profile_ratio
             ));
         }
@@ -478,17 +584,19 @@ impl CloisterVault {
                 self.span, self.oculus
             ));
         }
-        let a = 0.5 * self.span;
-        let corner_span = 2.0 * a / c;
         let r = self.profile_ratio * corner_span;
-        let sc = a - r;
-        let psi_crown = (-sc / r).clamp(-1.0, 1.0).acos();
-        let psi_top = ((0.5 * self.oculus - sc) / r).clamp(-1.0, 1.0).acos();
+        let (centre, top) = match self.profile {
+            ProfileOn::Webs => (a - r, 0.5 * self.oculus),
+            ProfileOn::Corners => (0.5 * corner_span - r, 0.5 * self.oculus / c),
+        };
+        let psi_crown = (-centre / r).clamp(-1.0, 1.0).acos();
+        let psi_top = ((top - centre) / r).clamp(-1.0, 1.0).acos();
         Ok(VaultProfile {
+            on: self.profile,
             apothem: a,
             corner_span,
             radius: r,
-            centre: sc,
+            centre,
             psi_top,
             psi_crown,
             crown_height: r * psi_crown.sin(),
@@ -497,15 +605,22 @@ impl CloisterVault {
     }
 
     /// Exact volume of the eight webs, ribs left out [m³]. A web is the image of
-    /// (ψ, ρ, ξ) ∈ [0, ψ_top] × [r, r + t] × [−1, 1], whose volume element is
-    /// ρ · 2 s tan 22.5° dρ dψ after integrating over ξ, so
-    /// V = 16 tan 22.5° · [s_c ψ_top (R₁² − R₀²)/2 + sin ψ_top (R₁³ − R₀³)/3],
-    /// R₀ = r, R₁ = r + t.
+    /// (ψ, ρ, ξ) ∈ [0, ψ_top] × [r, r + t] × [−1, 1] under s = κ (c + ρ cos ψ), z = ρ sin ψ,
+    /// offset ξ s tan 22.5° along the side, with c the circle's centre ([`VaultProfile::centre`])
+    /// and κ = 1 on the webs, cos 22.5° on the corners. The mid-plane area element is
+    /// κ ρ dρ dψ and the width 2 s tan 22.5°, so
+    ///
+    /// V = 16 tan 22.5° κ² · [c ψ_top (R₁² − R₀²)/2 + sin ψ_top (R₁³ − R₀³)/3],
+    ///
+    /// R₀ = r, R₁ = r + t; on the corners 16 tan 22.5° cos² 22.5° = 8 sin 45° = 4√2.
     pub fn web_volume(&self) -> Result<Real, String> {
         let p = self.profile()?;
         let (r0, r1) = (p.radius, p.radius + self.thickness);
+        let k = p.kappa();
         Ok(16.0
             * HALF_SIDE.tan()
+            * k
+            * k
             * (p.centre * p.psi_top * (r1 * r1 - r0 * r0) / 2.0
                 + p.psi_top.sin() * (r1.powi(3) - r0.powi(3)) / 3.0))
     }
@@ -513,41 +628,53 @@ impl CloisterVault {
 
 /// Blocks of an octagonal cloister vault ([`CloisterVault`]), meshed at target edge length `h`.
 ///
-/// **Profile.** In the mid-plane of web k (the vertical plane through the axis along its
-/// outward normal n_k, s the distance from the axis) the intrados is the circle of radius
-/// r = profile_ratio · D_c centred on the springing plane at s_c = a − r, i.e. r − a beyond the
-/// axis on the opposite side:
+/// **Profile.** One vertical section carries the circle of radius r = profile_ratio · D_c,
+/// centred on the springing plane beyond the axis, leaving the springing with a vertical
+/// tangent ([`ProfileOn`]):
 ///
-/// (s − s_c)² + z² = r²,
+/// - `Corners` (default): in each corner plane (q the distance from the axis),
+///   (q − q_c)² + z² = r², q_c = R_c − r; the crown, where the corner lines meet on the
+///   axis, is at ψ_crown (cos ψ_crown = (r − R_c)/r) and the height √(2rR_c − R_c²) =
+///   D_c √(p − 1/4) (0.742 D_c for p = 4/5). Valid for p ≥ 1/2.
+/// - `Webs`: in each web's mid-plane (s the distance from the axis), (s − s_c)² + z² = r²,
+///   s_c = a − r; crown height √(2ra − a²) (0.725 D_c for 4/5). Valid for p ≥ cos 22.5°/2.
 ///
-/// which passes through the springing line (s = a, z = 0) with a vertical tangent and would
-/// meet the opposite web's arc on the axis in a pointed crown (at ψ_crown, height
-/// √(2ra − a²); for 4/5: 0.725 D_c). The extrados is the coaxial circle of radius r + t.
+/// The extrados is the coaxial circle of radius r + t in the same section.
 ///
-/// **Webs.** Each web's intrados is the cylinder on that circle with a horizontal axis
-/// parallel to its side. With ψ the angle on the arc (0 at the springing), ρ ∈ [r, r + t] and
-/// ξ ∈ [−1, 1] across the web, a point of web k is
+/// **Webs.** Each web is bounded by cylinders with horizontal axes parallel to its side: every
+/// horizontal line of web k is parallel to its side, so s (mid-plane) and q (corner plane) of
+/// one horizontal line are related by s = q cos 22.5°. With ψ the angle on the circle (0 at
+/// the springing), ρ ∈ [r, r + t] and ξ ∈ [−1, 1] across the web, a point of web k is
 ///
-/// s = s_c + ρ cos ψ,  z = ρ sin ψ,  offset along the side = ξ · s · tan 22.5°,
+/// z = ρ sin ψ,  s = s_c + ρ cos ψ (`Webs`) or s = (q_c + ρ cos ψ) cos 22.5° (`Corners`),
+/// offset along the side = ξ · s · tan 22.5°,
 ///
-/// so ξ = ±1 lies on the corner planes (the vertical planes through the axis and the
-/// corners), and two neighbouring webs give the same point there for the same (ψ, ρ): the
-/// meshes conform across the corners exactly. The corner sections (intersections of two
-/// neighbouring cylinders) are then pointed arcs of ellipses with semi-axes r / cos 22.5°
-/// (horizontal) and r (vertical), as the groins of a cloister vault are. This is a choice:
-/// the usual description of Florence (e.g. Museo Galileo, "Brunelleschi and the dome of
-/// Florence Cathedral": the vertical ribs of the inner shell have a pointed-fifth curvature
-/// whose radius is 4/5 of the diagonal of the base octagon) puts the circle of radius
-/// p·D_c on the eight corner ribs, not on the webs' mid-lines, which is a different surface
-/// (circular corners, elliptical mid-lines). Its crown is at D_c √(p − 1/4) = 0.742 D_c for
-/// p = 4/5 instead of 0.725 D_c here; profile_ratio = (p − 1/4 + cos² 22.5°/4) / cos 22.5°
-/// (0.826 for 4/5) gives this model the same crown height. See docs/generators.md.
+/// so ξ = ±1 lies on the corner planes (at q = s / cos 22.5°), and two neighbouring webs give
+/// the same point there for the same (ψ, ρ): the meshes conform across the corners exactly.
+/// The section without the circle is an ellipse: on `Corners` the mid-lines have semi-axes
+/// r cos 22.5° (horizontal) and r; on `Webs` the corners have r / cos 22.5° and r. The
+/// thickness measured along the circle's radius is t; in the other section, along the same
+/// ray of constant ψ, it is t √(cos² 22.5° cos² ψ + sin² ψ) on the mid-line (`Corners`) or
+/// t √(cos² ψ / cos² 22.5° + sin² ψ) on the corner line (`Webs`). On `Corners` the web's
+/// thickness along its own normal is therefore t cos 22.5° at the springing (exactly, the
+/// web being vertical there) and rises towards t with ψ (t / √(cos² ψ / cos² 22.5° + sin² ψ)
+/// to first order in t/r).
+///
+/// **Sources.** The usual description of Florence (e.g. Museo Galileo, "Brunelleschi and the
+/// dome of Florence Cathedral": the vertical ribs of the inner shell have a pointed-fifth
+/// curvature whose radius is 4/5 of the diagonal of the base octagon) puts the circle on the
+/// eight corner ribs, hence the default. `Webs` keeps the other reading (circular webs,
+/// elliptical corners); profile_ratio = (p − 1/4 + cos² 22.5°/4) / cos 22.5° (0.826 for 4/5)
+/// gives it the crown height of `Corners` with ratio p, but the surfaces differ between
+/// springing and crown. See docs/generators.md.
 ///
 /// **Oculus.** The webs end at the top bed ψ_top, where the intrados mid-line reaches
-/// s = oculus/2 (height r sin ψ_top); the opening there is a regular octagon `oculus` across
+/// s = oculus/2 (height r sin ψ_top; on `Corners` cos ψ_top = (oculus/(2 cos 22.5°) − q_c)/r,
+/// on `Webs` (oculus/2 − s_c)/r); the opening there is a regular octagon `oculus` across
 /// flats. **Courses** are equal steps of ψ; bed joints are the planes through each web's
-/// cylinder axis (radial to its arc), so a bed is horizontal only at the springing. Head
-/// joints are vertical planes through the vault's axis.
+/// cylinder axis along the ray of constant ψ (radial to the circle in the section that
+/// carries it; horizontal only at the springing). Head joints are vertical planes through the
+/// vault's axis.
 ///
 /// **Blocks and mesh.** One around-grid serves every course: N cells per side (an even
 /// number per block, so the mid-line, the half-block offset and the corners are grid lines),
@@ -561,12 +688,13 @@ impl CloisterVault {
 /// part beyond the web is free surface. Between two ribs the even courses have
 /// `blocks_per_web` blocks, the odd ones a half block at each end and one full block fewer.
 /// The ψ cells of a course are sized by the geometric mean of `h` and the around-cell width
-/// (as the dome's θ cells), the thickness by `h`. Each block is a structured (ψ, around)
-/// quad grid cut into triangles, extruded through ρ into prisms of 3 tetrahedra (as `dome`).
-/// Head and bed faces are planar and every cell is a hexahedron with planar faces, so the
-/// mesh is exact except for the chords of the intrados and extrados arcs in ψ: its volume is
-/// low by O(Δψ²) (the extrados chords cut off more than the intrados chords add, being
-/// longer and farther from the axis).
+/// (as the dome's θ cells), their length along the circle (ρ Δψ at mid-thickness), the
+/// thickness by `h`. Each block is a structured (ψ, around) quad grid cut into triangles,
+/// extruded through ρ into prisms of 3 tetrahedra (as `dome`). Head and bed faces are planar
+/// and every cell is a hexahedron with planar faces, so the mesh is exact except for the
+/// chords of the intrados and extrados arcs in ψ: its volume is low by O(Δψ²) (the extrados
+/// chords cut off more than the intrados chords add, being longer and farther from the
+/// axis).
 ///
 /// **Numbering.** Blocks are numbered course by course from the springing (course 0, flagged
 /// springers) and, within a course, counter-clockwise seen from above, starting with the
@@ -599,12 +727,12 @@ pub fn cloister_vault(v: &CloisterVault, h: Real) -> Result<Assembly, String> {
     }
     let (r0, r1) = (pr.radius, pr.radius + v.thickness);
     let r2 = r1 + v.ribs.map_or(0.0, |rb| rb.depth);
-    let (sc, psi_t) = (pr.centre, pr.psi_top);
+    let psi_t = pr.psi_top;
     let rm = 0.5 * (r0 + r1);
     let nb = v.blocks_per_web;
     // Around-grid: n_side cells from corner to corner, m (even) per block, w (even) per rib,
     // sized where s is the geometric mean of its extremes on the mid-surface.
-    let s_ref = ((sc + rm) * (sc + rm * psi_t.cos())).sqrt();
+    let s_ref = (pr.mid_line(rm, 0.0) * pr.mid_line(rm, psi_t)).sqrt();
     let rib_fraction = v.ribs.map(|rb| rb.width.map(|w| w / side0));
     let free = 1.0 - rib_fraction.flatten().unwrap_or(0.0);
     let block_width = 2.0 * s_ref * tan * free / nb as Real;
@@ -625,7 +753,7 @@ pub fn cloister_vault(v: &CloisterVault, h: Real) -> Result<Assembly, String> {
     let n_psi: Vec<usize> = (0..v.courses)
         .map(|c| {
             let (lo, hi) = (psi_edge(c), psi_edge(c + 1));
-            let width = 2.0 * (sc + rm * (0.5 * (lo + hi)).cos()) * tan / n_side as Real;
+            let width = 2.0 * pr.mid_line(rm, 0.5 * (lo + hi)) * tan / n_side as Real;
             let n = cells(rm * (hi - lo), (h * width).sqrt(), 1);
             let prisms = n_around as Real * nr as Real + 8.0 * w as Real * nd as Real;
             estimate += 6.0 * n as Real * prisms;
@@ -641,21 +769,22 @@ pub fn cloister_vault(v: &CloisterVault, h: Real) -> Result<Assembly, String> {
         let t = k as Real * PI / 4.0;
         [t.cos(), t.sin()]
     });
-    let inv_cos = 1.0 / HALF_SIDE.cos();
     // The point at radius ρ, arc angle ψ and around-grid line q (any integer; wrapped): on
     // side k = q div n_side at the fraction f of the way from corner k to corner k + 1, the
-    // horizontal position is (s / cos 22.5°)·((1 − f)·c_k + f·c_{k+1}), i.e. s along the
-    // web normal and ξ·s·tan 22.5° along the side with ξ = 2f − 1. Grid line q is computed
-    // the same way in every block (exactly c_k at a corner), so shared nodes are equal.
+    // horizontal position is d·((1 − f)·c_k + f·c_{k+1}) with d the corner-plane distance
+    // (q_c + ρ cos ψ on `Corners`, (s_c + ρ cos ψ)/cos 22.5° on `Webs`), i.e. s = d cos 22.5°
+    // along the web normal and ξ·s·tan 22.5° along the side with ξ = 2f − 1. Grid line q is
+    // computed the same way in every block (exactly c_k at a corner), so shared nodes are
+    // equal.
     let point = |rho: Real, psi: Real, q: Real| -> Vec3 {
         let q = (q.round() as i64).rem_euclid(n_around as i64) as usize;
         let (k, j) = (q / n_side, q % n_side);
         let f = j as Real / n_side as Real;
         let (c0, c1) = (corners[k], corners[(k + 1) % 8]);
-        let s = (sc + rho * psi.cos()) * inv_cos;
+        let d = pr.corner(rho, psi);
         Vec3::new(
-            s * ((1.0 - f) * c0[0] + f * c1[0]),
-            s * ((1.0 - f) * c0[1] + f * c1[1]),
+            d * ((1.0 - f) * c0[0] + f * c1[0]),
+            d * ((1.0 - f) * c0[1] + f * c1[1]),
             rho * psi.sin(),
         )
     };
@@ -816,33 +945,46 @@ mod tests {
             courses: 3,
             blocks_per_web: 2,
             profile_ratio: 0.8,
+            profile: ProfileOn::default(),
             oculus: 1.0,
             ribs: Some(Ribs {
                 width: None,
                 depth: 0.2,
             }),
         };
-        let a = cloister_vault(&v, 0.4).unwrap();
-        // Per course 8 ribs + 8 × 2 web blocks (even) or 8 × 3 (odd: two halves + one).
-        assert_eq!(a.blocks.len(), 24 + 32 + 24);
-        assert!(a.blocks.iter().all(|b| b.mesh.check().is_empty()));
-        assert_eq!(a.blocks.iter().filter(|b| b.springer).count(), 24);
-        // The oculus set of a web block of the top course: its intrados edge is at the
-        // documented height r sin ψ_top, and the ribs carry `rib`.
-        let p = v.profile().unwrap();
-        let top = &a.blocks[24 + 32].mesh;
-        let z = top.sets.nodes["oculus"]
-            .iter()
-            .map(|&n| top.nodes[n as usize].z)
-            .fold(Real::INFINITY, Real::min);
-        assert!((z - p.oculus_height).abs() < 1e-12 * v.span, "{z}");
-        assert_eq!(
-            a.blocks
+        assert_eq!(v.profile, ProfileOn::Corners);
+        for on in [ProfileOn::Corners, ProfileOn::Webs] {
+            let v = CloisterVault { profile: on, ..v };
+            let a = cloister_vault(&v, 0.4).unwrap();
+            // Per course 8 ribs + 8 × 2 web blocks (even) or 8 × 3 (odd: two halves + one).
+            assert_eq!(a.blocks.len(), 24 + 32 + 24);
+            assert!(a.blocks.iter().all(|b| b.mesh.check().is_empty()));
+            assert_eq!(a.blocks.iter().filter(|b| b.springer).count(), 24);
+            // The oculus set of a web block of the top course (from the rib at corner 0 to
+            // the mid-line of web 0): its intrados edge is at the documented height
+            // r sin ψ_top, and nearest the axis (on the mid-line) at oculus/2.
+            let p = v.profile().unwrap();
+            let top = &a.blocks[24 + 32].mesh;
+            let edge: Vec<Vec3> = top.sets.nodes["oculus"]
                 .iter()
-                .filter(|b| b.mesh.sets.faces.contains_key("rib"))
-                .count(),
-            24
-        );
+                .map(|&n| top.nodes[n as usize])
+                .filter(|x| (x.z - p.oculus_height).abs() < 1e-12 * v.span)
+                .collect();
+            assert!(!edge.is_empty(), "{}", on.name());
+            let near = edge
+                .iter()
+                .map(|x| x.x.hypot(x.y))
+                .fold(Real::INFINITY, Real::min);
+            assert!((near - 0.5 * v.oculus).abs() < 1e-12 * v.span, "{near}");
+            // And the ribs carry `rib`.
+            assert_eq!(
+                a.blocks
+                    .iter()
+                    .filter(|b| b.mesh.sets.faces.contains_key("rib"))
+                    .count(),
+                24
+            );
+        }
         // A rib as wide as the side would leave no web between the ribs.
         let e = cloister_vault(
             &CloisterVault {

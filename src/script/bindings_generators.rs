@@ -295,12 +295,24 @@ fn cloister_vault(m: Map) -> RhaiResult<AssemblyValue> {
         }
         None
     };
+    let profile = match o.string("profile")?.as_deref() {
+        None => masonry::ProfileOn::default(),
+        Some(x) => masonry::ProfileOn::from_name(x).map_or_else(
+            || {
+                err(format!(
+                    "cloister_vault(): profile \"{x}\" is not \"corners\" or \"webs\""
+                ))
+            },
+            Ok,
+        )?,
+    };
     let v = masonry::CloisterVault {
         span,
         thickness,
         courses: count(&o, "courses", 1)?,
         blocks_per_web: count(&o, "blocks_per_web", 1)?,
         profile_ratio: o.float("profile_ratio")?.unwrap_or(0.8),
+        profile,
         oculus: o.float("oculus")?.unwrap_or(span / 8.0),
         ribs,
     };
