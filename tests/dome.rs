@@ -6,7 +6,7 @@
 //!    2nd ed. 1959, §(spherical dome under its own weight)), and the hoop force changes sign
 //!    where the theory says.
 //! 2. A masonry dome of voussoir blocks and weak mortar: the hoop tension of the lower part
-//!    opens meridional cracks (Heyman, *The Stone Skeleton*, 1995, ch. 3; the four great
+//!    opens meridional cracks (Heyman, *The Stone Skeleton*, 1995, on domes; the four great
 //!    fissures of Brunelleschi's dome), the upper part stays whole, and the cracked dome stands.
 
 use fdem::material::{Formulation, Material};
@@ -314,9 +314,9 @@ impl Shell {
 ///
 /// Runs: (a) oculus φ₀ = 10° against the oculus formulas (h = 0.6t, 16 128 tets); (b) φ₀ = 2°
 /// against the closed-crown formulas N_φ = −wR/(1 + cos φ), N_θ = wR(1/(1 + cos φ) − cos φ)
-/// and the transition at 51.83° (the 2° oculus moves them by < 0.5 % and +0.05°; the
-/// generator sizes the longitude cells for the oculus, so this mesh is coarser at the base:
-/// h = 0.41t, 12 312 tets).
+/// and the transition at 51.83° (the 2° oculus moves them by < 0.5 % (N_φ), < 0.8 % (N_θ)
+/// and +0.05°; the generator sizes the longitude cells for the oculus, so this mesh is
+/// coarser at the base: h = 0.41t, 12 312 tets).
 ///
 /// Measured (this commit): (a) N_φ +0.01 % / −0.13 % at 30° / 45°, N_θ −1.37 % / −1.91 %,
 /// transition 52.91° vs 53.07°; (b) N_φ −0.66 % / −0.40 %, N_θ −0.27 % / −1.80 % (against
@@ -419,8 +419,8 @@ struct CourseJoints {
 
 /// A hemispherical masonry dome of voussoir blocks and weak mortar settling under its own
 /// weight. Reference: the crack pattern of masonry domes (Heyman, *The Stone Skeleton*,
-/// 1995, ch. 3; the four great meridional fissures of Brunelleschi's dome in Florence): below
-/// the polar angle where the membrane hoop force changes sign (51.8° for a closed crown,
+/// 1995, on domes; the four great meridional fissures of Brunelleschi's dome in Florence):
+/// below the polar angle where the membrane hoop force changes sign (51.8° for a closed crown,
 /// 53.07° for this dome's 10° oculus, [`hoop_transition`]) the hoop force is tension, which
 /// the mortar cannot carry: the head joints there open into meridional cracks, the upper part
 /// stays in compression, and the dome, cut into lunes below, stands.
