@@ -821,3 +821,79 @@ fn joints_between_bodies_glue_and_release_them() {
         "cracks along the interface"
     );
 }
+
+/// An intact joint (D = 0 throughout) driven around a closed path of relative displacement:
+/// close to σn1 = −2f_t, slide by s (x = 0.9 of the peak slip), close further to σn2 = −20f_t,
+/// slide back, reopen. Below the peak the law is meant to be elastic (docs/theory/joints.md:
+/// "unloading and reloading below the current damage are reversible"), so a closed path
+/// should return exactly the work it took, and the energy account should close.
+///
+/// **This pins a known flaw** (found with tests/dome.rs): the pre-peak shear
+/// τ = f_s·g(δs·(p_t/h)/(2f_s)), g(x) = 2x − x², depends on δn through the Mohr–Coulomb
+/// strength f_s = c − σn·tanφ, while σn does not depend on δs, so the traction field has a
+/// curl (docs/theory/joints.md: "the shear part is a potential in δs only"). Sliding out
+/// under σn1 and back under σn2 returns more work than it took:
+/// ΔW = A·k_t²·s³/12·(1/f_s1 − 1/f_s2) per cycle, here 0.33 of the shear energy stored at s,
+/// and the engine creates exactly that (the balance error). In a settling model this pumps
+/// energy into joints near their shear peak under changing compression: the masonry dome of
+/// tests/dome.rs with c = 2f_t kept ~1 J of kinetic energy and a growing balance error
+/// instead of coming to rest. A conservative law would add to the normal traction the
+/// δn-derivative of the shear energy, −z·tanφ·(p_n/h)·(2f_s/k_t)·x³/3 (x = δs·k_t/(2f_s) ≤ 1).
+/// When the law is made conservative, this test must fail: then assert `created ≈ 0`.
+#[test]
+fn intact_joint_creates_energy_on_a_closed_path_under_changing_compression() {
+    let coh = law(Calibration::Exact);
+    let t_dir = Vec3::new(1.0, -1.0, 0.0).normalize();
+    let mut r = rig(coh.clone(), constant(Vec3::zeros()));
+    r.sim.prepare().unwrap();
+    let dt = r.sim.dt;
+    let (kn, kt) = (coh.normal_penalty / r.size, coh.tangential_penalty / r.size);
+    let dnp = coh.peak_opening(r.size);
+    let (d1, d2) = (dnp, 10.0 * dnp); // σn1 = −2f_t, σn2 = −20f_t
+    let fs = |d: Real| coh.cohesion + kn * d * coh.tan_friction;
+    let (fs1, fs2) = (fs(d1), fs(d2));
+    let s = 0.9 * coh.peak_slip(r.size, fs1); // x = 0.9 under σn1: below the peak throughout
+    let steps = 2_000.0;
+    let legs = [
+        -r.n * d1,
+        t_dir * s,
+        -r.n * (d2 - d1),
+        -t_dir * s,
+        r.n * (d2 - d1),
+        r.n * d1,
+    ];
+    let mut pts: [Vec<(Real, Real)>; 3] = Default::default();
+    let mut t0 = 0.0;
+    for leg in legs {
+        let v = leg / (steps * dt);
+        for k in 0..3 {
+            pts[k].push((t0 + 1e-6 * dt, v[k]));
+            pts[k].push((t0 + steps * dt, v[k]));
+        }
+        t0 += steps * dt;
+    }
+    for p in &mut pts {
+        p.push((t0 + 1e-6 * dt, 0.0)); // then at rest
+    }
+    r.sim.loads.prescribed[1].components = pts.map(|p| Some(TimeFunction::table(p).unwrap()));
+    r.sim.invalidate();
+    while r.sim.time < t0 - 0.5 * dt {
+        r.sim.step().unwrap();
+    }
+    for _ in 0..2 {
+        r.sim.step().unwrap(); // a sample at rest, back at the start
+    }
+    assert!(r.sim.joints.state[0].iter().all(|p| p.damage == 0.0));
+    assert!(r.opening().norm() < 1e-6 * s, "not back at the start");
+    let created = r.sim.energy.balance_error();
+    let stored = r.area * (kt * s * s / 2.0 - kt * kt * s.powi(3) / (12.0 * fs1));
+    let predicted = r.area * kt * kt * s.powi(3) / 12.0 * (1.0 / fs1 - 1.0 / fs2);
+    println!(
+        "energy created over the cycle {created:.4e} J (closed form {predicted:.4e} J) = {:.3} of the shear energy stored at s",
+        created / stored
+    );
+    assert!(
+        (created - predicted).abs() < 1e-3 * predicted,
+        "created {created:.4e} J vs the closed form {predicted:.4e} J: has the law changed? (a conservative law creates none)"
+    );
+}
