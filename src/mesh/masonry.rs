@@ -791,29 +791,7 @@ pub fn cloister_vault(v: &CloisterVault, h: Real) -> Result<Assembly, String> {
     let mut blocks = Vec::new();
     for (c, &nt) in n_psi.iter().enumerate() {
         let odd = c % 2 == 1;
-        // (first around-grid line, cells, rib) of each block, counter-clockwise from corner 0.
-        let mut pieces: Vec<(usize, usize, bool)> = Vec::new();
-        if w == 0 {
-            let offset = if odd { m / 2 } else { 0 };
-            pieces.extend((0..8 * nb).map(|j| (j * m + offset, m, false)));
-        } else {
-            for k in 0..8 {
-                let mut q = k * n_side + w / 2;
-                let mut widths = Vec::with_capacity(nb + 1);
-                if odd {
-                    widths.push(m / 2);
-                    widths.extend(std::iter::repeat_n(m, nb - 1));
-                    widths.push(m / 2);
-                } else {
-                    widths.extend(std::iter::repeat_n(m, nb));
-                }
-                for cw in widths {
-                    pieces.push((q, cw, false));
-                    q += cw;
-                }
-                pieces.push((q, w, true));
-            }
-        }
+        let pieces = course_pieces(odd, nb, m, w);
         let (psi_lo, psi_hi) = (psi_edge(c), psi_edge(c + 1));
         for (index, &(q0, nq, rib)) in pieces.iter().enumerate() {
             let mut tri = Tri2::new(1e-12);
@@ -825,39 +803,14 @@ pub fn cloister_vault(v: &CloisterVault, h: Real) -> Result<Assembly, String> {
             );
             let layers = if rib { nr + nd } else { nr };
             let mut mesh = tri.extrude(layers, |p, k| point(rho[k], p[0], p[1]));
-            // Sets from the grid indices of the nodes: node n is 2-D point n mod n2 of layer
-            // n div n2, and the 2-D points hold (ψ, q) exactly as the grid computed them.
-            let n2 = tri.pts.len() as u32;
-            let layer = |n: u32| (n / n2) as usize;
-            let psi = |n: u32| tri.pts[(n % n2) as usize][0];
-            let q = |n: u32| tri.pts[(n % n2) as usize][1];
-            let (q_left, q_right) = (q0 as Real, (q0 + nq) as Real);
-            let all = |f: &[u32; 3], t: &dyn Fn(u32) -> bool| f.iter().all(|&n| t(n));
-            add_face_set_by_ids(&mut mesh, "intrados", |f| all(f, &|n| layer(n) == 0));
-            add_face_set_by_ids(&mut mesh, "extrados", |f| all(f, &|n| layer(n) == layers));
-            add_face_set_by_ids(&mut mesh, "bed_lower", |f| all(f, &|n| psi(n) == psi_lo));
-            add_face_set_by_ids(&mut mesh, "bed_upper", |f| all(f, &|n| psi(n) == psi_hi));
-            add_face_set_by_ids(&mut mesh, "head_left", |f| all(f, &|n| q(n) == q_left));
-            add_face_set_by_ids(&mut mesh, "head_right", |f| all(f, &|n| q(n) == q_right));
-            if rib {
-                add_face_set_by_ids(&mut mesh, "rib", |f| {
-                    all(f, &|n| layer(n) == layers)
-                        || all(f, &|n| layer(n) >= nr && q(n) == q_left)
-                        || all(f, &|n| layer(n) >= nr && q(n) == q_right)
-                });
-            }
-            for (is, from, to) in [
-                (c == 0, "bed_lower", "base"),
-                (c + 1 == v.courses, "bed_upper", "oculus"),
-            ] {
-                if is {
-                    let faces = mesh.sets.faces[from].clone();
-                    let nodes = mesh.sets.nodes[from].clone();
-                    mesh.sets.faces.insert(to.into(), faces);
-                    mesh.sets.nodes.insert(to.into(), nodes);
-                }
-            }
-            add_all_elements(&mut mesh);
+            let grid = BlockGrid {
+                psi: [psi_lo, psi_hi],
+                q: [q0 as Real, (q0 + nq) as Real],
+                layers,
+                web_layers: nr,
+                rib,
+            };
+            add_vault_block_sets(&mut mesh, &tri.pts, &grid, c == 0, c + 1 == v.courses);
             blocks.push(Block {
                 mesh,
                 course: c,
@@ -871,6 +824,87 @@ pub fn cloister_vault(v: &CloisterVault, h: Real) -> Result<Assembly, String> {
         blocks,
         courses: v.courses,
     })
+}
+
+/// (first around-grid line, cells, rib) of each block of a vault course, counter-clockwise
+/// from corner 0: `nb` blocks of `m` cells a web (odd courses offset by m/2, so one block
+/// straddles each corner), or with ribs of `w` cells, a rib at each corner and the web blocks
+/// between (odd courses: a half block at each end).
+fn course_pieces(odd: bool, nb: usize, m: usize, w: usize) -> Vec<(usize, usize, bool)> {
+    let n_side = nb * m + w;
+    let mut pieces = Vec::new();
+    if w == 0 {
+        let offset = if odd { m / 2 } else { 0 };
+        pieces.extend((0..8 * nb).map(|j| (j * m + offset, m, false)));
+        return pieces;
+    }
+    for k in 0..8 {
+        let mut q = k * n_side + w / 2;
+        let mut widths = Vec::with_capacity(nb + 1);
+        if odd {
+            widths.push(m / 2);
+            widths.extend(std::iter::repeat_n(m, nb - 1));
+            widths.push(m / 2);
+        } else {
+            widths.extend(std::iter::repeat_n(m, nb));
+        }
+        for cw in widths {
+            pieces.push((q, cw, false));
+            q += cw;
+        }
+        pieces.push((q, w, true));
+    }
+    pieces
+}
+
+/// The grid extent of one vault block: ψ of its beds, around-grid lines of its heads, radial
+/// layers (the web's, and beyond them the rib's).
+struct BlockGrid {
+    psi: [Real; 2],
+    q: [Real; 2],
+    layers: usize,
+    web_layers: usize,
+    rib: bool,
+}
+
+/// Named sets of a vault block, from the grid indices of its nodes (no geometric tolerance):
+/// node n is 2-D point n mod n2 of layer n div n2, and the 2-D points `pts` hold (ψ, q)
+/// exactly as the grid computed them. `first`/`last` course: also `base`/`oculus`.
+fn add_vault_block_sets(
+    mesh: &mut Mesh,
+    pts: &[[Real; 2]],
+    g: &BlockGrid,
+    first: bool,
+    last: bool,
+) {
+    let n2 = pts.len() as u32;
+    let layer = |n: u32| (n / n2) as usize;
+    let psi = |n: u32| pts[(n % n2) as usize][0];
+    let q = |n: u32| pts[(n % n2) as usize][1];
+    let all = |f: &[u32; 3], t: &dyn Fn(u32) -> bool| f.iter().all(|&n| t(n));
+    let (top, web) = (g.layers, g.web_layers);
+    add_face_set_by_ids(mesh, "intrados", |f| all(f, &|n| layer(n) == 0));
+    add_face_set_by_ids(mesh, "extrados", |f| all(f, &|n| layer(n) == top));
+    add_face_set_by_ids(mesh, "bed_lower", |f| all(f, &|n| psi(n) == g.psi[0]));
+    add_face_set_by_ids(mesh, "bed_upper", |f| all(f, &|n| psi(n) == g.psi[1]));
+    add_face_set_by_ids(mesh, "head_left", |f| all(f, &|n| q(n) == g.q[0]));
+    add_face_set_by_ids(mesh, "head_right", |f| all(f, &|n| q(n) == g.q[1]));
+    if g.rib {
+        add_face_set_by_ids(mesh, "rib", |f| {
+            all(f, &|n| layer(n) == top)
+                || all(f, &|n| layer(n) >= web && q(n) == g.q[0])
+                || all(f, &|n| layer(n) >= web && q(n) == g.q[1])
+        });
+    }
+    for (is, from, to) in [(first, "bed_lower", "base"), (last, "bed_upper", "oculus")] {
+        if is {
+            let faces = mesh.sets.faces[from].clone();
+            let nodes = mesh.sets.nodes[from].clone();
+            mesh.sets.faces.insert(to.into(), faces);
+            mesh.sets.nodes.insert(to.into(), nodes);
+        }
+    }
+    add_all_elements(mesh);
 }
 
 #[cfg(test)]
