@@ -824,24 +824,20 @@ fn joints_between_bodies_glue_and_release_them() {
 
 /// An intact joint (D = 0 throughout) driven around a closed path of relative displacement:
 /// close to σn1 = −2f_t, slide by s (x = 0.9 of the peak slip), close further to σn2 = −20f_t,
-/// slide back, reopen. Below the peak the law is meant to be elastic (docs/theory/joints.md:
-/// "unloading and reloading below the current damage are reversible"), so a closed path
-/// should return exactly the work it took, and the energy account should close.
+/// slide back, reopen. Below the peak the law is elastic at fixed damage (docs/theory/joints.md),
+/// so a closed path returns exactly the work it took: the energy account closes.
 ///
-/// **This pins a known flaw** (found with tests/dome.rs): the pre-peak shear
+/// Reference: the potential ψ(δn, δs) of the law. The pre-peak shear
 /// τ = f_s·g(δs·(p_t/h)/(2f_s)), g(x) = 2x − x², depends on δn through the Mohr–Coulomb
-/// strength f_s = c − σn·tanφ, while σn does not depend on δs, so the traction field has a
-/// curl (docs/theory/joints.md: "the shear part is a potential in δs only"). Sliding out
-/// under σn1 and back under σn2 returns more work than it took:
-/// ΔW = A·k_t²·s³/12·(1/f_s1 − 1/f_s2) per cycle, here 0.33 of the shear energy stored at s,
-/// and the engine creates exactly that (the balance error). In a settling model this pumps
-/// energy into joints near their shear peak under changing compression: the masonry dome of
-/// tests/dome.rs with c = 2f_t kept ~1 J of kinetic energy and a growing balance error
-/// instead of coming to rest. A conservative law would add to the normal traction the
-/// δn-derivative of the shear energy, −z·tanφ·(p_n/h)·(2f_s/k_t)·x³/3 (x = δs·k_t/(2f_s) ≤ 1).
-/// When the law is made conservative, this test must fail: then assert `created ≈ 0`.
+/// strength f_s = c − σn·tanφ; the normal traction carries the matching term
+/// −z·tanφ·(p_n/h)·(2f_s/k_t)·x³/3, so the traction field is ψ's gradient. Before that term
+/// (found with tests/dome.rs) sliding out under σn1 and back under σn2 created
+/// ΔW = A·k_t²·s³/12·(1/f_s1 − 1/f_s2) per cycle, 0.33 of the shear energy stored at s (the
+/// closed form, reproduced to 1e-3), and a masonry dome with c = 2f_t never came to rest.
+/// Tolerance: 1e-5 of the stored shear energy (measured 3.6e-7: the trapezoidal work over
+/// 2 000 steps a leg).
 #[test]
-fn intact_joint_creates_energy_on_a_closed_path_under_changing_compression() {
+fn intact_joint_conserves_energy_on_a_closed_path_under_changing_compression() {
     let coh = law(Calibration::Exact);
     let t_dir = Vec3::new(1.0, -1.0, 0.0).normalize();
     let mut r = rig(coh.clone(), constant(Vec3::zeros()));
@@ -887,13 +883,13 @@ fn intact_joint_creates_energy_on_a_closed_path_under_changing_compression() {
     assert!(r.opening().norm() < 1e-6 * s, "not back at the start");
     let created = r.sim.energy.balance_error();
     let stored = r.area * (kt * s * s / 2.0 - kt * kt * s.powi(3) / (12.0 * fs1));
-    let predicted = r.area * kt * kt * s.powi(3) / 12.0 * (1.0 / fs1 - 1.0 / fs2);
+    let without_coupling = r.area * kt * kt * s.powi(3) / 12.0 * (1.0 / fs1 - 1.0 / fs2);
     println!(
-        "energy created over the cycle {created:.4e} J (closed form {predicted:.4e} J) = {:.3} of the shear energy stored at s",
+        "energy created over the cycle {created:.4e} J = {:.2e} of the shear energy stored at s (a law without the normal coupling term: {without_coupling:.4e} J)",
         created / stored
     );
     assert!(
-        (created - predicted).abs() < 1e-3 * predicted,
-        "created {created:.4e} J vs the closed form {predicted:.4e} J: has the law changed? (a conservative law creates none)"
+        created.abs() < 1e-5 * stored,
+        "created {created:.4e} J of {stored:.4e} J stored"
     );
 }

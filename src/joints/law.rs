@@ -42,6 +42,20 @@ pub fn prepeak(x: Real) -> Real {
     }
 }
 
+/// 2Φ(x) − x·g(x), Φ = [`prepeak_integral`]: x³/3 up to 1, then x − 2/3. The shear
+/// potential f_s·δsp·Φ(x_s) (δsp = 2f_s/k_t, x_s = δs/δsp) changes with the shear strength
+/// at fixed slip by ∂(f_s δsp Φ)/∂f_s = (2f_s/k_t)·H(x_s), so a Mohr–Coulomb strength
+/// f_s(δn) puts −k_n·tan φ·(2f_s/k_t)·H(x_s) into the normal traction (see
+/// [`Cohesive::evaluate_with`]).
+#[inline]
+pub fn strength_sensitivity(x: Real) -> Real {
+    if x >= 1.0 {
+        x - 2.0 / 3.0
+    } else {
+        x * x * x / 3.0
+    }
+}
+
 /// ∫₀ˣ g: x² − x³/3 up to 1, then 2/3 + (x − 1).
 #[inline]
 pub fn prepeak_integral(x: Real) -> Real {
@@ -394,6 +408,14 @@ impl Cohesive {
         let mut t = PointTraction {
             normal: if k.opening > 0.0 {
                 z * self.tensile_strength * prepeak(xn)
+            } else if s.damage < 1.0 {
+                // σ = ∂ψ/∂δn: the shear part z·f_s·δsp·Φ(x_s) depends on δn through the
+                // Mohr–Coulomb strength (∂f_s/∂δn = −k_n·tan φ), so slip under compression
+                // pushes the faces apart a little. Without this term the law created energy
+                // on closed paths of slip and compression (0.33 of the stored shear energy on
+                // the cycle of `tests/joints.rs`).
+                compression
+                    - z * kn * self.tan_friction * (2.0 * fs / kt) * strength_sensitivity(xs)
             } else {
                 compression
             },
@@ -485,7 +507,8 @@ impl Cohesive {
             let normal = if dn[p] > 0.0 {
                 self.tensile_strength * xn * (2.0 - xn)
             } else {
-                compression
+                // As the general path: σ = ∂ψ/∂δn with f_s(δn) (H(x) = x³/3 before the peak).
+                compression - kn * self.tan_friction * (2.0 * fs / kt) * xs * xs * xs / 3.0
             };
             out[p] = n * normal + st[p] * (fs * kt * half_inv_fs * (2.0 - xs));
         }
@@ -681,13 +704,17 @@ mod tests {
         let law = rock();
         let h = 0.01;
         let dnp = law.peak_opening(h);
-        // (Mohr–Coulomb couples τ to the compression, so compressed states are probed at zero slip.)
+        // Compressed states with slip probe the Mohr–Coulomb coupling: σ carries ∂ψ_s/∂δn.
+        let mut coupled = 0;
         for (dn, ds, damage) in [
             (0.3, 0.2, 0.0),
             (0.8, 0.0, 0.4),
             (3.0, 0.1, 0.7),
             (-0.5, 0.0, 0.2),
             (0.5, 0.9, 0.3),
+            (-0.5, 0.5, 0.0),
+            (-2.0, 1.5, 0.3),
+            (-1.0, 4.0, 0.9),
         ] {
             let kin = |a: Real, b: Real| PointKinematics {
                 opening: a * dnp,
@@ -714,6 +741,9 @@ mod tests {
             let t = eval(dn, ds);
             let d_dn = (eval(dn + e, ds).energy - eval(dn - e, ds).energy) / (2.0 * e * dnp);
             let d_ds = (eval(dn, ds + e).energy - eval(dn, ds - e).energy) / (2.0 * e * dnp);
+            if d_dn.is_finite() && dn < 0.0 && ds > 0.0 {
+                coupled += 1;
+            }
             if d_dn.is_finite() {
                 assert!(
                     (d_dn - t.normal).abs() <= 1e-6 * law.tensile_strength,
@@ -729,6 +759,7 @@ mod tests {
                 );
             }
         }
+        assert_eq!(coupled, 3, "every compressed state with slip probed");
     }
 
     /// Monotonic mode I: the work ∫σ dδn to full separation is G_I + ⅔·f_t·δnp (exact
