@@ -337,45 +337,70 @@ fn newmark_slip(eq: &GroundMotion, mu: Real, dt: Real, every: Real) -> (Real, Ve
     (u, hist)
 }
 
-/// A block (0.4 × 0.4 × 0.2 m, elastic, E = 2e6 Pa, ρ = 2000 kg/m³) resting on a base slab
-/// with Coulomb friction μ at the contact defaults, settled under gravity (ramped over
-/// 50 ms, damped, 0.2 s); damping off. Returns the model, the block's nodes and its mean
+/// A block on a base slab, both elastic (ρ = 2000 kg/m³, ν = 0.25), touching with Coulomb
+/// friction μ at the contact defaults, settled under gravity (ramped over 50 ms, damped α,
+/// until `settle`); damping off. Returns the model, the block's nodes and its mean
 /// displacement after settling.
-fn block_on_slab(mu: Real) -> (Simulation, Vec<u32>, Vec3) {
-    let mat = material(Formulation::StVenantKirchhoff, 2000.0, 2.0e6, 0.25);
-    let mut sim = Simulation::new();
-    let m = sim.add_material(mat);
-    let slab = box_mesh(
-        Vec3::new(-0.6, -0.3, -0.1),
-        Vec3::new(0.6, 0.3, 0.0),
-        [6, 3, 1],
-    );
-    let block = box_mesh(
-        Vec3::new(-0.2, -0.2, 0.0),
-        Vec3::new(0.2, 0.2, 0.2),
-        [2, 2, 1],
-    );
-    sim.add_body("slab", &slab, m, Layout::Continuous).unwrap();
-    sim.add_body("block", &block, m, Layout::Continuous)
-        .unwrap();
-    let slab_nodes: Vec<u32> = sim.bodies[0].nodes.clone().map(|n| n as u32).collect();
-    let block_nodes: Vec<u32> = sim.bodies[1].nodes.clone().map(|n| n as u32).collect();
-    sim.fix(&slab_nodes, [true; 3]);
-    sim.contact
-        .laws
-        .rules
-        .push(ContactRule::from(PotentialContact {
-            friction: mu,
-            ..Default::default()
-        }));
-    sim.settings.mass_damping = 200.0;
-    while sim.time < 0.2 {
-        sim.loads.gravity = Vec3::new(0.0, 0.0, -G) * (sim.time / 0.05).min(1.0);
-        sim.step().unwrap();
+struct BlockOnSlab {
+    e: Real,
+    mu: Real,
+    slab: (Vec3, Vec3, [usize; 3]),
+    block: (Vec3, Vec3, [usize; 3]),
+    alpha: Real,
+    settle: Real,
+}
+
+impl BlockOnSlab {
+    fn build(&self) -> (Simulation, Vec<u32>, Vec3) {
+        let mat = material(Formulation::StVenantKirchhoff, 2000.0, self.e, 0.25);
+        let mut sim = Simulation::new();
+        let m = sim.add_material(mat);
+        let (a, b, d) = self.slab;
+        sim.add_body("slab", &box_mesh(a, b, d), m, Layout::Continuous)
+            .unwrap();
+        let (a, b, d) = self.block;
+        sim.add_body("block", &box_mesh(a, b, d), m, Layout::Continuous)
+            .unwrap();
+        let slab_nodes: Vec<u32> = sim.bodies[0].nodes.clone().map(|n| n as u32).collect();
+        let block_nodes: Vec<u32> = sim.bodies[1].nodes.clone().map(|n| n as u32).collect();
+        sim.fix(&slab_nodes, [true; 3]);
+        sim.contact
+            .laws
+            .rules
+            .push(ContactRule::from(PotentialContact {
+                friction: self.mu,
+                ..Default::default()
+            }));
+        sim.settings.mass_damping = self.alpha;
+        while sim.time < self.settle {
+            sim.loads.gravity = Vec3::new(0.0, 0.0, -G) * (sim.time / 0.05).min(1.0);
+            sim.step().unwrap();
+        }
+        sim.settings.mass_damping = 0.0;
+        let settled = sim.mean_displacement(&block_nodes).unwrap();
+        (sim, block_nodes, settled)
     }
-    sim.settings.mass_damping = 0.0;
-    let settled = sim.mean_displacement(&block_nodes).unwrap();
-    (sim, block_nodes, settled)
+}
+
+/// A block of 0.4 × 0.4 × 0.2 m (E = 2e6 Pa) on a slab, settled for 0.2 s.
+fn block_on_slab(mu: Real) -> (Simulation, Vec<u32>, Vec3) {
+    BlockOnSlab {
+        e: 2.0e6,
+        mu,
+        slab: (
+            Vec3::new(-0.6, -0.3, -0.1),
+            Vec3::new(0.6, 0.3, 0.0),
+            [6, 3, 1],
+        ),
+        block: (
+            Vec3::new(-0.2, -0.2, 0.0),
+            Vec3::new(0.2, 0.2, 0.2),
+            [2, 2, 1],
+        ),
+        alpha: 200.0,
+        settle: 0.2,
+    }
+    .build()
 }
 
 /// Reference: Newmark's rigid-plastic sliding block above, under the first 8.5 s of El
@@ -511,38 +536,24 @@ let b = sim.add_body("b", box(#{ min: [0.0, 0.0, 0.0], max: [0.1, 0.1, 0.3] }).m
 #[test]
 fn a_slender_block_rocks_only_above_the_tipping_acceleration() {
     let uplift_and_slide = |a_g: Real| -> (Real, Real) {
-        let mat = material(Formulation::StVenantKirchhoff, 2000.0, 5.0e7, 0.25);
-        let mut sim = Simulation::new();
-        let m = sim.add_material(mat);
-        let slab = box_mesh(
-            Vec3::new(-0.3, -0.2, -0.05),
-            Vec3::new(0.3, 0.2, 0.0),
-            [6, 4, 1],
-        );
-        let block = box_mesh(
-            Vec3::new(-0.05, -0.05, 0.0),
-            Vec3::new(0.05, 0.05, 0.5),
-            [2, 2, 10],
-        );
-        sim.add_body("slab", &slab, m, Layout::Continuous).unwrap();
-        sim.add_body("block", &block, m, Layout::Continuous)
-            .unwrap();
-        let slab_nodes: Vec<u32> = sim.bodies[0].nodes.clone().map(|n| n as u32).collect();
-        let block_nodes: Vec<u32> = sim.bodies[1].nodes.clone().map(|n| n as u32).collect();
-        sim.fix(&slab_nodes, [true; 3]);
-        sim.contact
-            .laws
-            .rules
-            .push(ContactRule::from(PotentialContact {
-                friction: 1.0,
-                ..Default::default()
-            }));
-        sim.settings.mass_damping = 100.0;
-        while sim.time < 0.15 {
-            sim.loads.gravity = Vec3::new(0.0, 0.0, -G) * (sim.time / 0.05).min(1.0);
-            sim.step().unwrap();
+        let (mut sim, block_nodes, _) = BlockOnSlab {
+            e: 5.0e7,
+            mu: 1.0,
+            slab: (
+                Vec3::new(-0.3, -0.2, -0.05),
+                Vec3::new(0.3, 0.2, 0.0),
+                [6, 4, 1],
+            ),
+            block: (
+                Vec3::new(-0.05, -0.05, 0.0),
+                Vec3::new(0.05, 0.05, 0.5),
+                [2, 2, 10],
+            ),
+            alpha: 100.0,
+            settle: 0.15,
         }
-        sim.settings.mass_damping = 0.0;
+        .build();
+        let slab_nodes: Vec<u32> = sim.bodies[0].nodes.clone().map(|n| n as u32).collect();
         // The heel: the block's base nodes on the side away from the push (the ground
         // accelerates +x, the block leans to −x and lifts its +x edge).
         let heel: Vec<u32> = block_nodes
