@@ -220,11 +220,7 @@ impl Shell {
         let s = &self.sim;
         let (mut m, mut th, mut wsum) = ([0.0; 2], [0.0; 2], 0.0);
         for e in 0..s.tets.len() {
-            let c = s.tets.nodes[e]
-                .iter()
-                .map(|&k| s.nodes.x0[k as usize])
-                .sum::<Vec3>()
-                / 4.0;
+            let c = s.reference_centroid(e);
             let (phi, ep, et) = frame(&c);
             if phi < lo || phi >= hi {
                 continue;
@@ -270,11 +266,7 @@ impl Shell {
         let (lo, hi) = ((guess - 6.0).to_radians(), (guess + 6.0).to_radians());
         let (mut m, mut rhs, mut rhs_th) = (Mat3::zeros(), Vec3::zeros(), Vec3::zeros());
         for e in 0..s.tets.len() {
-            let c = s.tets.nodes[e]
-                .iter()
-                .map(|&k| s.nodes.x0[k as usize])
-                .sum::<Vec3>()
-                / 4.0;
+            let c = s.reference_centroid(e);
             let (phi, _, et) = frame(&c);
             if phi < lo || phi >= hi {
                 continue;

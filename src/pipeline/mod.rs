@@ -562,11 +562,7 @@ impl Simulation {
             contact_lowered = true;
         }
         let body = &self.bodies[self.tets.body[tet] as usize];
-        let centroid = self.tets.nodes[tet]
-            .iter()
-            .map(|&n| self.nodes.x0[n as usize])
-            .sum::<Vec3>()
-            / 4.0;
+        let centroid = self.reference_centroid(tet);
         let mut info = TimeStepInfo {
             dt: self.settings.safety * critical,
             critical,

@@ -36,6 +36,15 @@ impl Simulation {
         self.nodes.m.iter().sum()
     }
 
+    /// Centroid of tet `e` in the reference configuration [m].
+    pub fn reference_centroid(&self, e: usize) -> Vec3 {
+        self.tets.nodes[e]
+            .iter()
+            .map(|&n| self.nodes.x0[n as usize])
+            .sum::<Vec3>()
+            / 4.0
+    }
+
     /// Mean displacement x − x₀ of `nodes` [m]; None for an empty set.
     pub fn mean_displacement(&self, nodes: &[u32]) -> Option<Vec3> {
         self.mean_of(nodes, |s, i| s.nodes.x[i] - s.nodes.x0[i])

@@ -259,7 +259,8 @@ pub fn event_map(sim: &crate::pipeline::Simulation, e: &crate::fracture::BreakEv
     // Unit normal of face A in the reference configuration, pointing from side A to side B.
     let f = sim.joints.faces[e.joint][0].map(|n| sim.nodes.x0[n as usize]);
     let mut n = (f[1] - f[0]).cross(&(f[2] - f[0]));
-    let towards_b = tet_centroid(sim, tets[1]) - tet_centroid(sim, tets[0]);
+    let towards_b =
+        sim.reference_centroid(tets[1] as usize) - sim.reference_centroid(tets[0] as usize);
     if n.dot(&towards_b) < 0.0 {
         n = -n;
     }
@@ -268,12 +269,4 @@ pub fn event_map(sim: &crate::pipeline::Simulation, e: &crate::fracture::BreakEv
         Dynamic::from_array(vec3_to_array(n.normalize())),
     );
     m
-}
-
-fn tet_centroid(sim: &crate::pipeline::Simulation, t: u32) -> crate::math::Vec3 {
-    sim.tets.nodes[t as usize]
-        .iter()
-        .map(|&n| sim.nodes.x0[n as usize])
-        .sum::<crate::math::Vec3>()
-        / 4.0
 }
