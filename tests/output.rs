@@ -250,7 +250,7 @@ fn pvd_and_csv_files_are_complete() {
     );
     let energy = std::fs::read_to_string(dir.join("energy.csv")).unwrap();
     let mut lines = energy.lines();
-    assert_eq!(lines.next().unwrap(), "step,time,kinetic,strain,gravity_work,force_work,reaction_work,ground_work,mass_damping,viscous_damping,joint,fracture,contact,friction,balance_error");
+    assert_eq!(lines.next().unwrap(), "step,time,kinetic,strain,gravity_work,force_work,reaction_work,ground_work,mass_damping,viscous_damping,joint,fracture,contact,friction,plastic,bond,bond_slip,balance_error");
     assert_eq!(lines.count(), st.sim.energy_history.len());
     let kin = std::fs::read_to_string(dir.join("kinetic.csv")).unwrap();
     assert_eq!(kin.lines().next().unwrap(), "step,time,kinetic");

@@ -16,6 +16,7 @@
 //! layout) write forces straight into their nodes; bodies that share nodes write each tet's 4
 //! forces into a slot buffer that is then gathered per node in a fixed order (no atomics).
 
+pub mod bar2;
 pub mod tet4;
 
 pub use tet4::{cofactor, deformation_gradient, internal_force_tet4, tet_result, TetResult};

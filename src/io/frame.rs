@@ -25,6 +25,7 @@ pub fn encode_frame(
         points: &data.points,
         tets: &sim.tets.nodes,
         triangles: &[],
+        lines: &[],
         point_data: data.point_fields(),
         cell_data: data.cell_fields(&extra_name),
     };
@@ -267,6 +268,7 @@ pub fn encode_cracks(sim: &Simulation, encoding: Encoding) -> Result<Vec<u8>, St
         points: &points,
         tets: &[],
         triangles: &triangles,
+        lines: &[],
         point_data: Vec::new(),
         cell_data: vec![
             Field {
@@ -284,6 +286,83 @@ pub fn encode_cracks(sim: &Simulation, encoding: Encoding) -> Result<Vec<u8>, St
             Field {
                 name: "joint",
                 data: DataArray::ScalarI32(&joint),
+            },
+        ],
+    };
+    encode_vtu_with(&frame, encoding)
+}
+
+/// Encode the bars of every rebar as `.vtu` bytes: one line cell per bar at its current
+/// position, with cell data `axial_force` [N], `stress` [Pa], `strain`, `plastic_strain`,
+/// `rebar` (index) and `ruptured` (1 once broken), and point data `slip` [m] and
+/// `bond_stress` [Pa] of the bond point at each bar node.
+pub fn encode_bars(sim: &Simulation, encoding: Encoding) -> Result<Vec<u8>, String> {
+    let bars = &sim.bars;
+    let first = sim.rebars.first().map_or(0, |r| r.nodes.start);
+    let points: Vec<[f64; 3]> = sim.nodes.x[first..]
+        .iter()
+        .map(|p| [p.x, p.y, p.z])
+        .collect();
+    // Bar nodes of all rebars are one contiguous range after the bodies' nodes, unless a
+    // body was added after a rebar: then its nodes sit in the range too, used by no line.
+    let lines: Vec<[u32; 2]> = bars
+        .nodes
+        .iter()
+        .map(|n| n.map(|i| i - first as u32))
+        .collect();
+    let force: Vec<f64> = (0..bars.len()).map(|b| bars.axial_force(b)).collect();
+    let rebar: Vec<i32> = bars.rebar.iter().map(|&r| r as i32).collect();
+    let ruptured: Vec<i32> = bars
+        .ruptured_at
+        .iter()
+        .map(|t| !t.is_nan() as i32)
+        .collect();
+    let mut slip = vec![0.0; points.len()];
+    let mut bond_stress = vec![0.0; points.len()];
+    for p in 0..sim.bonds.len() {
+        let i = sim.bonds.node[p] as usize - first;
+        slip[i] = sim.bonds.slip[p];
+        bond_stress[i] = sim.bonds.stress[p];
+    }
+    let frame = VtuFrame {
+        points: &points,
+        tets: &[],
+        triangles: &[],
+        lines: &lines,
+        point_data: vec![
+            Field {
+                name: "slip",
+                data: DataArray::ScalarF64(&slip),
+            },
+            Field {
+                name: "bond_stress",
+                data: DataArray::ScalarF64(&bond_stress),
+            },
+        ],
+        cell_data: vec![
+            Field {
+                name: "axial_force",
+                data: DataArray::ScalarF64(&force),
+            },
+            Field {
+                name: "stress",
+                data: DataArray::ScalarF64(&bars.stress),
+            },
+            Field {
+                name: "strain",
+                data: DataArray::ScalarF64(&bars.strain),
+            },
+            Field {
+                name: "plastic_strain",
+                data: DataArray::ScalarF64(&bars.plastic_strain),
+            },
+            Field {
+                name: "rebar",
+                data: DataArray::ScalarI32(&rebar),
+            },
+            Field {
+                name: "ruptured",
+                data: DataArray::ScalarI32(&ruptured),
             },
         ],
     };

@@ -47,6 +47,7 @@ use std::path::{Path, PathBuf};
 /// VTK cell type code for a linear tetrahedron.
 const VTK_TETRA: u8 = 10;
 const VTK_TRIANGLE: u8 = 5;
+const VTK_LINE: u8 = 3;
 
 /// Values of one field: one entry per point (point data) or per tet (cell data).
 #[derive(Clone, Copy, Debug)]
@@ -124,8 +125,8 @@ pub struct Field<'a> {
     pub data: DataArray<'a>,
 }
 
-/// Tetrahedra (VTK cell type 10) or triangles (type 5): points n × 3; exactly one of `tets`
-/// and `triangles` is non-empty (both empty: a frame without cells).
+/// Tetrahedra (VTK cell type 10), triangles (type 5) or lines (type 3): points n × 3; at most
+/// one of `tets`, `triangles` and `lines` is non-empty (none: a frame without cells).
 #[derive(Clone, Debug)]
 pub struct VtuFrame<'a> {
     /// Node coordinates.
@@ -134,6 +135,8 @@ pub struct VtuFrame<'a> {
     pub tets: &'a [[u32; 4]],
     /// Three node indices per triangle (surfaces such as cracks).
     pub triangles: &'a [[u32; 3]],
+    /// Two node indices per line (bars).
+    pub lines: &'a [[u32; 2]],
     /// Fields with one value per point.
     pub point_data: Vec<Field<'a>>,
     /// Fields with one value per tetrahedron.
@@ -236,7 +239,7 @@ pub fn encode_vtu_into_with(
 
 /// The cells of a frame: tetrahedra or triangles, as one flat node list.
 struct Cells<'a> {
-    /// Nodes per cell: 4 (tetrahedra) or 3 (triangles).
+    /// Nodes per cell: 4 (tetrahedra), 3 (triangles) or 2 (lines).
     stride: usize,
     /// VTK cell type code.
     cell_type: u8,
@@ -249,13 +252,20 @@ struct Cells<'a> {
 impl<'a> Cells<'a> {
     /// The cells of `frame`; an error if it holds both tetrahedra and triangles.
     fn of(frame: &VtuFrame<'a>) -> Result<Self, String> {
-        if !frame.tets.is_empty() && !frame.triangles.is_empty() {
-            return Err("a frame holds either tetrahedra or triangles, not both".into());
+        let kinds = [
+            !frame.tets.is_empty(),
+            !frame.triangles.is_empty(),
+            !frame.lines.is_empty(),
+        ];
+        if kinds.iter().filter(|&&k| k).count() > 1 {
+            return Err("a frame holds one kind of cell: tetrahedra, triangles or lines".into());
         }
-        let (stride, cell_type, connectivity): (usize, u8, &[u32]) = if frame.triangles.is_empty() {
-            (4, VTK_TETRA, frame.tets.as_flattened())
-        } else {
+        let (stride, cell_type, connectivity): (usize, u8, &[u32]) = if kinds[1] {
             (3, VTK_TRIANGLE, frame.triangles.as_flattened())
+        } else if kinds[2] {
+            (2, VTK_LINE, frame.lines.as_flattened())
+        } else {
+            (4, VTK_TETRA, frame.tets.as_flattened())
         };
         Ok(Cells {
             stride,
@@ -369,7 +379,11 @@ fn put_connectivity(out: &mut Vec<u8>, cells: &Cells, n_points: usize) -> Result
             .expect("an out-of-range index was seen")
             / stride;
         let cell = &connectivity[stride * c..stride * (c + 1)];
-        let kind = if stride == 4 { "tets" } else { "triangles" };
+        let kind = match stride {
+            4 => "tets",
+            3 => "triangles",
+            _ => "lines",
+        };
         return Err(format!(
             "{kind}[{c}] = {cell:?} refers to a node index out of range: there are {n_points} points"
         ));
@@ -580,6 +594,7 @@ mod tests {
             points: &points,
             tets: &tets,
             triangles: &[],
+            lines: &[],
             point_data: vec![Field {
                 name: "s",
                 data: DataArray::ScalarF64(&s),
@@ -636,6 +651,7 @@ mod tests {
             points: &points,
             tets: &tets,
             triangles: &[],
+            lines: &[],
             point_data: vec![
                 Field {
                     name: "pressure",
@@ -658,6 +674,7 @@ mod tests {
             points: &points,
             tets: &tets,
             triangles: &[],
+            lines: &[],
             point_data: vec![],
             cell_data: vec![Field {
                 name: "body",
@@ -677,6 +694,7 @@ mod tests {
             points: &points,
             tets: &tets,
             triangles: &[],
+            lines: &[],
             point_data: vec![],
             cell_data: vec![],
         };
@@ -696,6 +714,7 @@ mod tests {
                 points: &points,
                 tets: &tets,
                 triangles: &[],
+                lines: &[],
                 point_data: names
                     .iter()
                     .map(|n| Field {
@@ -716,6 +735,7 @@ mod tests {
             points: &[],
             tets: &[],
             triangles: &[],
+            lines: &[],
             point_data: vec![Field {
                 name: "a<b & \"c\"",
                 data: DataArray::ScalarF64(&[]),

@@ -17,6 +17,7 @@
 //! thread): every node receives its forces in a fixed order, with no atomics and no gather.
 
 use crate::compiled;
+pub mod bond;
 pub mod law;
 
 use crate::math::SyncPtr;

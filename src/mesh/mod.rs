@@ -8,6 +8,7 @@
 pub mod checks;
 mod generators;
 pub mod gmsh;
+pub mod locate;
 pub mod masonry;
 pub mod overlap;
 pub mod quality;

@@ -7,6 +7,9 @@
 
 mod edit;
 mod queries;
+mod reinforcement;
+
+pub use reinforcement::RebarSpec;
 
 use crate::contact_detection::{self, ContactDetection};
 use crate::contact_interaction::{self, ContactInteraction};
@@ -16,7 +19,7 @@ use crate::loads::{self, Loads};
 use crate::material::Material;
 use crate::math::{Real, Vec3};
 use crate::mesh::{boundary_faces, BoundaryFace, Mesh, Region};
-use crate::state::{Body, Layout, MaterialId, Nodes, Tets};
+use crate::state::{Bars, Body, Layout, MaterialId, Nodes, Rebar, Tets};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -97,6 +100,12 @@ pub struct Energy {
     pub contact: Real,
     /// Dissipated by contact friction.
     pub friction: Real,
+    /// Dissipated by steel: plastic work of the bars and the elastic energy of ruptured bars.
+    pub plastic: Real,
+    /// Recoverable energy of the bond between bars and their host.
+    pub bond: Real,
+    /// Dissipated by bond slip.
+    pub bond_slip: Real,
     /// Kinetic + strain energy at the first step.
     pub initial: Real,
 }
@@ -117,11 +126,16 @@ impl Energy {
         self.gravity_work + self.force_work + self.reaction_work + self.ground_work
     }
     pub fn dissipated(&self) -> Real {
-        self.mass_damping + self.viscous_damping + self.fracture + self.friction
+        self.mass_damping
+            + self.viscous_damping
+            + self.fracture
+            + self.friction
+            + self.plastic
+            + self.bond_slip
     }
-    /// (kinetic + strain + joint + contact + dissipated) − (initial + external work) [J].
+    /// (kinetic + strain + joint + contact + bond + dissipated) − (initial + external work) [J].
     pub fn balance_error(&self) -> Real {
-        self.kinetic + self.strain + self.joint + self.contact + self.dissipated()
+        self.kinetic + self.strain + self.joint + self.contact + self.bond + self.dissipated()
             - (self.initial + self.external_work())
     }
     /// Balance error relative to the largest energy in the account.
@@ -131,6 +145,7 @@ impl Energy {
             self.strain,
             self.joint,
             self.contact,
+            self.bond,
             self.initial,
             self.gravity_work.abs(),
             self.force_work.abs(),
@@ -273,6 +288,13 @@ pub struct Simulation {
     pub contact_detection: ContactDetection,
     /// Contact interaction (stage 5): laws, pair history; off until a contact law is set.
     pub contact: ContactInteraction,
+    /// Bar elements (stage 1) of the rebars, their steels, and the rebars.
+    pub bars: Bars,
+    pub steels: Vec<crate::elements::bar2::steel::Steel>,
+    pub rebars: Vec<Rebar>,
+    /// Bond points between bar nodes and their hosts (stage 2).
+    pub bonds: crate::joints::bond::Bonds,
+    bar_force: Vec<Vec3>,
     pub settings: Settings,
     pub time: Real,
     pub step: u64,
@@ -521,6 +543,7 @@ impl Simulation {
             ));
         }
         elements::lumped_masses(&mut self.nodes, &self.tets, &self.materials);
+        elements::bar2::lumped_masses(&mut self.nodes, &self.bars, &self.steels);
         self.elements_ws = ElementsWorkspace::new(&self.bodies, &self.tets);
         self.integration_partials =
             Vec::with_capacity(self.nodes.len().div_ceil(integration::CHUNK));
@@ -540,13 +563,21 @@ impl Simulation {
     /// Critical time step over all tets and the dt to use.
     pub fn stable_time_step(&self) -> Result<TimeStepInfo, SimError> {
         let (critical_tets, tet) = elements::critical_time_step(&self.tets, &self.materials);
+        // Bars act on their own nodes: the elements' step is the smaller of the two families'.
+        let (critical_bars, _) = elements::bar2::critical_time_step(&self.bars, &self.steels);
+        let critical_tets = critical_tets.min(critical_bars);
         // Joint springs add stiffness at their nodes: by Weyl's inequality and a Gershgorin
-        // bound on the joint part, ω² ≤ ω_tets² + max_n 2·Σk_joint/m_n.
+        // bound on the joint part, ω² ≤ ω_tets² + max_n 2·Σk_joint/m_n (bond springs alike).
         let mut critical = critical_tets;
         let mut joints_note = None;
         let mut contact_lowered = false;
-        if !self.joints.is_empty() {
-            let (w2, node) = self.joints.max_omega2(&self.nodes.m);
+        if !self.joints.is_empty() || !self.bonds.is_empty() {
+            let (mut w2, mut node) = self.joints.max_omega2(&self.nodes.m);
+            let (w2_bond, bond_node) = self.bonds.max_omega2(&self.tets, &self.nodes.m);
+            if w2_bond > w2 {
+                node = bond_node;
+            }
+            w2 += w2_bond;
             let w_tets = 2.0 / critical_tets;
             critical = 2.0 / (w_tets * w_tets + w2).sqrt();
             joints_note = Some((node, critical_tets));
@@ -605,8 +636,26 @@ impl Simulation {
                 sample,
             )
         });
-        let js = timed(&mut self.timers, Stage::Joints, || {
-            crate::joints::add_joint_forces(&mut self.joints, &mut self.nodes, sample)
+        let bs = timed(&mut self.timers, Stage::Elements, || {
+            elements::bar2::add_bar_forces(
+                &mut self.nodes,
+                &mut self.bars,
+                &self.steels,
+                &mut self.bar_force,
+                time,
+                sample,
+            )
+        });
+        let (js, bond) = timed(&mut self.timers, Stage::Joints, || {
+            (
+                crate::joints::add_joint_forces(&mut self.joints, &mut self.nodes, sample),
+                crate::joints::bond::add_bond_forces(
+                    &mut self.bonds,
+                    &mut self.nodes,
+                    &self.tets,
+                    sample,
+                ),
+            )
         });
         let released = timed(&mut self.timers, Stage::Fracture, || {
             crate::fracture::break_joints(
@@ -640,7 +689,7 @@ impl Simulation {
         let is = timed(&mut self.timers, Stage::Integration, || {
             integration::central_difference(&mut self.nodes, params, &mut self.integration_partials)
         });
-        self.account(sample, &el, &js, &is)?;
+        self.account(sample, &el, &js, &is, (&bs, &bond))?;
         self.dt_prev = dt;
         self.time += dt;
         self.step += 1;
@@ -724,6 +773,7 @@ impl Simulation {
         el: &elements::ElementSums,
         js: &crate::joints::JointSums,
         is: &IntegrationSums,
+        (bars, bond): (&elements::bar2::BarSums, &crate::joints::bond::BondSums),
     ) -> Result<(), SimError> {
         let dt = self.dt;
         let viscous = el.viscous_power * 0.5 * (self.dt_prev + dt);
@@ -737,7 +787,7 @@ impl Simulation {
             let a = &self.accumulated;
             self.energy = Energy {
                 kinetic: is.kinetic,
-                strain: el.strain_energy,
+                strain: el.strain_energy + bars.strain_energy,
                 gravity_work: is.gravity_work + a.gravity_work,
                 force_work: self.loads.force_work,
                 reaction_work: a.reaction_work + is.reaction_work_before,
@@ -748,8 +798,12 @@ impl Simulation {
                 fracture: a.fracture + js.dissipated,
                 contact: self.contact_energy,
                 friction: a.friction + self.contact_dissipated,
+                // Per-bar and per-point running sums, added in id order.
+                plastic: self.bars.dissipated.iter().sum(),
+                bond: bond.energy,
+                bond_slip: self.bonds.dissipated.iter().sum(),
                 initial: if self.step == 0 {
-                    is.kinetic + el.strain_energy
+                    is.kinetic + el.strain_energy + bars.strain_energy + bond.energy
                 } else {
                     self.energy.initial
                 },

@@ -44,6 +44,7 @@ pub const SECTIONS: &[(&str, &str)] = &[
     ("Bodies and selections", "Bodies are meshes placed in the simulation; selections are node, face and element sets."),
     ("Joints and fracture", "Stages 2–3: cohesive joints between the tetrahedra of jointed bodies; joints break, bodies fragment. Equations in docs/theory/joints.md."),
     ("Contact", "Stages 4–5: surface elements (outer faces and broken joints) touch, slide and collide through Munjiza's potential contact force with Coulomb friction. Equations in docs/theory/contact.md."),
+    ("Reinforcement", "Rebars: 2-node bar elements of elastic–plastic steel (stage 1) embedded in a host body through bond points with a bond–slip law (stage 2); they bridge the host's cracks. Equations in docs/theory/reinforcement.md."),
     ("Loads and constraints", "Stage 6: gravity, forces, tractions, fixed and prescribed-velocity nodes, initial velocity."),
     ("Earthquake records", "Ground-motion records: read, process, and measure them (PGA, PGV, Arias intensity, response spectrum). Equations in docs/theory/ground_motion.md."),
     ("Hooks, monitors and output", "Periodic callbacks, monitored quantities (CSV), ParaView frames."),
@@ -66,6 +67,53 @@ pub const SHAKE_KEYS: &[Key] = &[
     key("y", "GroundMotion", "", "-", "Record along y."),
     key("z", "GroundMotion", "", "-", "Record along z (vertical). At least one of x, y, z."),
     key("start", "float", "s", "now", "Simulation time at which the records' t = 0 falls; not before the current time. Before it and after each record the ground acceleration is zero."),
+];
+
+pub const REBAR_KEYS: &[Key] = &[
+    key("points", "array of [x, y, z]", "m", "required", "The bar's polyline; a closed stirrup repeats its first point at the end. Every point must lie inside the host."),
+    key("diameter", "float", "m", "required", "Bar diameter d: bond perimeter πd, section πd²/4 unless `area` is given."),
+    key("area", "float", "m²", "πd²/4", "Nominal section A₀ (e.g. 700e-6 for a No. 30 bar)."),
+    key("steel", "Steel", "", "required", "From `steel(..)`."),
+    key("bond", "BondLaw", "", "required", "From `bond_law(..)`."),
+    key("segment", "float", "m", "1.2 × the host's mean element size", "Largest bar element length; each leg of the polyline is split into equal bars no longer than this."),
+    key("name", "string", "", "\"rebar<N>\"", "Name used in messages."),
+];
+
+pub const STRAIGHT_BAR_KEYS: &[Key] = &[
+    key("axis", "string", "", "required", "\"x\", \"y\" or \"z\": the bar's direction."),
+    key("at", "[a, b]", "m", "required", "The bar's other two coordinates, in axis order (y, z for \"x\"; z, x for \"y\"; x, y for \"z\")."),
+    key("cover", "float", "m", "0", "End cover: the bar stops this far short of the host's ends."),
+];
+
+pub const STIRRUP_KEYS: &[Key] = &[
+    key(
+        "axis",
+        "string",
+        "",
+        "required",
+        "\"x\", \"y\" or \"z\": the member's axis (the stirrup lies in the section normal to it).",
+    ),
+    key(
+        "at",
+        "float",
+        "m",
+        "required",
+        "Coordinate of the section along the axis.",
+    ),
+    key(
+        "cover",
+        "float",
+        "m",
+        "0",
+        "Cover to the stirrup's outer surface.",
+    ),
+    key(
+        "diameter",
+        "float",
+        "m",
+        "0",
+        "Stirrup diameter: the centreline lies cover + d/2 inside the host's bounds.",
+    ),
 ];
 
 pub const SIMULATION_KEYS: &[Key] = &[
@@ -524,6 +572,17 @@ pub const API: &[FnDoc] = &[
         summary: "Called after each step for every joint that broke (all its points reached D = 1): `joint` is #{ id, time, centroid, mode (\"I\", \"II\", \"mixed\"), body (name of the body on side A), bodies ([id A, id B]: indices of the two bodies in the order they were added; for `sim.add_blocks` added first, block indices), normal (unit normal of the joint face in the reference configuration, from side A to side B) }. Every run also writes `cracks.csv`.", keys: &[], laws: &[] },
     FnDoc { section: "Joints and fracture", name: "s.fragments", signature: "s.fragments() -> #{ count, volumes, masses }",
         summary: "Fragments: connected components of tetrahedra over intact joints and shared nodes, with their volumes [m³] and masses [kg]. Also `s.broken_joints()` and `s.n_joints`.", keys: &[], laws: &[] },
+    // ── Reinforcement
+    FnDoc { section: "Reinforcement", name: "steel", signature: "steel(#{ … }) -> Steel, steel(law, #{ … }) -> Steel",
+        summary: "A uniaxial steel for rebars: `steel(#{ yield_stress, … })` is the built-in \"bilinear\" law (elastic–plastic, linear isotropic hardening from `hardening` or from `ultimate_stress` at `ultimate_strain`, rupture at `ultimate_strain`, optional Cowper–Symonds rate factor); `steel(\"script\", #{ function, … })` a law written in Rhai.", keys: &[], laws: crate::elements::bar2::steel::STEEL_LAWS },
+    FnDoc { section: "Reinforcement", name: "bond_law", signature: "bond_law(law, #{ … }) -> BondLaw",
+        summary: "The bond stress–slip law between a bar and its host: \"fib2010\" (fib Model Code 2010 for confined concrete, concrete with stirrups, or unconfined concrete) or \"script\" (an envelope τ_env(s) in Rhai). Unloading is elastic with the law's stiffness; the strength follows the envelope at the largest slip so far.", keys: &[], laws: crate::joints::bond::BOND_LAWS },
+    FnDoc { section: "Reinforcement", name: "sim.rebar", signature: "sim.rebar(host, #{ … }) -> Rebar",
+        summary: "Lay a bar along a polyline inside the body `host` (jointed or continuous): bar elements of the steel, each bar node tied to the host tetrahedron holding it by a bond point. The bar follows the fragments when the host cracks; it touches other bodies only through its host. Before the first step. A point outside the host is an error naming it. Rebar queries: `r.name`, `r.bars` (count), `r.axial_forces()` [N], `r.max_force()` [N], `r.max_stress()` [Pa], `r.max_plastic_strain()`, `r.ruptured()` (bars broken), `r.max_slip()` [m]. `write_vtk` also writes `<name>_bars_NNNNNN.vtu` (lines with axial_force, stress, strain, plastic_strain, rebar, ruptured; points with slip and bond_stress).", keys: REBAR_KEYS, laws: &[] },
+    FnDoc { section: "Reinforcement", name: "straight_bar", signature: "straight_bar(host, #{ … }) -> array",
+        summary: "The two end points of a straight bar along an axis of a box-like host, at given section coordinates, `cover` short of the host's ends: `sim.rebar(beam, #{ points: straight_bar(beam, #{ axis: \"x\", at: [y, z], cover: 0.04 }), … })`.", keys: STRAIGHT_BAR_KEYS, laws: &[] },
+    FnDoc { section: "Reinforcement", name: "stirrup", signature: "stirrup(host, #{ … }) -> array",
+        summary: "A closed rectangular stirrup (5 points, the last repeating the first) in the host's section normal to `axis` at `at`, with `cover` to its outer surface.", keys: STIRRUP_KEYS, laws: &[] },
     // ── Loads
     // ── Contact
     FnDoc { section: "Contact", name: "sim.contact_law", signature: "sim.contact_law(\"potential\", #{ … })",

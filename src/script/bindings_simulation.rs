@@ -106,6 +106,7 @@ fn simulation(c: &ScriptContext, m: Map) -> RhaiResult<SimHandle> {
         vtk_encoding,
         vtk: VtkSeries::new(out_dir.clone(), name.clone()),
         cracks_vtk: VtkSeries::new(out_dir.clone(), format!("{name}_cracks")),
+        bars_vtk: VtkSeries::new(out_dir.clone(), format!("{name}_bars")),
         name,
         out_dir,
         stress_output,

@@ -15,6 +15,7 @@ mod bindings_materials;
 mod bindings_mesh_io;
 mod bindings_params;
 mod bindings_queries;
+mod bindings_reinforcement;
 mod bindings_simulation;
 pub mod numbers;
 pub mod opts;
@@ -114,6 +115,8 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     bindings_contact::register(&mut engine, ctx.clone());
     bindings_generators::register(&mut engine);
     bindings_joints::register_script_laws(&mut engine, ctx.clone());
+    bindings_reinforcement::register(&mut engine);
+    bindings_reinforcement::register_script_laws(&mut engine, ctx.clone());
     bindings_mesh_io::register(&mut engine, ctx.clone());
     numbers::register(&mut engine);
     // stdlib modules are compiled by this engine (they may call host functions).
@@ -240,6 +243,7 @@ fn run_in(ctx: &Rc<ScriptContext>, path: &Path, source: &str) -> Result<(), Scri
         let mut st = s.0.borrow_mut();
         let _ = st.vtk.flush();
         let _ = st.cracks_vtk.flush();
+        let _ = st.bars_vtk.flush();
     }
     match result {
         Err(e) if matches!(&*e, EvalAltResult::ErrorTerminated(t, _) if t.to_string() == runner::CHECK_DONE) =>

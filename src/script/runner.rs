@@ -384,6 +384,9 @@ fn write_run_output(s: &SimHandle) -> Result<(), String> {
             en.fracture,
             en.contact,
             en.friction,
+            en.plastic,
+            en.bond,
+            en.bond_slip,
             en.balance_error(),
         ]
     });
@@ -402,6 +405,9 @@ fn write_run_output(s: &SimHandle) -> Result<(), String> {
         "fracture",
         "contact",
         "friction",
+        "plastic",
+        "bond",
+        "bond_slip",
         "balance_error",
     ];
     write_csv(&path, &header, rows).map_err(|e| format!("writing {}: {e}", path.display()))?;
@@ -429,7 +435,8 @@ fn write_run_output(s: &SimHandle) -> Result<(), String> {
         .map_err(|e| format!("writing {}: {e}", path.display()))?;
     }
     st.vtk.flush()?;
-    st.cracks_vtk.flush()
+    st.cracks_vtk.flush()?;
+    st.bars_vtk.flush()
 }
 
 /// `sim.write_vtk()`: encode a frame now and queue it for the background writer.
@@ -449,6 +456,13 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
             .map_err(|e| format!("write_vtk(): {e}"))?;
         st.cracks_vtk
             .push(t, cracks)
+            .map_err(|e| format!("write_vtk(): {e}"))?;
+    }
+    if !st.sim.bars.is_empty() {
+        let bars = crate::io::frame::encode_bars(&st.sim, st.vtk_encoding)
+            .map_err(|e| format!("write_vtk(): {e}"))?;
+        st.bars_vtk
+            .push(t, bars)
             .map_err(|e| format!("write_vtk(): {e}"))?;
     }
     Ok(())
@@ -503,14 +517,35 @@ pub fn summary(
         joules(e.reaction_work)
     ));
     s.push_str(&format!(
-        "   {:<20} {:>12}   (mass damping {}, viscous {}, fracture {}, friction {})\n",
+        "   {:<20} {:>12}   (mass damping {}, viscous {}, fracture {}, friction {}{})\n",
         "dissipated",
         joules(e.dissipated()),
         joules(e.mass_damping),
         joules(e.viscous_damping),
         joules(e.fracture),
-        joules(e.friction)
+        joules(e.friction),
+        if sim.bars.is_empty() {
+            String::new()
+        } else {
+            format!(
+                ", steel {}, bond slip {}",
+                joules(e.plastic),
+                joules(e.bond_slip)
+            )
+        }
     ));
+    if !sim.bars.is_empty() {
+        let ruptured = sim.bars.ruptured_at.iter().filter(|t| !t.is_nan()).count();
+        let yielded = sim.bars.history.iter().filter(|&&a| a > 0.0).count();
+        s.push_str(&format!(
+            "   {:<20} {:>12}   ({} rebars, {} bars: {yielded} yielded, {ruptured} ruptured; {} bond points)\n",
+            "bond (elastic)",
+            joules(e.bond),
+            sim.rebars.len(),
+            sim.bars.len(),
+            sim.bonds.len()
+        ));
+    }
     if sim.contact.is_enabled() {
         let (c, cd) = (&sim.contact, &sim.contact_detection);
         s.push_str(&format!(

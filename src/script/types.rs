@@ -28,6 +28,8 @@ pub struct SimState {
     pub vtk: VtkSeries,
     /// The crack surface, one frame per `write_vtk` when the model has joints.
     pub cracks_vtk: VtkSeries,
+    /// The bars of the rebars, one frame per `write_vtk` when the model has rebars.
+    pub bars_vtk: VtkSeries,
     /// Material uid (from `material(..)`) → material id in this simulation.
     pub material_ids: HashMap<u64, u32>,
     /// Number of completed `run` calls.

@@ -106,3 +106,79 @@ pub struct Body {
 
 /// Handle to a material in a simulation.
 pub type MaterialId = u32;
+
+/// Two-node bar elements (reinforcing bars): axial force only, lumped mass (stage 1,
+/// [`crate::elements::bar2`]). Reference data, then the steel history and the results of the
+/// last step, all indexed by bar id.
+#[derive(Clone, Debug, Default)]
+pub struct Bars {
+    pub nodes: Vec<[u32; 2]>,
+    /// Reference length L₀ [m].
+    pub length0: Vec<Real>,
+    /// Cross-section A₀ [m²].
+    pub area: Vec<Real>,
+    /// Index of the bar's steel in the simulation's steels.
+    pub steel: Vec<u32>,
+    /// Index of the rebar the bar belongs to.
+    pub rebar: Vec<u32>,
+    /// Plastic strain ε_p [-].
+    pub plastic_strain: Vec<Real>,
+    /// The steel law's history variable (accumulated plastic strain α for the built-in law).
+    pub history: Vec<Real>,
+    /// Strain ε = l/L₀ − 1 of the last step [-].
+    pub strain: Vec<Real>,
+    /// Nominal axial stress σ = N/A₀ of the last step [Pa] (0 once ruptured).
+    pub stress: Vec<Real>,
+    /// Plastic work and the elastic energy lost at rupture, summed over the run [J].
+    pub dissipated: Vec<Real>,
+    /// Time of rupture [s]; NaN while the bar is intact.
+    pub ruptured_at: Vec<Real>,
+}
+
+impl Bars {
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+    pub(crate) fn push(
+        &mut self,
+        nodes: [u32; 2],
+        length0: Real,
+        area: Real,
+        steel: u32,
+        rebar: u32,
+    ) {
+        self.nodes.push(nodes);
+        self.length0.push(length0);
+        self.area.push(area);
+        self.steel.push(steel);
+        self.rebar.push(rebar);
+        self.plastic_strain.push(0.0);
+        self.history.push(0.0);
+        self.strain.push(0.0);
+        self.stress.push(0.0);
+        self.dissipated.push(0.0);
+        self.ruptured_at.push(Real::NAN);
+    }
+    /// Axial force N = σ·A₀ of bar `b` in the last step [N] (tension positive).
+    pub fn axial_force(&self, b: usize) -> Real {
+        self.stress[b] * self.area[b]
+    }
+}
+
+/// A reinforcing bar laid along a polyline and embedded in a host body: a contiguous range of
+/// bar nodes and of bars.
+#[derive(Clone, Debug)]
+pub struct Rebar {
+    pub name: String,
+    /// Bar diameter d [m].
+    pub diameter: Real,
+    /// Body the bar is embedded in.
+    pub host: usize,
+    pub nodes: Range<usize>,
+    pub bars: Range<usize>,
+    /// Index of its steel.
+    pub steel: u32,
+}

@@ -1,0 +1,207 @@
+//! Reinforcement: steel bars (stage 1, bar2) embedded in a host through bond points (stage 2).
+//! Each test names its reference and why its tolerance.
+
+mod common;
+
+use common::{box_sim, material};
+use fdem::elements::bar2::steel::{Steel, SteelLaw};
+use fdem::joints::bond::{BondLaw, Envelope, Fib2010};
+use fdem::loads::TimeFunction;
+use fdem::material::Formulation;
+use fdem::math::{Real, Vec3};
+use fdem::pipeline::RebarSpec;
+use fdem::{Layout, Simulation};
+
+const E_S: Real = 200e9;
+const FY: Real = 464e6;
+
+fn steel(hardening: Real, rupture: Real) -> Steel {
+    Steel {
+        density: 7850.0,
+        young: E_S,
+        yield_stress: FY,
+        hardening,
+        rupture_strain: rupture,
+        rate: None,
+        law: SteelLaw::Bilinear,
+    }
+}
+
+/// A concrete-like block [0, 0.3] × [0, 0.1] × [0, 0.1] m with one straight bar along x at
+/// mid-section, from `x0` to `x1`, in `pieces` bars.
+fn block_with_bar(
+    steel: Steel,
+    bond: BondLaw,
+    x0: Real,
+    x1: Real,
+    pieces: usize,
+    d: Real,
+) -> (Simulation, std::ops::Range<usize>) {
+    let mut sim = box_sim(
+        Vec3::zeros(),
+        Vec3::new(0.3, 0.1, 0.1),
+        [12, 4, 4],
+        material(Formulation::SmallStrain, 2400.0, 30e9, 0.2),
+        Layout::Continuous,
+    );
+    let s = sim.add_steel(steel);
+    let b = sim.add_bond_law(bond);
+    let spec = RebarSpec {
+        name: "bar".into(),
+        host: 0,
+        points: vec![Vec3::new(x0, 0.05, 0.05), Vec3::new(x1, 0.05, 0.05)],
+        diameter: d,
+        area: None,
+        steel: s,
+        bond_law: b,
+        segment: Some((x1 - x0) / pieces as Real * 1.000001),
+    };
+    let r = sim.add_rebar(&spec).unwrap();
+    let nodes = sim.rebars[r].nodes.clone();
+    (sim, nodes)
+}
+
+/// A bond that carries (almost) nothing along the bar: τ_max = 1 Pa.
+fn no_bond() -> BondLaw {
+    BondLaw {
+        envelope: Envelope::Fib2010(Fib2010 {
+            tau_max: 1.0,
+            s1: 1e-3,
+            s2: 2e-3,
+            s3: 3e-3,
+            alpha: 0.4,
+            tau_f: 0.0,
+        }),
+        stiffness: 1e3,
+        transverse_stiffness: Some(1e3),
+    }
+}
+
+/// One bar element pulled at both ends (prescribed velocities, no bond): the axial force
+/// from the end reaction against the bilinear law (Simo & Hughes §1.4; exact for one
+/// uniform element, so 1e-6), elastic unloading with slope E, rupture at ε_u, and the
+/// booked plastic work against the area under the measured force–elongation curve less the
+/// elastic energy left (1 %, the tolerance; the trapezoid over ~4000 steps is far
+/// finer).
+#[test]
+fn steel_bar_in_tension_yields_hardens_unloads_elastically_and_ruptures() {
+    let (h, eu) = (1.5e9, 0.12);
+    let (mut sim, bar) = block_with_bar(steel(h, eu), no_bond(), 0.05, 0.25, 1, 0.02);
+    let (a, l0) = (sim.bars.area[0], 0.2);
+    let v = 1.0; // m/s at each end: ε̇ = 10 /s (rate-free law)
+    let (t_unload, t_reload) = (0.003, 0.0035);
+    let vel = |sign: Real| {
+        TimeFunction::table(vec![
+            (0.0, sign * v),
+            (t_unload, sign * v),
+            (t_unload + 1e-9, -sign * v),
+            (t_reload, -sign * v),
+            (t_reload + 1e-9, sign * v),
+        ])
+        .unwrap()
+    };
+    let (n0, n1) = (bar.start as u32, bar.start as u32 + 1);
+    sim.prescribe_velocity(
+        &[n0],
+        [
+            Some(vel(-1.0)),
+            Some(TimeFunction::Constant(0.0)),
+            Some(TimeFunction::Constant(0.0)),
+        ],
+    );
+    sim.prescribe_velocity(
+        &[n1],
+        [
+            Some(vel(1.0)),
+            Some(TimeFunction::Constant(0.0)),
+            Some(TimeFunction::Constant(0.0)),
+        ],
+    );
+    // (time, ε, σ, end reaction N, plastic work booked, α) per step until rupture.
+    let mut hist: Vec<(Real, Real, Real, Real, Real, Real)> = Vec::new();
+    let mut ruptured_at = None;
+    sim.set_velocity(&[n0], Vec3::new(-v, 0.0, 0.0));
+    sim.set_velocity(&[n1], Vec3::new(v, 0.0, 0.0));
+    while sim.time < 0.02 {
+        sim.step().unwrap();
+        let eps = sim.bars.strain[0];
+        if !sim.bars.ruptured_at[0].is_nan() {
+            ruptured_at = Some(eps);
+            break;
+        }
+        let n = sim.nodes.reaction[n1 as usize].x;
+        let (sigma, alpha) = (sim.bars.stress[0], sim.bars.history[0]);
+        // The force the constraint exerts on the pulled end is the bar's axial force (but in
+        // the steps where the end's velocity reverses: there it also stops the end's mass).
+        let reversing = [t_unload, t_reload]
+            .iter()
+            .any(|t| (sim.time - t).abs() < 2.0 * sim.dt);
+        if !reversing {
+            assert!(
+                (n - sigma * a).abs() < 1e-6 * FY * a,
+                "reaction {n} vs N {}",
+                sigma * a
+            );
+        }
+        if sim.time < t_unload {
+            let expected = if alpha > 0.0 {
+                FY + h * alpha
+            } else {
+                E_S * eps
+            };
+            assert!(
+                (sigma - expected).abs() < 1e-6 * FY,
+                "σ = {sigma} vs {expected}"
+            );
+        }
+        hist.push((
+            sim.time,
+            eps,
+            sigma,
+            sigma * a,
+            sim.bars.dissipated[0],
+            alpha,
+        ));
+    }
+    let first_yield = hist.iter().find(|h| h.5 > 0.0).expect("the bar yields");
+    let de = 2.0 * v / l0 * sim.dt;
+    assert!(
+        (first_yield.1 - FY / E_S).abs() < 2.0 * de,
+        "yield at ε = {}",
+        first_yield.1
+    );
+    let unloading: Vec<_> = hist
+        .iter()
+        .filter(|h| h.0 > t_unload + 2e-5 && h.0 < t_reload - 2e-5)
+        .collect();
+    let (u0, u1) = (unloading[0], unloading[unloading.len() - 1]);
+    let slope = (u1.2 - u0.2) / (u1.1 - u0.1);
+    assert!((slope / E_S - 1.0).abs() < 1e-6, "unloading slope {slope}");
+    assert_eq!(u0.5, u1.5, "no plastic flow while unloading");
+    let eps_u = ruptured_at.expect("the bar ruptures");
+    assert!(eps_u >= eu && eps_u < eu + 2.0 * de, "rupture at {eps_u}");
+    // The work of the axial force along the strain path, ∫N dl (trapezoid), against the elastic energy
+    // left plus the plastic work booked, at the last step before rupture.
+    let work: Real = hist
+        .windows(2)
+        .map(|w| 0.5 * (w[0].3 + w[1].3) * (w[1].1 - w[0].1) * l0)
+        .sum::<Real>()
+        + 0.5 * hist[0].3 * hist[0].1 * l0;
+    let last = hist.last().unwrap();
+    let booked = last.4 + 0.5 * last.2 * last.2 / E_S * a * l0;
+    assert!(
+        (booked / work - 1.0).abs() < 0.01,
+        "booked {booked} J vs measured {work} J"
+    );
+    assert!(
+        sim.bars.dissipated[0] > last.4,
+        "the elastic energy lost at rupture is booked"
+    );
+    assert_eq!(sim.bars.stress[0], 0.0);
+    println!(
+        "yield at ε = {:.6} (f_y/E = {:.6}), unloading slope {slope:.5e} Pa, rupture at ε = {eps_u:.5}, work: booked {booked:.3} J vs measured {work:.3} J ({:+.2e})",
+        first_yield.1,
+        FY / E_S,
+        booked / work - 1.0
+    );
+}
