@@ -10,9 +10,12 @@
 //! t = (x_next − x_prev)/|x_next − x_prev|  bar axis at the node (neighbouring bar nodes)
 //! s = δ·t,  δ⊥ = δ − s t                  slip along the bar and its transverse part
 //! F_b = −A_b (τ(s) t + k⊥ δ⊥),  F_a = −w_a F_b     A_b = π d L_b (perimeter × tributary length)
+//! g = A_b (τ − k⊥ s) δ⊥ / |x_next − x_prev|,  F_prev = +g,  F_next = −g
 //! ```
 //!
-//! The forces sum to zero. The slip law is elastic–plastic with the bond law's envelope
+//! These are −∂W/∂x of W = A_b[ψ(s) + ½k⊥(|δ|² − s²)] (ψ' = τ), the axis t turning with the
+//! bar included: without the g terms the bond force would be a follower load, and the lateral
+//! modes of a slipping bar gain energy until they blow up. The forces sum to zero. The slip law is elastic–plastic with the bond law's envelope
 //! τ_env (built-in: fib Model Code 2010, §6.1.1, eq. 6.1-1 and Table 6.1-1; or a Rhai
 //! function of the slip): an elastic trial τ = k (s − s_p) with the unloading stiffness k,
 //! bounded by ±τ_env(s_max), s_max the largest |s| so far (cyclic loading follows the
@@ -295,6 +298,9 @@ pub struct Bonds {
     pub dissipated: Vec<Real>,
     /// Force on the bar node in the last step [N] (the stage's scratch as well).
     pub force: Vec<Vec3>,
+    /// ∂W/∂(x_next − x_prev) of the last step [N]: the axis turns with the bar, so the bond
+    /// potential also acts on the neighbouring bar nodes (scratch).
+    pub axis_force: Vec<Vec3>,
 }
 
 /// One bond point to add.
@@ -347,6 +353,7 @@ impl Bonds {
         self.stress.push(0.0);
         self.dissipated.push(0.0);
         self.force.push(Vec3::zeros());
+        self.axis_force.push(Vec3::zeros());
     }
 
     /// Largest ω² the bond springs add at a node, by Gershgorin on M⁻¹K_bond: for each node
@@ -369,16 +376,18 @@ impl Bonds {
             .fold((0.0, 0), |a, c| if c.0 > a.0 { c } else { a })
     }
 
-    /// Relative displacement δ = (x_b − x_h) − (X_b − X_h) of point p and the bar axis t.
+    /// Relative displacement δ = (x_b − x_h) − (X_b − X_h) of point p, the bar axis t and the
+    /// length |x_next − x_prev| it is taken over.
     #[inline]
-    fn kinematics(&self, p: usize, x: &[Vec3], tets: &Tets) -> (Vec3, Vec3) {
+    fn kinematics(&self, p: usize, x: &[Vec3], tets: &Tets) -> (Vec3, Vec3, Real) {
         let host = &tets.nodes[self.tet[p] as usize];
         let w = &self.weights[p];
         let xh: Vec3 = (0..4).map(|a| x[host[a] as usize] * w[a]).sum();
         let delta = x[self.node[p] as usize] - xh - self.offset0[p];
         let [prev, next] = self.along[p];
         let axis = x[next as usize] - x[prev as usize];
-        (delta, axis / axis.norm())
+        let len = axis.norm();
+        (delta, axis / len, len)
     }
 }
 
@@ -395,6 +404,7 @@ pub fn add_bond_forces(
     }
     let x = &nodes.x;
     let mut force = std::mem::take(&mut bonds.force);
+    let mut axis_force = std::mem::take(&mut bonds.axis_force);
     let mut slip = std::mem::take(&mut bonds.slip);
     let mut stress = std::mem::take(&mut bonds.stress);
     let mut plastic = std::mem::take(&mut bonds.plastic_slip);
@@ -403,6 +413,7 @@ pub fn add_bond_forces(
     let b = &*bonds;
     (
         force.par_iter_mut(),
+        axis_force.par_iter_mut(),
         slip.par_iter_mut(),
         stress.par_iter_mut(),
         plastic.par_iter_mut(),
@@ -411,8 +422,8 @@ pub fn add_bond_forces(
     )
         .into_par_iter()
         .enumerate()
-        .for_each(|(p, (f, s, tau, sp, smax, diss))| {
-            let (delta, t) = b.kinematics(p, x, tets);
+        .for_each(|(p, (f, g, s, tau, sp, smax, diss))| {
+            let (delta, t, len) = b.kinematics(p, x, tets);
             *s = delta.dot(&t);
             let perp = delta - t * *s;
             let law = &b.laws[b.law[p] as usize];
@@ -422,12 +433,14 @@ pub fn add_bond_forces(
             let (area, kt) = (b.area[p], b.transverse_stiffness[p]);
             *diss += 0.5 * (tau_old.abs() + tau_new.abs()) * dsp * area;
             *f = -(t * tau_new + perp * kt) * area;
+            // W = A[ψ(s) + ½k⊥(|δ|² − s²)] with s = δ·t(a): ∂W/∂a = A(τ − k⊥s)·δ⊥/|a|.
+            *g = perp * ((tau_new - kt * *s) * area / len);
         });
     // On samples, in point order (the same sum for any thread count).
     let energy = if want_energy {
         (0..b.len())
             .map(|p| {
-                let (delta, t) = b.kinematics(p, x, tets);
+                let (delta, t, _) = b.kinematics(p, x, tets);
                 let perp = delta - t * delta.dot(&t);
                 let k = b.laws[b.law[p] as usize].stiffness;
                 0.5 * b.area[p]
@@ -441,11 +454,15 @@ pub fn add_bond_forces(
     for p in 0..b.len() {
         let host = &tets.nodes[b.tet[p] as usize];
         nodes.f[b.node[p] as usize] += force[p];
+        let [prev, next] = b.along[p];
+        nodes.f[prev as usize] += axis_force[p];
+        nodes.f[next as usize] -= axis_force[p];
         for a in 0..4 {
             nodes.f[host[a] as usize] -= force[p] * b.weights[p][a];
         }
     }
     bonds.force = force;
+    bonds.axis_force = axis_force;
     bonds.slip = slip;
     bonds.stress = stress;
     bonds.plastic_slip = plastic;
