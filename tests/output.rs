@@ -585,6 +585,7 @@ fn vtkio_0_6_import_stops_raw_appended_data_at_byte_0x3c() {
             points,
             tets: &[[0, 1, 2, 3]],
             triangles: &[],
+            lines: &[],
             point_data: vec![],
             cell_data: vec![],
         })

@@ -337,3 +337,71 @@ fn a_reinforced_block_spinning_and_vibrating_conserves_energy_and_angular_moment
     assert_eq!(e.bond_slip, 0.0, "the bond stays elastic");
     assert!(max_stress < 20e6, "bar stress {max_stress} Pa");
 }
+
+/// Reference: the Rust API tested above. The script functions lay straight bars with cover
+/// and closed stirrups where the geometry says (a stirrup's centreline cover + d/2 inside the
+/// section), the bars carry load from the first step, the VTK frame of the bars is written,
+/// and bad input is refused naming the key, the bar or the point, with its line.
+#[test]
+fn script_functions_lay_bars_and_stirrups_and_refuse_bad_input() {
+    let dir = common::temp_dir("rebar_script");
+    let script = dir.join("rebar.rhai");
+    let text = r#"
+let sim = simulation(#{ name: "rc", out_dir: "OUT" });
+let concrete = material("elastic/neo_hookean", #{ density: 2400.0, young: 30.0e9, poisson: 0.2 });
+let beam = sim.add_body("beam", box(#{ min: [0.0, 0.0, 0.0], max: [1.0, 0.2, 0.3] }).mesh(#{ divisions: [20, 4, 6] }), concrete);
+let s = steel(#{ yield_stress: 464.0e6, ultimate_stress: 630.0e6, ultimate_strain: 0.15 });
+let b = bond_law("fib2010", #{ fcm: 47.0e6, confinement: "stirrups" });
+let line = straight_bar(beam, #{ axis: "x", at: [0.05, 0.05], cover: 0.03 });
+expect_near("bar start", line[0][0], 0.03, 1e-12);
+expect_near("bar end", line[1][0], 0.97, 1e-12);
+let r = sim.rebar(beam, #{ points: line, diameter: 0.02, area: 300.0e-6, steel: s, bond: b, name: "bottom" });
+let hoop = stirrup(beam, #{ axis: "x", at: 0.5, cover: 0.02, diameter: 0.006 });
+expect_within("stirrup corners", hoop.len(), 5, 5);
+expect_near("stirrup inset", hoop[0][1], 0.023, 1e-12);
+expect_near("closed", hoop[4][2], hoop[0][2], 0.0);
+let st = sim.rebar(beam, #{ points: hoop, diameter: 0.006, steel: s, bond: b });
+expect_within("bars laid", r.bars, 15, 40);
+sim.fix(beam.nodes(half_space(#{ point: [0.0, 0.0, 0.0], normal: [-1.0, 0.0, 0.0] })));
+sim.gravity([0.0, 0.0, -9.81]);
+sim.run(#{ steps: 200 });
+sim.write_vtk();
+let e = sim.energy();
+expect_within("balance", abs(e.relative_error), 0.0, 1e-3);
+expect_within("bond energy booked", e.bond, 1e-12, 1.0e9);
+expect_within("stressed", r.max_stress(), 1.0, 464.0e6);
+expect_within("no rupture", r.ruptured(), 0, 0);
+"#
+    .replace("OUT", &dir.join("out").display().to_string().replace('\\', "/"));
+    fdem::script::run_source(&script, &text, Default::default()).unwrap();
+    let bars = dir.join("out/rc_bars_000000.vtu");
+    let vtu = std::fs::read(&bars).unwrap_or_else(|e| panic!("{}: {e}", bars.display()));
+    let vtu = String::from_utf8_lossy(&vtu);
+    assert!(vtu.contains("axial_force") && vtu.contains("bond_stress") && vtu.contains("UInt8"));
+    let head = r#"
+let sim = simulation(#{ name: "bad" });
+let concrete = material("elastic/neo_hookean", #{ density: 2400.0, young: 30.0e9, poisson: 0.2 });
+let beam = sim.add_body("beam", box(#{ min: [0.0, 0.0, 0.0], max: [1.0, 0.2, 0.3] }).mesh(#{ divisions: [10, 2, 3] }), concrete);
+let s = steel(#{ yield_stress: 464.0e6 });
+let b = bond_law("fib2010", #{ fcm: 47.0e6 });
+"#;
+    for (call, expect) in [
+        (
+            "sim.rebar(beam, #{ points: [[0.1, 0.1, 0.1], [1.2, 0.1, 0.1]], diameter: 0.02, steel: s, bond: b, name: \"long\" });",
+            "rebar 'long': point",
+        ),
+        ("sim.rebar(beam, #{ points: [[0.1, 0.1, 0.1], [0.9, 0.1, 0.1]], diameter: 0.0, steel: s, bond: b });", "diameter must be > 0"),
+        ("steel(#{ yield_stress: 464.0e6, ultimate_stress: 400.0e6, ultimate_strain: 0.1 });", "below yield_stress"),
+        ("steel(#{ fy: 464.0e6 });", "unknown key 'fy'"),
+        ("bond_law(\"fib2010\", #{ fcm: 47.0e6, confinement: \"loose\" });", "confinement \"loose\""),
+        ("bond_law(\"fib2010\", #{ confinement: \"confined\" });", "'fcm'"),
+        ("sim.rebar(beam, #{ points: [[0.1, 0.1, 0.1]], diameter: 0.02, steel: s, bond: b });", "at least 2 points"),
+    ] {
+        let e = fdem::script::run_source(&script, &format!("{head}{call}"), Default::default())
+            .err()
+            .unwrap_or_else(|| panic!("{call} was accepted"))
+            .to_string();
+        assert!(e.contains(expect), "{call}: {e}");
+        assert!(e.contains(":7:"), "{call}: no line in {e}");
+    }
+}

@@ -322,8 +322,6 @@ pub struct BondPoint {
 pub struct BondSums {
     /// Recoverable energy ½A_b(τ²/k + k⊥|δ⊥|²) [J] (only when energies are requested).
     pub energy: Real,
-    /// A law returned NaN at this point (its first).
-    pub failed: Option<usize>,
 }
 
 impl Bonds {
@@ -450,15 +448,14 @@ pub fn add_bond_forces(
     } else {
         0.0
     };
-    let failed = stress.iter().position(|t| t.is_nan());
     for p in 0..b.len() {
         let host = &tets.nodes[b.tet[p] as usize];
         nodes.f[b.node[p] as usize] += force[p];
         let [prev, next] = b.along[p];
         nodes.f[prev as usize] += axis_force[p];
         nodes.f[next as usize] -= axis_force[p];
-        for a in 0..4 {
-            nodes.f[host[a] as usize] -= force[p] * b.weights[p][a];
+        for (&n, &w) in host.iter().zip(&b.weights[p]) {
+            nodes.f[n as usize] -= force[p] * w;
         }
     }
     bonds.force = force;
@@ -468,7 +465,7 @@ pub fn add_bond_forces(
     bonds.plastic_slip = plastic;
     bonds.max_slip = max_slip;
     bonds.dissipated = dissipated;
-    BondSums { energy, failed }
+    BondSums { energy }
 }
 
 #[cfg(test)]

@@ -468,6 +468,23 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
     Ok(())
 }
 
+/// The summary line of the rebars (empty without them): bond energy, bars yielded and broken.
+fn reinforcement_line(sim: &Simulation) -> String {
+    if sim.bars.is_empty() {
+        return String::new();
+    }
+    let ruptured = sim.bars.ruptured_at.iter().filter(|t| !t.is_nan()).count();
+    let yielded = sim.bars.history.iter().filter(|&&a| a > 0.0).count();
+    format!(
+        "   {:<20} {:>12}   ({} rebars, {} bars: {yielded} yielded, {ruptured} ruptured; {} bond points)\n",
+        "bond (elastic)",
+        sig(sim.energy.bond, 5),
+        sim.rebars.len(),
+        sim.bars.len(),
+        sim.bonds.len()
+    )
+}
+
 /// The per-stage timing table and the energy summary printed at the end of `fdem run`.
 /// Times have 6 significant digits, dt and energies 5, relative errors 3 ([`sig`]).
 pub fn summary(
@@ -534,18 +551,7 @@ pub fn summary(
             )
         }
     ));
-    if !sim.bars.is_empty() {
-        let ruptured = sim.bars.ruptured_at.iter().filter(|t| !t.is_nan()).count();
-        let yielded = sim.bars.history.iter().filter(|&&a| a > 0.0).count();
-        s.push_str(&format!(
-            "   {:<20} {:>12}   ({} rebars, {} bars: {yielded} yielded, {ruptured} ruptured; {} bond points)\n",
-            "bond (elastic)",
-            joules(e.bond),
-            sim.rebars.len(),
-            sim.bars.len(),
-            sim.bonds.len()
-        ));
-    }
+    s.push_str(&reinforcement_line(sim));
     if sim.contact.is_enabled() {
         let (c, cd) = (&sim.contact, &sim.contact_detection);
         s.push_str(&format!(
