@@ -217,6 +217,13 @@ impl Joints {
     pub fn len(&self) -> usize {
         self.faces.len()
     }
+    /// Joints with damage D > 0 at one of their points or more (softening or broken).
+    pub fn damaged(&self) -> usize {
+        self.state
+            .iter()
+            .filter(|s| s.iter().any(|p| p.damage > 0.0))
+            .count()
+    }
     pub fn is_empty(&self) -> bool {
         self.faces.is_empty()
     }

@@ -91,6 +91,9 @@ pub fn register(engine: &mut Engine) {
     engine.register_fn("broken_joints", |s: &mut SimHandle| {
         s.0.borrow().sim.break_events.len() as i64
     });
+    engine.register_fn("damaged_joints", |s: &mut SimHandle| {
+        s.0.borrow().sim.joints.damaged() as i64
+    });
     engine.register_fn("fragments", |s: &mut SimHandle| -> RhaiResult<Map> {
         let mut st = s.0.borrow_mut();
         st.sim.prepare().map_err(|e| e.to_string())?;
