@@ -56,7 +56,9 @@ enum Command {
     Bench {
         /// Benchmark case: elastic; joints (a fully jointed box: joints on every internal
         /// face); detection (NBS on --elements boxes, against sort-and-sweep and parry3d's
-        /// BVH); fragmented (a box cut into loose blocks settling under gravity, with contact).
+        /// BVH); fragmented (a box cut into loose blocks settling under gravity, with contact);
+        /// rebars (the elastic box with a grid of embedded bars, timed against the same box
+        /// without them).
         #[arg(long, default_value = "elastic")]
         case: String,
         /// Number of surface elements of the detection case.
@@ -141,6 +143,7 @@ pub fn main() {
             let result = match case.as_str() {
                 "detection" => bench_detection(elements),
                 "fragmented" => bench_fragmented(tets, steps),
+                "rebars" => bench_rebars(tets, steps),
                 _ => bench(&case, tets, steps, &material, &law, &layout),
             };
             print_bench(result, json)
@@ -361,7 +364,7 @@ pub fn bench(
 ) -> Result<serde_json::Value, String> {
     if case != "elastic" && case != "joints" {
         return Err(format!(
-            "bench: unknown case '{case}'; available: elastic, joints, detection, fragmented"
+            "bench: unknown case '{case}'; available: elastic, joints, detection, fragmented, rebars"
         ));
     }
     let formulation = Formulation::from_name(material)
@@ -483,6 +486,72 @@ pub fn bench_model(tets: usize, formulation: Formulation, layout: Layout) -> Sim
         sim.nodes.v[i] = 0.1 * Vec3::new((tau * p.y).sin(), (tau * p.z).sin(), (tau * p.x).sin());
     }
     sim
+}
+
+/// Rebar benchmark: the elastic box of [`bench_model`] (continuous) stepped without and then
+/// with a square grid of straight bars along x (n/2 × n/2 bars for n cells a side, about one
+/// bar per 30 tets, fib2010 bond). Reports the extra seconds of stage 1 (bars) and stage 2
+/// (bond) per bar-step and per bond-point-step.
+pub fn bench_rebars(tets: usize, steps: u64) -> Result<serde_json::Value, String> {
+    use crate::elements::bar2::steel::{Steel, SteelLaw};
+    use crate::joints::bond::BondLaw;
+    let mut plain = bench_model(tets, Formulation::SmallStrain, Layout::Continuous);
+    let (plain_seconds, plain_stages) = time_steps(&mut plain, steps)?;
+    let mut sim = bench_model(tets, Formulation::SmallStrain, Layout::Continuous);
+    let n = ((tets as f64 / 6.0).cbrt().round() as usize).max(1);
+    let k = (n / 2).max(1);
+    let steel = sim.add_steel(Steel {
+        density: 7850.0,
+        young: 200e9,
+        yield_stress: 500e6,
+        hardening: 1e9,
+        rupture_strain: 0.1,
+        rate: None,
+        law: SteelLaw::Bilinear,
+    });
+    let given = |p: &crate::params::Param| -> Result<Option<f64>, String> {
+        Ok((p.name == "fcm").then_some(40e6))
+    };
+    let bond = sim.add_bond_law(BondLaw::fib2010(&given, "confined", "good", 0.02)?);
+    for i in 0..k {
+        for j in 0..k {
+            let (y, z) = ((i as f64 + 0.5) / k as f64, (j as f64 + 0.5) / k as f64);
+            sim.add_rebar(&crate::pipeline::RebarSpec {
+                name: format!("bar{i}_{j}"),
+                host: 0,
+                points: vec![Vec3::new(0.01, y, z), Vec3::new(0.99, y, z)],
+                diameter: 0.02,
+                area: None,
+                steel,
+                bond_law: bond,
+                segment: None,
+            })?;
+        }
+    }
+    let (seconds, stages) = time_steps(&mut sim, steps)?;
+    let stage = |m: &serde_json::Map<String, serde_json::Value>, s: Stage| {
+        m[s.name()].as_f64().unwrap_or(0.0)
+    };
+    let bars_extra = stage(&stages, Stage::Elements) - stage(&plain_stages, Stage::Elements);
+    let bond_extra = stage(&stages, Stage::Joints) - stage(&plain_stages, Stage::Joints);
+    let per = |extra: f64, count: usize| extra / (count as f64 * steps as f64) * 1e9;
+    Ok(serde_json::json!({
+        "case": "rebars",
+        "tets": sim.tets.len(),
+        "bars": sim.bars.len(),
+        "bond_points": sim.bonds.len(),
+        "steps": steps,
+        "threads": rayon::current_num_threads(),
+        "seconds_without_rebars": plain_seconds,
+        "seconds": seconds,
+        "bar_ns_per_bar_step": per(bars_extra, sim.bars.len()),
+        "bond_ns_per_point_step": per(bond_extra, sim.bonds.len()),
+        "bar_steps_per_s": sim.bars.len() as f64 * steps as f64 / bars_extra.max(1e-12),
+        "dt_without_rebars": plain.dt,
+        "dt": sim.dt,
+        "stages_without_rebars": plain_stages,
+        "stages": stages,
+    }))
 }
 
 /// Detection benchmark: `n` boxes on a jittered lattice (spacing 1, half-sizes 0.3–0.6, so
