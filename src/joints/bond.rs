@@ -245,8 +245,9 @@ impl BondLaw {
         }
     }
 
-    /// One slip update: the bond stress τ [Pa] at slip s, advancing the plastic slip s_p and
-    /// the largest slip s_max; also the plastic slip increment |Δs_p| [m].
+    /// One slip update: the bond stress τ [Pa] at slip s, advancing the plastic slip s_p, the
+    /// largest slip s_max and the strength τ_env(s_max) (NaN: not evaluated yet; the envelope
+    /// is evaluated only when s_max grows); also the plastic slip increment |Δs_p| [m].
     #[inline]
     pub fn update(
         &self,
@@ -254,9 +255,13 @@ impl BondLaw {
         diameter: Real,
         plastic_slip: &mut Real,
         max_slip: &mut Real,
+        strength: &mut Real,
     ) -> (Real, Real) {
-        *max_slip = max_slip.max(s.abs());
-        let bound = self.envelope(*max_slip, diameter);
+        if s.abs() > *max_slip || strength.is_nan() {
+            *max_slip = max_slip.max(s.abs());
+            *strength = self.envelope(*max_slip, diameter);
+        }
+        let bound = *strength;
         let trial = self.stiffness * (s - *plastic_slip);
         if trial.abs() <= bound {
             return (trial, 0.0);
@@ -291,6 +296,8 @@ pub struct Bonds {
     /// History: plastic slip s_p and largest slip s_max [m].
     pub plastic_slip: Vec<Real>,
     pub max_slip: Vec<Real>,
+    /// τ_env(s_max) [Pa] (NaN until first evaluated).
+    pub strength: Vec<Real>,
     /// Slip s [m] and bond stress τ [Pa] of the last step.
     pub slip: Vec<Real>,
     pub stress: Vec<Real>,
@@ -347,6 +354,7 @@ impl Bonds {
         self.law.push(p.law);
         self.plastic_slip.push(0.0);
         self.max_slip.push(0.0);
+        self.strength.push(Real::NAN);
         self.slip.push(0.0);
         self.stress.push(0.0);
         self.dissipated.push(0.0);
@@ -407,6 +415,7 @@ pub fn add_bond_forces(
     let mut stress = std::mem::take(&mut bonds.stress);
     let mut plastic = std::mem::take(&mut bonds.plastic_slip);
     let mut max_slip = std::mem::take(&mut bonds.max_slip);
+    let mut strength = std::mem::take(&mut bonds.strength);
     let mut dissipated = std::mem::take(&mut bonds.dissipated);
     let b = &*bonds;
     (
@@ -416,17 +425,18 @@ pub fn add_bond_forces(
         stress.par_iter_mut(),
         plastic.par_iter_mut(),
         max_slip.par_iter_mut(),
+        strength.par_iter_mut(),
         dissipated.par_iter_mut(),
     )
         .into_par_iter()
         .enumerate()
-        .for_each(|(p, (f, g, s, tau, sp, smax, diss))| {
+        .for_each(|(p, (f, g, s, tau, sp, smax, strong, diss))| {
             let (delta, t, len) = b.kinematics(p, x, tets);
             *s = delta.dot(&t);
             let perp = delta - t * *s;
             let law = &b.laws[b.law[p] as usize];
             let tau_old = *tau;
-            let (tau_new, dsp) = law.update(*s, b.diameter[p], sp, smax);
+            let (tau_new, dsp) = law.update(*s, b.diameter[p], sp, smax, strong);
             *tau = tau_new;
             let (area, kt) = (b.area[p], b.transverse_stiffness[p]);
             *diss += 0.5 * (tau_old.abs() + tau_new.abs()) * dsp * area;
@@ -464,6 +474,7 @@ pub fn add_bond_forces(
     bonds.stress = stress;
     bonds.plastic_slip = plastic;
     bonds.max_slip = max_slip;
+    bonds.strength = strength;
     bonds.dissipated = dissipated;
     BondSums { energy }
 }
@@ -496,12 +507,12 @@ mod tests {
             stiffness: 1e11,
             transverse_stiffness: Some(1e12),
         };
-        let (mut sp, mut smax) = (0.0, 0.0);
-        let (t, d) = law.update(1e-5, 0.02, &mut sp, &mut smax);
-        assert_eq!((t, d), (1e6, 0.0));
-        let (t, _) = law.update(1.5e-3, 0.02, &mut sp, &mut smax);
+        let (mut sp, mut smax, mut strength) = (0.0, 0.0, Real::NAN);
+        let (t, d) = law.update(1e-5, 0.02, &mut sp, &mut smax, &mut strength);
+        assert!((t - 1e6).abs() < 1e-6 && d == 0.0, "{t} {d}");
+        let (t, _) = law.update(1.5e-3, 0.02, &mut sp, &mut smax, &mut strength);
         assert!((t - 2.5 * 30f64.sqrt() * 1e6).abs() < 1.0);
-        let (t2, d2) = law.update(1.4e-3, 0.02, &mut sp, &mut smax);
+        let (t2, d2) = law.update(1.4e-3, 0.02, &mut sp, &mut smax, &mut strength);
         assert!((t - t2 - 1e11 * 1e-4).abs() < 1e-3 && d2 == 0.0);
     }
 }
