@@ -56,7 +56,8 @@ enum Command {
     Bench {
         /// Benchmark case: elastic; joints (a fully jointed box: joints on every internal
         /// face); detection (NBS on --elements boxes, against sort-and-sweep and parry3d's
-        /// BVH); fragmented (a box cut into loose blocks settling under gravity, with contact).
+        /// BVH); fragmented (a box cut into loose blocks settling under gravity, with contact);
+        /// rigid (one step of a spinning rigid box against the same box deformable).
         #[arg(long, default_value = "elastic")]
         case: String,
         /// Number of surface elements of the detection case.
@@ -139,6 +140,7 @@ pub fn main() {
         } => {
             set_threads(threads);
             let result = match case.as_str() {
+                "rigid" => bench_rigid(tets, steps, &material),
                 "detection" => bench_detection(elements),
                 "fragmented" => bench_fragmented(tets, steps),
                 _ => bench(&case, tets, steps, &material, &law, &layout),
@@ -483,6 +485,35 @@ pub fn bench_model(tets: usize, formulation: Formulation, layout: Layout) -> Sim
         sim.nodes.v[i] = 0.1 * Vec3::new((tau * p.y).sin(), (tau * p.z).sin(), (tau * p.x).sin());
     }
     sim
+}
+
+/// Rigid-body benchmark: the elastic case's box (≈`tets` tets, continuous) against the same
+/// mesh as one rigid body spinning at (1, 2, 3) rad/s, both at the deformable model's dt.
+/// Reports the seconds per step of each and their ratio (target < 0.1: a rigid body costs a
+/// force gather and a node update, no element forces).
+pub fn bench_rigid(tets: usize, steps: u64, material: &str) -> Result<serde_json::Value, String> {
+    let formulation = Formulation::from_name(material)
+        .ok_or_else(|| format!("bench: unknown material law '{material}'"))?;
+    let mut soft = bench_model(tets, formulation, Layout::Continuous);
+    let (soft_s, soft_stages) = time_steps(&mut soft, steps)?;
+    let mut rigid = bench_model(tets, formulation, Layout::Rigid);
+    rigid.settings.dt = Some(soft.dt);
+    rigid.set_body_spin(0, Vec3::new(1.0, 2.0, 3.0), None);
+    let (rigid_s, rigid_stages) = time_steps(&mut rigid, steps)?;
+    let per_step = |s: f64| s / steps as f64;
+    Ok(serde_json::json!({
+        "case": "rigid",
+        "material": material,
+        "tets": soft.tets.len(),
+        "nodes": soft.nodes.len(),
+        "steps": steps,
+        "threads": rayon::current_num_threads(),
+        "deformable_seconds_per_step": per_step(soft_s),
+        "rigid_seconds_per_step": per_step(rigid_s),
+        "rigid_over_deformable": rigid_s / soft_s,
+        "deformable_stages": soft_stages,
+        "rigid_stages": rigid_stages,
+    }))
 }
 
 /// Detection benchmark: `n` boxes on a jittered lattice (spacing 1, half-sizes 0.3–0.6, so
