@@ -591,7 +591,7 @@ fn mass_damping_slows_a_rigid_body_like_its_nodes() {
     let soft = run(Layout::Continuous);
     let c = 0.5 * alpha * dt;
     // The first step is a half step (dt̄ = dt/2).
-    let factor = (1.0 - c / 2.0) / (1.0 + c / 2.0) * ((1.0 - c) / (1.0 + c)).powi(steps as i32 - 1);
+    let factor = (1.0 - c / 2.0) / (1.0 + c / 2.0) * ((1.0 - c) / (1.0 + c)).powi(steps - 1);
     let exact = (-alpha * dt * steps as Real).exp();
     let rb = &rigid.rigid.bodies[0];
     let v0 = Vec3::new(0.3, 0.0, -0.1);
