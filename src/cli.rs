@@ -58,7 +58,8 @@ enum Command {
         /// face); detection (NBS on --elements boxes, against sort-and-sweep and parry3d's
         /// BVH); fragmented (a box cut into loose blocks settling under gravity, with contact);
         /// rebars (the elastic box with a grid of embedded bars, timed against the same box
-        /// without them).
+        /// without them); rigid (one step of a spinning rigid box against the same box
+        /// deformable).
         #[arg(long, default_value = "elastic")]
         case: String,
         /// Number of surface elements of the detection case.
@@ -141,6 +142,7 @@ pub fn main() {
         } => {
             set_threads(threads);
             let result = match case.as_str() {
+                "rigid" => bench_rigid(tets, steps, &material),
                 "detection" => bench_detection(elements),
                 "fragmented" => bench_fragmented(tets, steps),
                 "rebars" => bench_rebars(tets, steps),
@@ -364,7 +366,7 @@ pub fn bench(
 ) -> Result<serde_json::Value, String> {
     if case != "elastic" && case != "joints" {
         return Err(format!(
-            "bench: unknown case '{case}'; available: elastic, joints, detection, fragmented, rebars"
+            "bench: unknown case '{case}'; available: elastic, joints, detection, fragmented, rebars, rigid"
         ));
     }
     let formulation = Formulation::from_name(material)
@@ -551,6 +553,35 @@ pub fn bench_rebars(tets: usize, steps: u64) -> Result<serde_json::Value, String
         "dt": sim.dt,
         "stages_without_rebars": plain_stages,
         "stages": stages,
+    }))
+}
+
+/// Rigid-body benchmark: the elastic case's box (≈`tets` tets, continuous) against the same
+/// mesh as one rigid body spinning at (1, 2, 3) rad/s, both at the deformable model's dt.
+/// Reports the seconds per step of each and their ratio (target < 0.1: a rigid body costs a
+/// force gather and a node update, no element forces).
+pub fn bench_rigid(tets: usize, steps: u64, material: &str) -> Result<serde_json::Value, String> {
+    let formulation = Formulation::from_name(material)
+        .ok_or_else(|| format!("bench: unknown material law '{material}'"))?;
+    let mut soft = bench_model(tets, formulation, Layout::Continuous);
+    let (soft_s, soft_stages) = time_steps(&mut soft, steps)?;
+    let mut rigid = bench_model(tets, formulation, Layout::Rigid);
+    rigid.settings.dt = Some(soft.dt);
+    rigid.set_body_spin(0, Vec3::new(1.0, 2.0, 3.0), None);
+    let (rigid_s, rigid_stages) = time_steps(&mut rigid, steps)?;
+    let per_step = |s: f64| s / steps as f64;
+    Ok(serde_json::json!({
+        "case": "rigid",
+        "material": material,
+        "tets": soft.tets.len(),
+        "nodes": soft.nodes.len(),
+        "steps": steps,
+        "threads": rayon::current_num_threads(),
+        "deformable_seconds_per_step": per_step(soft_s),
+        "rigid_seconds_per_step": per_step(rigid_s),
+        "rigid_over_deformable": rigid_s / soft_s,
+        "deformable_stages": soft_stages,
+        "rigid_stages": rigid_stages,
     }))
 }
 

@@ -396,6 +396,10 @@ let b = bond_law("fib2010", #{ fcm: 47.0e6 });
         ("bond_law(\"fib2010\", #{ fcm: 47.0e6, confinement: \"loose\" });", "confinement \"loose\""),
         ("bond_law(\"fib2010\", #{ confinement: \"confined\" });", "'fcm'"),
         ("sim.rebar(beam, #{ points: [[0.1, 0.1, 0.1]], diameter: 0.02, steel: s, bond: b });", "at least 2 points"),
+        (
+            "let plate = sim.add_body(\"plate\", box(#{ min: [0.0, 0.0, 0.4], max: [0.2, 0.2, 0.5] }).mesh(#{ divisions: [1, 1, 1] }), concrete, #{ layout: \"rigid\" }); sim.rebar(plate, #{ points: [[0.05, 0.1, 0.45], [0.15, 0.1, 0.45]], diameter: 0.02, steel: s, bond: b, name: \"in_plate\" });",
+            "rebar 'in_plate': the host body 'plate' is rigid",
+        ),
     ] {
         let e = fdem::script::run_source(&script, &format!("{head}{call}"), Default::default())
             .err()

@@ -406,6 +406,8 @@ expect_within("glue", sim.insert_joints(#{ between: [slab, b], law: glue, gap_to
 let t = sim.add_body("t", tet_mesh(#{ nodes: [[0.0, 0.0, 11.0], [1.0, 0.0, 11.0], [0.0, 1.0, 11.0], [0.0, 0.0, 12.0]], tets: [[0, 1, 2, 3]] }), m);
 let bricks = array(mesh.copy().mirror(#{ point: [0.0, 0.0, 20.0], normal: [0.0, 0.0, 1.0] }), #{ count: [2, 1, 1], spacing: [1.0, 0.0, 0.0] });
 let br = sim.add_body("brick", bricks[1], m);
+let rg = sim.add_body("rg", box(#{ min: [0.0, 0.0, 30.0], max: [1.0, 0.5, 30.5] }).mesh(#{ divisions: [2, 1, 1] }), m, #{ layout: "rigid" });
+rg.prescribe_velocity(#{ x: 0.0, y: table([[0.0, 0.0], [1.0, 1.0]]), z: 0.0, rotation: "fixed" });
 let c = b.copy("c");
 c.translate([0.0, 0.0, 2.0]);
 let faces = b.boundary(#{ normal: [1.0, 0.0, 0.0], tolerance: 1.0, within: half_space(#{ point: [0.9, 0.0, 0.0], normal: [1.0, 0.0, 0.0] }) });

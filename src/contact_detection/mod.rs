@@ -182,10 +182,7 @@ pub fn update_pairs(
             .par_iter()
             .map(|&e| Aabb::of_points(&tn[e as usize].map(|n| x[n as usize])).inflate(half)),
     );
-    let continuous: Vec<bool> = bodies
-        .iter()
-        .map(|b| b.layout == Layout::Continuous)
-        .collect();
+    let continuous: Vec<bool> = bodies.iter().map(|b| b.layout != Layout::Jointed).collect();
     let filter = CandidateFilter {
         surface: &cd.surface,
         fragment: &cd.fragment,
@@ -337,7 +334,7 @@ fn refresh_surface(
     for b in bodies {
         match b.layout {
             Layout::Jointed => free[b.tets.clone()].iter_mut().for_each(|f| *f = 4),
-            Layout::Continuous => {
+            Layout::Continuous | Layout::Rigid => {
                 for f in &b.boundary {
                     free[f.tet as usize] += 1;
                 }

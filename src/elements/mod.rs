@@ -72,7 +72,7 @@ impl ElementsWorkspace {
         let shared = bodies
             .iter()
             .map(|b| {
-                if owns_nodes_in_order(b, tets) {
+                if owns_nodes_in_order(b, tets) || b.layout == Layout::Rigid {
                     return None;
                 }
                 let nn = b.nodes.len();
@@ -108,6 +108,9 @@ impl ElementsWorkspace {
         for (i, b) in bodies.iter().enumerate() {
             // Node ranges follow body order (groups hand out disjoint node slices).
             debug_assert!(i == 0 || bodies[i - 1].nodes.end <= b.nodes.start);
+            if b.layout == Layout::Rigid {
+                continue; // no element forces: the body moves rigidly (integration::rigid)
+            }
             if b.tets.len() >= BIG_BODY {
                 big.push(i);
                 continue;
@@ -155,9 +158,13 @@ pub fn lumped_masses(nodes: &mut Nodes, tets: &Tets, materials: &[Material]) {
 }
 
 /// This stage's share of the time-step limit: the smallest critical step of the central
-/// difference over all elements [s], and the element that sets it.
+/// difference over all elements [s], and the element that sets it. Tets of rigid bodies do
+/// not deform and do not count; when every tet is rigid the answer is (∞, 0).
 pub fn critical_time_step(tets: &Tets, materials: &[Material]) -> (Real, usize) {
-    tet4::critical_time_step(tets, materials)
+    match tet4::critical_time_step(tets, materials) {
+        (dt, usize::MAX) => (dt, 0),
+        found => found,
+    }
 }
 
 /// Stage 1: add the internal (elastic + viscous) forces of every tetrahedron to `nodes.f`.
@@ -244,6 +251,9 @@ fn small_body_runs(k: &Kernel, bodies: &[Body], f: &mut [Vec3], ws: &mut Element
             let mut s = ElementSums::default();
             for bi in run.clone() {
                 let b = &bodies[bi];
+                if b.layout == Layout::Rigid {
+                    continue;
+                }
                 // SAFETY: runs are disjoint ranges of bodies, whose node ranges are disjoint
                 // (checked when the runs are built), and each body's gather data belongs to
                 // it alone; `f` and `ws.shared` outlive this parallel section.

@@ -18,10 +18,13 @@
 //! a structure is not damped, only its motion relative to its base.
 //!
 //! Energy terms are summed over fixed-size chunks in a fixed order, so they are identical
-//! for any thread count.
+//! for any thread count. Nodes of rigid bodies are skipped here: [`rigid`] moves them with
+//! their body's six degrees of freedom.
+
+pub mod rigid;
 
 use crate::math::{Real, Vec3};
-use crate::state::Nodes;
+use crate::state::{Nodes, RIGID_NODE};
 use rayon::prelude::*;
 
 /// Nodes per parallel work item (fixed for deterministic partial sums).
@@ -52,6 +55,20 @@ pub struct IntegrationSums {
     /// Σ m·v(t + dt/2) over all nodes (every step) [kg·m/s]: dt times it is the change of
     /// Σ m·x, with which the work of a uniform body acceleration is booked.
     pub momentum: Vec3,
+}
+
+impl IntegrationSums {
+    /// Add another set of sums (a chunk's, the rigid bodies').
+    pub fn add(&mut self, s: &IntegrationSums) {
+        self.kinetic += s.kinetic;
+        self.gravity_work += s.gravity_work;
+        self.reaction_work_before += s.reaction_work_before;
+        self.reaction_work_after += s.reaction_work_after;
+        self.damping_before += s.damping_before;
+        self.damping_after += s.damping_after;
+        self.non_finite += s.non_finite;
+        self.momentum += s.momentum;
+    }
 }
 
 /// Step parameters.
@@ -106,11 +123,14 @@ pub fn central_difference(
             let mut finite_probe = 0.0;
             for i in 0..xs.len() {
                 let n = base + i;
+                let mask = constraint[n];
+                if mask & RIGID_NODE != 0 {
+                    continue; // moved by its rigid body (rigid::advance)
+                }
                 let mass = m[n];
                 let v_old = vs[i];
                 let acc = fs[i] / mass + body;
                 let mut v_new = (v_old * c_old + (acc + frame_push) * dt_bar) * c_inv;
-                let mask = constraint[n];
                 if mask != 0 {
                     let mut r = Vec3::zeros();
                     for k in 0..3 {
@@ -166,14 +186,7 @@ pub fn central_difference(
     partials
         .iter()
         .fold(IntegrationSums::default(), |mut a, s| {
-            a.kinetic += s.kinetic;
-            a.gravity_work += s.gravity_work;
-            a.reaction_work_before += s.reaction_work_before;
-            a.reaction_work_after += s.reaction_work_after;
-            a.damping_before += s.damping_before;
-            a.damping_after += s.damping_after;
-            a.non_finite += s.non_finite;
-            a.momentum += s.momentum;
+            a.add(s);
             a
         })
 }

@@ -243,6 +243,12 @@ impl Joints {
         law: u32,
         keep: impl Fn(&Vec3) -> bool,
     ) -> Result<usize, String> {
+        if body.layout == Layout::Rigid {
+            return Err(format!(
+                "body '{}' is rigid: it does not deform or break, so it takes no joints (add it with #{{ layout: \"jointed\" }} to crack it)",
+                body.name
+            ));
+        }
         if body.layout != Layout::Jointed {
             return Err(format!(
                 "body '{}' is continuous: its tetrahedra share nodes and cannot be separated; add it with #{{ layout: \"jointed\" }} to insert joints",

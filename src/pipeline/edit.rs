@@ -1,6 +1,7 @@
 //! Edits of a model between runs: moving bodies in their reference placement, constraints,
-//! prescribed velocities, applied forces, ground shaking and initial velocities. Each is what
-//! the script functions of the same name do, callable from Rust.
+//! prescribed velocities, applied forces and ground shaking (initial velocities and the
+//! body-level edits are in `rigid.rs`). Each is what the script functions of the same name
+//! do, callable from Rust.
 
 use super::{SimError, Simulation};
 use crate::loads::{
@@ -54,6 +55,7 @@ impl Simulation {
                 .try_inverse()
                 .expect("rigid motion keeps tets non-degenerate");
         }
+        self.rigid_moved(body);
         self.invalidate();
         Ok(())
     }
@@ -130,12 +132,5 @@ impl Simulation {
         self.loads.shaking.push(Shaking::new(records, start, kind));
         self.invalidate();
         Ok(())
-    }
-
-    /// Set the velocity of `nodes` to `v` [m/s] now (an initial condition before a run).
-    pub fn set_velocity(&mut self, nodes: &[u32], v: Vec3) {
-        for &i in nodes {
-            self.nodes.v[i as usize] = v;
-        }
     }
 }

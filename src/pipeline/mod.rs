@@ -10,6 +10,7 @@ mod queries;
 mod reinforcement;
 
 pub use reinforcement::RebarSpec;
+mod rigid;
 
 use crate::contact_detection::{self, ContactDetection};
 use crate::contact_interaction::{self, ContactInteraction};
@@ -278,6 +279,8 @@ pub struct Simulation {
     pub bodies: Vec<Body>,
     pub materials: Vec<Material>,
     pub loads: Loads,
+    /// Rigid bodies (stage 7): their six degrees of freedom, constraints and results.
+    pub rigid: integration::rigid::RigidBodies,
     /// Joint elements (stage 2) and their laws.
     pub joints: crate::joints::Joints,
     /// Joints broken so far (stage 3), in the order they broke.
@@ -370,7 +373,7 @@ impl Simulation {
         let tet_start = self.tets.len();
         // Simulation node ids of each tet's corners.
         let tet_nodes: Vec<[u32; 4]> = match layout {
-            Layout::Continuous => {
+            Layout::Continuous | Layout::Rigid => {
                 for p in &mesh.nodes {
                     self.nodes.push(*p, id as u32);
                 }
@@ -399,6 +402,7 @@ impl Simulation {
             self.tets.vol0.push(vol0);
             self.tets.material.push(material);
             self.tets.body.push(id as u32);
+            self.tets.rigid.push(layout == Layout::Rigid);
         }
         let boundary = boundary_faces(mesh)
             .into_iter()
@@ -421,6 +425,9 @@ impl Simulation {
             boundary,
             mesh: mesh.clone(),
         });
+        if layout == Layout::Rigid {
+            self.add_rigid(id);
+        }
         Ok(id)
     }
 
@@ -548,6 +555,7 @@ impl Simulation {
         self.integration_partials =
             Vec::with_capacity(self.nodes.len().div_ceil(integration::CHUNK));
         self.loads.apply_constraint_masks(&mut self.nodes);
+        self.prepare_rigid()?;
         self.joints.prepare(self.nodes.len());
         if self.contact.is_enabled() {
             self.contact.prepare(&self.materials, &self.tets);
@@ -584,13 +592,17 @@ impl Simulation {
         }
         // Contact springs likewise (stage 5's bound).
         if self.contact.is_enabled() {
-            let w2 = self.contact.max_omega2(&self.tets, &self.nodes.m);
+            let mass = self.rigid.contact_masses(&self.nodes.m);
+            let w2 = self.contact.max_omega2(&self.tets, mass);
             let w = 2.0 / critical;
             critical = 2.0 / (w * w + w2).sqrt();
             if joints_note.is_none() {
                 joints_note = Some((usize::MAX, critical_tets));
             }
             contact_lowered = true;
+        }
+        if !critical.is_finite() && self.settings.dt.is_none() {
+            return Err(SimError::Invalid("every body is rigid and contact is off: nothing limits the time step; set it with sim.integrator(\"central_difference\", #{ dt })".into()));
         }
         let body = &self.bodies[self.tets.body[tet] as usize];
         let centroid = self.reference_centroid(tet);
@@ -687,7 +699,13 @@ impl Simulation {
             sample,
         };
         let is = timed(&mut self.timers, Stage::Integration, || {
-            integration::central_difference(&mut self.nodes, params, &mut self.integration_partials)
+            let mut is = integration::central_difference(
+                &mut self.nodes,
+                params,
+                &mut self.integration_partials,
+            );
+            integration::rigid::advance(&mut self.rigid, &mut self.nodes, params, time, &mut is);
+            is
         });
         self.account(sample, &el, &js, &is, (&bs, &bond))?;
         self.dt_prev = dt;

@@ -10,14 +10,15 @@ use crate::math::{von_mises, Mat3, Real, Vec3};
 use crate::mesh::{BoundaryFace, FaceFilter};
 
 impl Simulation {
-    /// Kinetic energy ½Σm|v|² from the current half-step velocities [J].
+    /// Kinetic energy ½Σm|v|² from the current half-step velocities [J]; rigid bodies count
+    /// as ½M|V|² + ½ω·L (their nodes are left out).
     pub fn kinetic_energy_now(&self) -> Real {
-        self.nodes
-            .m
-            .iter()
-            .zip(&self.nodes.v)
-            .map(|(m, v)| 0.5 * m * v.norm_squared())
-            .sum()
+        let rigid = crate::state::Layout::Rigid;
+        let nodes: Real = (0..self.nodes.len())
+            .filter(|&n| self.bodies[self.nodes.body[n] as usize].layout != rigid)
+            .map(|n| 0.5 * self.nodes.m[n] * self.nodes.v[n].norm_squared())
+            .sum();
+        nodes + self.rigid_kinetic_energy()
     }
 
     /// Strain energy of the current configuration [J].

@@ -372,8 +372,15 @@ pub const ADD_BODY_KEYS: &[Key] = &[key(
     "string",
     "",
     "\"continuous\"",
-    "\"continuous\": tetrahedra share nodes (unbreakable). \"jointed\": every tetrahedron owns its 4 nodes (node multiplicity), to be held by joint elements.",
+    "\"continuous\": tetrahedra share nodes (unbreakable). \"jointed\": every tetrahedron owns its 4 nodes (node multiplicity), to be held by joint elements. \"rigid\": the body does not deform; it moves with 6 degrees of freedom (mass and inertia from its tetrahedra), touches others through its surface and costs no element forces (drop weights, platens, shaking tables; docs/theory/integration.md#rigid-bodies). Its nodes cannot be fixed one by one: use `body.fix()` or `body.prescribe_velocity(..)`; it takes no joints.",
 )];
+
+pub const BODY_VELOCITY_KEYS: &[Key] = &[
+    key("x", "table|float", "m/s", "free", "Velocity of the centre of mass along x (a number or a `table` of time), evaluated at mid-step."),
+    key("y", "table|float", "m/s", "free", "Along y."),
+    key("z", "table|float", "m/s", "free", "Along z."),
+    key("rotation", "string", "", "as before (free)", "\"fixed\": the body does not rotate; \"free\": it rotates under the torques."),
+];
 pub const BOUNDARY_KEYS: &[Key] = &[
     key(
         "normal",
@@ -560,6 +567,18 @@ pub const API: &[FnDoc] = &[
     FnDoc { section: "Bodies and selections", name: "sim.nodes", signature: "sim.nodes(shape) -> Nodes", summary: "Nodes of all bodies inside a region.", keys: &[], laws: &[] },
     FnDoc { section: "Bodies and selections", name: "body.elements", signature: "body.elements([shape]) -> Elements", summary: "The body's tetrahedra, or those whose centroid is inside a region.", keys: &[], laws: &[] },
     FnDoc { section: "Bodies and selections", name: "body.boundary", signature: "body.boundary([#{ … }]) -> Faces", summary: "Outer boundary faces of the body, optionally filtered. `faces.nodes()` gives their nodes, `faces.area` their area [m²].", keys: BOUNDARY_KEYS, laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.set_velocity", signature: "body.set_velocity([vx, vy, vz])",
+        summary: "Give every point of the body the velocity [m/s] now, without spin (an initial condition; rigid or deformable).", keys: &[], laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.set_spin", signature: "body.set_spin([wx, wy, wz] [, centre])",
+        summary: "Spin the body at ω [rad/s] about the axis through `centre` [m] (default: its centre of mass) on top of the velocity V its centre of mass had: v(x) = V + ω × (x − centre). A rigid body gets the angular momentum L = I·ω (exact inertia).", keys: &[], laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.fix", signature: "body.fix()",
+        summary: "Hold the body: a rigid body does not move or rotate (`body.reaction()` and `body.reaction_torque()` report what holds it); a deformable body has all its nodes fixed.", keys: &[], laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.prescribe_velocity", signature: "body.prescribe_velocity(#{ … })",
+        summary: "Impose the velocity of a rigid body's centre of mass per component [m/s] (numbers or tables of time; later calls win per component) and hold or free its rotation (a platen at constant speed: `#{ z: -0.01, x: 0.0, y: 0.0, rotation: \"fixed\" }`). An error for a deformable body (use `sim.prescribe_velocity(body.nodes(), ..)`).", keys: BODY_VELOCITY_KEYS, laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.center_of_mass", signature: "body.center_of_mass(), body.velocity() -> [x, y, z]",
+        summary: "Centre of mass now [m] and its velocity at the last half step [m/s] (rigid or deformable).", keys: &[], laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.force", signature: "body.force(), body.torque(), body.acceleration(), body.mass_acceleration(), body.angular_velocity(), body.reaction(), body.reaction_torque() -> [x, y, z]; body.inertia() -> 3×3",
+        summary: "A rigid body in the last step: resultant of the nodal forces on it (contact and applied loads, without gravity and the constraint) [N] and their moment about the centre of mass [N·m]; acceleration of the centre of mass (V(t+dt/2) − V(t−dt/2))/dt̄ [m/s²] and mass × acceleration [N] (= force + weight + reaction); angular velocity [rad/s]; force and torque of the constraint (`fix`, `prescribe_velocity`) [N], [N·m]; inertia tensor about the centre of mass in the current orientation [kg·m²]. An error naming the body if it is not rigid.", keys: &[], laws: &[] },
     FnDoc { section: "Bodies and selections", name: "set + set", signature: "nodes + nodes -> Nodes", summary: "Union of node sets (also for elements). All sets have `len()`.", keys: &[], laws: &[] },
     // ── Joints and fracture
     FnDoc { section: "Joints and fracture", name: "joint_law", signature: "joint_law(law, #{ … }) -> JointLaw",

@@ -126,9 +126,10 @@ fn add_body(
             match o.string("layout")?.as_deref() {
                 None | Some("continuous") => Layout::Continuous,
                 Some("jointed") => Layout::Jointed,
+                Some("rigid") => Layout::Rigid,
                 Some(x) => {
                     return err(format!(
-                        "add_body(): layout \"{x}\" is not \"continuous\" or \"jointed\""
+                        "add_body(): layout \"{x}\" is not \"continuous\", \"jointed\" or \"rigid\""
                     ))
                 }
             }

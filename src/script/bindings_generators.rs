@@ -337,9 +337,10 @@ fn add_blocks(
     let layout = match o.string("layout")?.as_deref() {
         None | Some("continuous") => Layout::Continuous,
         Some("jointed") => Layout::Jointed,
+        Some("rigid") => Layout::Rigid,
         Some(x) => {
             return err(format!(
-                "add_blocks(): layout \"{x}\" is not \"continuous\" or \"jointed\""
+                "add_blocks(): layout \"{x}\" is not \"continuous\", \"jointed\" or \"rigid\""
             ))
         }
     };

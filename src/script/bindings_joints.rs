@@ -69,6 +69,9 @@ pub fn register(engine: &mut Engine) {
             }
             let gap = o.positive("gap_tolerance")?.unwrap_or(tol);
             let list: Vec<crate::state::Body> = bodies.iter().map(|b| st.sim.bodies[b.id].clone()).collect();
+            if let Some(b) = list.iter().find(|b| b.layout == crate::state::Layout::Rigid) {
+                return err(format!("insert_joints(): body '{}' is rigid: it cannot be glued by joints (they need faces that move apart); let contact hold it, or make it \"continuous\"", b.name));
+            }
             let young = list.iter().map(|b| st.sim.materials[b.material as usize].young).fold(f64::INFINITY, f64::min);
             let id = st.sim.joints.add_law(resolve(young));
             let x0 = st.sim.nodes.x0.clone();

@@ -46,8 +46,10 @@ pub fn register(engine: &mut Engine) {
         "initial_velocity",
         |s: &mut SimHandle, n: NodeSet, v: Array| -> RhaiResult<()> {
             let v = vec3_arg(&v, "initial_velocity()")?;
-            s.0.borrow_mut().sim.set_velocity(&n.0, v);
-            Ok(())
+            s.0.borrow_mut()
+                .sim
+                .set_velocity(&n.0, v)
+                .map_err(|e| format!("initial_velocity(): {e}").into())
         },
     );
     register_tables(engine);
@@ -87,7 +89,7 @@ fn register_tables(engine: &mut Engine) {
 }
 
 /// A number or a `Table` as a function of time.
-fn time_fn(d: &Dynamic, what: &str) -> RhaiResult<TimeFunction> {
+pub(super) fn time_fn(d: &Dynamic, what: &str) -> RhaiResult<TimeFunction> {
     if let Some(t) = d.clone().try_cast::<Table>() {
         return Ok(t.0);
     }

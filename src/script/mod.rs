@@ -16,6 +16,7 @@ mod bindings_mesh_io;
 mod bindings_params;
 mod bindings_queries;
 mod bindings_reinforcement;
+mod bindings_rigid;
 mod bindings_simulation;
 pub mod numbers;
 pub mod opts;
@@ -107,6 +108,7 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     bindings_simulation::register(&mut engine, ctx.clone());
     bindings_materials::register(&mut engine);
     bindings_bodies::register(&mut engine);
+    bindings_rigid::register(&mut engine);
     bindings_loads::register(&mut engine);
     bindings_ground_motion::register(&mut engine);
     bindings_queries::register(&mut engine);

@@ -19,7 +19,8 @@ pub struct Nodes {
     pub m: Vec<Real>,
     /// Body id.
     pub body: Vec<u32>,
-    /// Constrained components: bit 0 = x, 1 = y, 2 = z.
+    /// Constrained components: bit 0 = x, 1 = y, 2 = z; [`RIGID_NODE`] marks a node moved by
+    /// its rigid body (stage 7's central difference skips it).
     pub constraint: Vec<u8>,
     /// Prescribed velocity of constrained components at t + dt/2 [m/s] (set by stage 6).
     pub v_prescribed: Vec<Vec3>,
@@ -47,6 +48,10 @@ impl Nodes {
     }
 }
 
+/// Bit of [`Nodes::constraint`] set on the nodes of rigid bodies (by the rigid-body prepare;
+/// a rigid body's nodes follow its 6 degrees of freedom, see `integration::rigid`).
+pub const RIGID_NODE: u8 = 0b1000;
+
 /// Tetrahedron arrays (contiguous, indexed by element id).
 #[derive(Clone, Debug, Default)]
 pub struct Tets {
@@ -57,6 +62,9 @@ pub struct Tets {
     pub vol0: Vec<Real>,
     pub material: Vec<u32>,
     pub body: Vec<u32>,
+    /// The tet belongs to a rigid body: stage 1 computes no force for it and it does not
+    /// limit the time step.
+    pub rigid: Vec<bool>,
 }
 
 impl Tets {
@@ -78,6 +86,9 @@ pub enum Layout {
     /// layout's nodes on large meshes (a jointed body has 4 nodes per tet; a shared-node mesh
     /// has ~5–6 tets per node).
     Continuous,
+    /// Shared nodes like `Continuous`, but the body does not deform: it moves with 6 degrees
+    /// of freedom (`integration::rigid`); its tets only give it mass, inertia and a surface.
+    Rigid,
 }
 
 impl Layout {
@@ -85,6 +96,7 @@ impl Layout {
         match self {
             Layout::Jointed => "jointed",
             Layout::Continuous => "continuous",
+            Layout::Rigid => "rigid",
         }
     }
 }

@@ -143,11 +143,13 @@ pub fn lumped_masses(nodes: &mut Nodes, tets: &Tets, materials: &[Material]) {
 }
 
 /// The smallest critical time step over all tets [s] and the tet that sets it (the lowest id
-/// among equals, so the answer does not depend on threads).
+/// among equals, so the answer does not depend on threads). Tets of rigid bodies are left
+/// out; with none left, (∞, usize::MAX).
 pub fn critical_time_step(tets: &Tets, materials: &[Material]) -> (Real, usize) {
     use rayon::prelude::*;
     (0..tets.len())
         .into_par_iter()
+        .filter(|&e| tets.rigid.get(e) != Some(&true))
         .map(|e| {
             (
                 tet_critical_dt(&tets.dm_inv[e], &materials[tets.material[e] as usize]),
