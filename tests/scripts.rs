@@ -406,6 +406,16 @@ expect_within("glue", sim.insert_joints(#{ between: [slab, b], law: glue, gap_to
 let t = sim.add_body("t", tet_mesh(#{ nodes: [[0.0, 0.0, 11.0], [1.0, 0.0, 11.0], [0.0, 1.0, 11.0], [0.0, 0.0, 12.0]], tets: [[0, 1, 2, 3]] }), m);
 let bricks = array(mesh.copy().mirror(#{ point: [0.0, 0.0, 20.0], normal: [0.0, 0.0, 1.0] }), #{ count: [2, 1, 1], spacing: [1.0, 0.0, 0.0] });
 let br = sim.add_body("brick", bricks[1], m);
+fn elastic_steel(b, p) { #{ stress: b.young * (b.strain - b.plastic_strain), plastic_strain: b.plastic_strain, history: b.history } }
+fn flat_bond(b, p) { p.tau }
+let st1 = steel(#{ density: 7800.0, young: 2e11, yield_stress: 4e8, hardening: 1e9, ultimate_strain: 0.2, rate_c: 40.4, rate_p: 5.0 });
+let st2 = steel("bilinear", #{ yield_stress: 4e8, ultimate_stress: 5e8, ultimate_strain: 0.2 });
+let st3 = steel("script", #{ function: "elastic_steel", params: #{ k: 1.0 }, density: 7800.0, young: 2e11, ultimate_strain: 0.2 });
+let bl1 = bond_law("fib2010", #{ fcm: 3e7, confinement: "stirrups", bond: "other", clear_rib_spacing: 0.01, stiffness: 1e10, transverse_stiffness: 1e11 });
+let bl2 = bond_law("script", #{ function: "flat_bond", params: #{ tau: 1e6 }, stiffness: 1e10, transverse_stiffness: 1e11 });
+let rb = sim.rebar(b, #{ points: straight_bar(b, #{ axis: "x", at: [0.25, 0.25], cover: 0.05 }), diameter: 0.01, area: 8e-5, steel: st1, bond: bl1, segment: 0.3, name: "rb" });
+sim.rebar(b, #{ points: stirrup(b, #{ axis: "x", at: 0.5, cover: 0.05, diameter: 0.01 }), diameter: 0.01, steel: st2, bond: bl2 });
+sim.rebar(b, #{ points: straight_bar(b, #{ axis: "x", at: [0.1, 0.1] }), diameter: 0.01, steel: st3, bond: bl1 });
 let rg = sim.add_body("rg", box(#{ min: [0.0, 0.0, 30.0], max: [1.0, 0.5, 30.5] }).mesh(#{ divisions: [2, 1, 1] }), m, #{ layout: "rigid" });
 rg.prescribe_velocity(#{ x: 0.0, y: table([[0.0, 0.0], [1.0, 1.0]]), z: 0.0, rotation: "fixed" });
 let c = b.copy("c");

@@ -4,7 +4,7 @@
 use super::api::keys_of;
 use super::bindings_joints::compile_from;
 use super::opts::{err, to_vec3, vec3_to_array, Opts, RhaiResult};
-use super::types::{BodyHandle, SimHandle};
+use super::types::{BodyHandle, NodeSet, Shape, SimHandle};
 use super::ScriptContext;
 use crate::elements::bar2::steel::{Steel, STEEL_LAW};
 use crate::joints::bond::{BondLaw, Envelope, BOND_LAW, SCRIPT_BOND_PARAMS};
@@ -276,6 +276,21 @@ fn register_queries(engine: &mut Engine) {
         r.sim.0.borrow().sim.rebars[r.id].name.clone()
     });
     engine.register_get("bars", move |r: &mut RebarHandle| bars_of(r).len() as i64);
+    engine.register_fn("nodes", |r: &mut RebarHandle| {
+        let nodes = r.sim.0.borrow().sim.rebars[r.id].nodes.clone();
+        NodeSet(Rc::new(nodes.map(|n| n as u32).collect()))
+    });
+    engine.register_fn("nodes", |r: &mut RebarHandle, shape: Shape| {
+        let st = r.sim.0.borrow();
+        let tol = st.sim.length_tolerance();
+        let nodes = st.sim.rebars[r.id].nodes.clone();
+        NodeSet(Rc::new(
+            nodes
+                .filter(|&n| shape.0.contains(&st.sim.nodes.x[n], tol))
+                .map(|n| n as u32)
+                .collect(),
+        ))
+    });
     engine.register_fn("axial_forces", move |r: &mut RebarHandle| -> Array {
         let st = r.sim.0.borrow();
         bars_of(r)
