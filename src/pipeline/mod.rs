@@ -854,10 +854,13 @@ impl Simulation {
         );
         let hint = "reduce the time step safety factor or the loading rate, or check the material parameters";
         if let Some(n) = (0..self.nodes.len()).find(|&n| !self.node_is_finite(n)) {
-            let b = &self.bodies[self.nodes.body[n] as usize].name;
+            let owner = match self.rebars.iter().find(|r| r.nodes.contains(&n)) {
+                Some(r) => format!("rebar '{}'", r.name),
+                None => format!("body '{}'", self.bodies[self.nodes.body[n] as usize].name),
+            };
             let p = self.nodes.x0[n];
             return format!(
-                "{} node(s) have non-finite position or velocity {at}; first: node {n} of body '{b}' (reference position ({:.4}, {:.4}, {:.4})); {hint}",
+                "{} node(s) have non-finite position or velocity {at}; first: node {n} of {owner} (reference position ({:.4}, {:.4}, {:.4})); {hint}",
                 (0..self.nodes.len()).filter(|&i| !self.node_is_finite(i)).count(),
                 p.x, p.y, p.z
             );
