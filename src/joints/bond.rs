@@ -40,6 +40,15 @@ compiled::law_signature! {
     pub const BOND_LAW = "bond law" -> ["stress"];
 }
 
+/// k⊥ of every bond law.
+const TRANSVERSE_STIFFNESS: Param = Param::float(
+    "transverse_stiffness",
+    "Pa/m",
+    DefaultValue::Text("E of the host / d"),
+    Range::POSITIVE,
+    "k⊥: stiffness of the host against the bar's transverse displacement.",
+);
+
 /// Parameters of `bond_law("fib2010", #{ … })`.
 pub const FIB2010_PARAMS: &[Param] = &[
     Param::float(
@@ -77,13 +86,7 @@ pub const FIB2010_PARAMS: &[Param] = &[
         Range::POSITIVE,
         "Unloading stiffness k: the elastic slope before the envelope is reached and of every unloading.",
     ),
-    Param::float(
-        "transverse_stiffness",
-        "Pa/m",
-        DefaultValue::Text("E of the host / d"),
-        Range::POSITIVE,
-        "k⊥: stiffness of the host against the bar's transverse displacement.",
-    ),
+    TRANSVERSE_STIFFNESS,
 ];
 
 /// Parameters of `bond_law("script", #{ … })`.
@@ -98,13 +101,7 @@ pub const SCRIPT_BOND_PARAMS: &[Param] = &[
         Range::POSITIVE,
         "Unloading stiffness k (the elastic slope before the envelope is reached).",
     ),
-    Param::float(
-        "transverse_stiffness",
-        "Pa/m",
-        DefaultValue::Text("E of the host / d"),
-        Range::POSITIVE,
-        "k⊥: stiffness of the host against the bar's transverse displacement.",
-    ),
+    TRANSVERSE_STIFFNESS,
 ];
 
 /// The bond laws by registry name, with their parameters.
