@@ -120,8 +120,8 @@ fn steel_bar_in_tension_yields_hardens_unloads_elastically_and_ruptures() {
     // (time, ε, σ, end reaction N, plastic work booked, α) per step until rupture.
     let mut hist: Vec<(Real, Real, Real, Real, Real, Real)> = Vec::new();
     let mut ruptured_at = None;
-    sim.set_velocity(&[n0], Vec3::new(-v, 0.0, 0.0));
-    sim.set_velocity(&[n1], Vec3::new(v, 0.0, 0.0));
+    sim.set_velocity(&[n0], Vec3::new(-v, 0.0, 0.0)).unwrap();
+    sim.set_velocity(&[n1], Vec3::new(v, 0.0, 0.0)).unwrap();
     while sim.time < 0.02 {
         sim.step().unwrap();
         let eps = sim.bars.strain[0];
