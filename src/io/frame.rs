@@ -2,7 +2,6 @@
 
 use super::vtu::{encode_vtu_with, DataArray, Encoding, Field, VtuFrame};
 
-use crate::elements::deformation_gradient;
 use crate::material::StressMeasure;
 use crate::math::von_mises;
 use crate::pipeline::Simulation;
@@ -189,8 +188,7 @@ fn stresses(sim: &Simulation, measure: StressMeasure) -> Vec<[f64; 9]> {
     (0..sim.tets.len())
         .into_par_iter()
         .map(|e| {
-            let f = deformation_gradient(&sim.tets, &sim.nodes.x, e);
-            let s = sim.materials[sim.tets.material[e] as usize].stress(&f, measure);
+            let s = sim.stress(e, measure);
             [
                 s[(0, 0)],
                 s[(0, 1)],

@@ -79,8 +79,18 @@ impl Simulation {
     /// Cauchy stress of tet `e` at the current positions [Pa] (elastic part, as its
     /// material computes it).
     pub fn cauchy_stress(&self, e: usize) -> Mat3 {
+        self.stress(e, StressMeasure::Cauchy)
+    }
+
+    /// Stress `measure` of tet `e` at the current positions [Pa]: its material's, from F; zero
+    /// in a rigid body (it does not deform, and a law that is not objective, such as
+    /// `elastic/small_strain`, would show its rotation as stress).
+    pub fn stress(&self, e: usize, measure: StressMeasure) -> Mat3 {
+        if self.bodies[self.tets.body[e] as usize].layout == crate::state::Layout::Rigid {
+            return Mat3::zeros();
+        }
         let f = elements::deformation_gradient(&self.tets, &self.nodes.x, e);
-        self.materials[self.tets.material[e] as usize].stress(&f, StressMeasure::Cauchy)
+        self.materials[self.tets.material[e] as usize].stress(&f, measure)
     }
 
     /// Mean Cauchy stress of the tets `tets`, weighted by their reference volumes [Pa];
