@@ -86,18 +86,52 @@ pub struct StepParams {
     pub sample: bool,
 }
 
+/// The coefficients of one central-difference step that nodes and rigid bodies share:
+/// dt̄ = (dt_prev + dt)/2, the mass-damping factors (1 − c) and 1/(1 + c) with c = α·dt̄/2,
+/// the two half steps, and the uniform acceleration g + b.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct StepCoefficients {
+    pub dt_bar: Real,
+    pub c_old: Real,
+    pub c_inv: Real,
+    /// The first step (dt_prev = 0): v(−dt/2) is v(0).
+    pub first: bool,
+    pub half_before: Real,
+    pub half_after: Real,
+    pub body: Vec3,
+}
+
+impl StepParams {
+    pub(crate) fn coefficients(&self) -> StepCoefficients {
+        let dt_bar = 0.5 * (self.dt_prev + self.dt);
+        let c = 0.5 * self.mass_damping * dt_bar;
+        StepCoefficients {
+            dt_bar,
+            c_old: 1.0 - c,
+            c_inv: 1.0 / (1.0 + c),
+            first: self.dt_prev == 0.0,
+            half_before: 0.5 * self.dt_prev,
+            half_after: 0.5 * self.dt,
+            body: self.gravity + self.body_acceleration,
+        }
+    }
+}
+
 /// Stage 7: advance velocities and positions by one central-difference step.
 pub fn central_difference(
     nodes: &mut Nodes,
     p: StepParams,
     partials: &mut Vec<IntegrationSums>,
 ) -> IntegrationSums {
-    let dt_bar = 0.5 * (p.dt_prev + p.dt);
-    let c = 0.5 * p.mass_damping * dt_bar;
-    let (c_old, c_inv) = (1.0 - c, 1.0 / (1.0 + c));
-    let first = p.dt_prev == 0.0;
-    let (half_before, half_after) = (0.5 * p.dt_prev, 0.5 * p.dt);
-    let body = p.gravity + p.body_acceleration;
+    let StepCoefficients {
+        dt_bar,
+        c_old,
+        c_inv,
+        first,
+        half_before,
+        half_after,
+        body,
+    } = p.coefficients();
     // Damping towards the frame velocity: (1 + c)·v_new = (1 − c)·v_old + dt̄·(a + α·v_f).
     let frame_push = p.frame_velocity * p.mass_damping;
     let Nodes {

@@ -48,7 +48,7 @@
 //! Deterministic for any thread count: a large body's nodes are gathered in fixed chunks
 //! summed in order, bodies one after another.
 
-use super::{IntegrationSums, StepParams, CHUNK};
+use super::{IntegrationSums, StepCoefficients, StepParams, CHUNK};
 use crate::loads::TimeFunction;
 use crate::math::{Mat3, Real, Vec3};
 use crate::state::{Body, Nodes, Tets, RIGID_NODE};
@@ -391,12 +391,15 @@ fn gather(rb: &mut RigidBody, nodes: &mut Nodes) {
 /// work and damping booked as the nodes book theirs. Returns ω(t−dt/2) and ω(t+dt/2), both
 /// with R(t).
 fn kick(rb: &mut RigidBody, p: StepParams, time: Real, s: &mut IntegrationSums) -> (Vec3, Vec3) {
-    let dt_bar = 0.5 * (p.dt_prev + p.dt);
-    let c = 0.5 * p.mass_damping * dt_bar;
-    let (c_old, c_inv) = (1.0 - c, 1.0 / (1.0 + c));
-    let first = p.dt_prev == 0.0;
-    let (half_before, half_after) = (0.5 * p.dt_prev, 0.5 * p.dt);
-    let body = p.gravity + p.body_acceleration;
+    let StepCoefficients {
+        dt_bar,
+        c_old,
+        c_inv,
+        first,
+        half_before,
+        half_after,
+        body,
+    } = p.coefficients();
     let m = rb.mass;
     let v_old = rb.velocity;
     let acc = rb.force / m + body;
