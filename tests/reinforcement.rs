@@ -266,7 +266,7 @@ fn pull_out_force_follows_the_bond_law_integrated_over_the_bond_length() {
         assert!((f / e - 1.0).abs() < 0.03, "at s̄ = {s}: F = {f} N vs {e} N");
     }
     // The bond's slip dissipation is booked and the account closes: the bond forces are
-    // −∂W/∂x of the bond potential, the axis turning with the bar included (measured 1e-14;
+    // −∂W/∂x of the bond potential, the axis turning with the bar included (measured 3.3e-12;
     // 1e-6 leaves room for round-off over longer runs, while a follower-load bond force, the
     // first version's, had passed 1e-2 by 4 mm before it blew up).
     let en = sim.energy;
