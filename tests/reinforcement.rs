@@ -268,7 +268,7 @@ fn pull_out_force_follows_the_bond_law_integrated_over_the_bond_length() {
     // The bond's slip dissipation is booked and the account closes: the bond forces are
     // −∂W/∂x of the bond potential, the axis turning with the bar included (measured 3.3e-12;
     // 1e-6 leaves room for round-off over longer runs, while a follower-load bond force, the
-    // first version's, had passed 1e-2 by 4 mm before it blew up).
+    // first version's, had passed 1e-2 at 2.5 mm of slip and blew up near 3 mm).
     let en = sim.energy;
     assert!(en.bond_slip > 0.0);
     println!("balance error {:.2e}", en.relative_balance_error());
