@@ -71,17 +71,7 @@ impl Simulation {
         if let Some(rb) = self.rigid.of_body(body) {
             return rb.center;
         }
-        let b = &self.bodies[body];
-        let (mut v, mut first) = (0.0, Vec3::zeros());
-        for e in b.tets.clone() {
-            let x: Vec3 = self.tets.nodes[e]
-                .iter()
-                .map(|&n| self.nodes.x[n as usize])
-                .sum();
-            first += x * (self.tets.vol0[e] / 4.0);
-            v += self.tets.vol0[e];
-        }
-        first / v
+        self.tet_mass_mean(body, &self.nodes.x)
     }
 
     /// Velocity of body `body`'s centre of mass at the last half step [m/s]: the rigid
@@ -90,17 +80,19 @@ impl Simulation {
         if let Some(rb) = self.rigid.of_body(body) {
             return rb.velocity;
         }
-        let b = &self.bodies[body];
-        let (mut v, mut p) = (0.0, Vec3::zeros());
-        for e in b.tets.clone() {
-            let s: Vec3 = self.tets.nodes[e]
-                .iter()
-                .map(|&n| self.nodes.v[n as usize])
-                .sum();
-            p += s * (self.tets.vol0[e] / 4.0);
+        self.tet_mass_mean(body, &self.nodes.v)
+    }
+
+    /// Σ_e V_e·(mean of `field` over tet e's corners) / Σ_e V_e over body `body`'s tets: the
+    /// mass-weighted mean of a nodal field with the lumped masses ρV/4 (one density a body).
+    fn tet_mass_mean(&self, body: usize, field: &[Vec3]) -> Vec3 {
+        let (mut v, mut sum) = (0.0, Vec3::zeros());
+        for e in self.bodies[body].tets.clone() {
+            let s: Vec3 = self.tets.nodes[e].iter().map(|&n| field[n as usize]).sum();
+            sum += s * (self.tets.vol0[e] / 4.0);
             v += self.tets.vol0[e];
         }
-        p / v
+        sum / v
     }
 
     /// Give body `body` the velocity `v` [m/s] at every point now (no spin): a rigid body's
