@@ -398,6 +398,7 @@ pub fn bench(
                 normal_penalty: 3e11,
                 tangential_penalty: 3e11,
                 residual_friction: 0.6,
+                rate: crate::joints::law::RateEffects::None,
             };
             let joint = match joint_law {
                 "builtin" => crate::joints::JointLaw::Cohesive(cohesive),

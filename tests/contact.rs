@@ -620,6 +620,7 @@ fn impact_model() -> (Simulation, usize) {
         normal_penalty: 10.0 * e,
         tangential_penalty: 10.0 * e,
         residual_friction: 0.5,
+        rate: fdem::joints::law::RateEffects::None,
     }));
     let body = sim.bodies[b].clone();
     let (tn, x0) = (sim.tets.nodes.clone(), sim.nodes.x0.clone());

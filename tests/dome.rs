@@ -496,6 +496,7 @@ fn masonry_dome_cracks_along_meridians_below_the_hoop_transition() {
         normal_penalty: 10.0 * e,
         tangential_penalty: 10.0 * e,
         residual_friction: tan_phi,
+        rate: fdem::joints::law::RateEffects::None,
     }));
     let bodies = sim.bodies.clone();
     let refs: Vec<&fdem::state::Body> = bodies.iter().collect();

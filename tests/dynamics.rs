@@ -239,6 +239,7 @@ fn results_are_bit_identical_for_1_and_2_threads() {
                 normal_penalty: 1e9,
                 tangential_penalty: 1e9,
                 residual_friction: 0.6,
+                rate: fdem::joints::law::RateEffects::None,
             },
         ));
         let (body, tets, x0) = (

@@ -104,6 +104,50 @@ pub enum Calibration {
 /// Default penalties of every joint law: p_n = this factor × Young's modulus of the body [-].
 pub const DEFAULT_PENALTY_FACTOR: Real = 10.0;
 
+/// How a cohesive law's strengths depend on the strain rate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RateEffects {
+    /// Rate-independent (the default).
+    None,
+    /// Concrete's dynamic increase factors of the fib Model Code 2010 (§5.1.11.2.1):
+    /// f_t × [`dif_tension_fib2010`](ε̇_n) and c × [`dif_compression_fib2010`](ε̇_c), with the
+    /// joint's loading rates of [`super::RateState`] (its elastic traction over `young`, the
+    /// body's Young's modulus [Pa] set when the joints are inserted, divided by the time
+    /// since its loading began).
+    Fib2010 { young: Real },
+}
+
+/// Highest strain rate the fib MC2010 factors cover [1/s]; faster rates use its factor.
+pub const FIB2010_MAX_RATE: Real = 300.0;
+
+/// fib Model Code 2010 eqs. 5.1-107/108, the tensile strength's dynamic increase factor at
+/// the strain rate ε̇ [1/s]: (ε̇/ε̇₀)^0.018 up to 10 /s, 0.0062·(ε̇/ε̇₀)^(1/3) from 10 to
+/// 300 /s, ε̇₀ = 1e-6 /s. Never below 1 (the given strength is the static one) and held at its
+/// 300 /s value (4.15) beyond.
+pub fn dif_tension_fib2010(rate: Real) -> Real {
+    let r = rate.min(FIB2010_MAX_RATE) / 1e-6;
+    let dif = if rate <= 10.0 {
+        r.powf(0.018)
+    } else {
+        0.0062 * r.cbrt()
+    };
+    dif.max(1.0)
+}
+
+/// fib Model Code 2010 eqs. 5.1-105/106, the compressive strength's dynamic increase factor at
+/// the strain rate |ε̇| [1/s]: (ε̇/ε̇₀)^0.014 up to 30 /s, 0.012·(ε̇/ε̇₀)^(1/3) from 30 to
+/// 300 /s, ε̇₀ = 30e-6 /s (the two branches differ by 1 % at 30 /s, as in the Code). Never
+/// below 1 and held at its 300 /s value (2.59) beyond.
+pub fn dif_compression_fib2010(rate: Real) -> Real {
+    let r = rate.min(FIB2010_MAX_RATE) / 30e-6;
+    let dif = if rate <= 30.0 {
+        r.powf(0.014)
+    } else {
+        0.012 * r.cbrt()
+    };
+    dif.max(1.0)
+}
+
 const NORMAL_PENALTY: Param = Param::float(
     "normal_penalty",
     "Pa",
@@ -133,6 +177,7 @@ pub const COHESIVE_PARAMS: &[Param] = &[
     TANGENTIAL_PENALTY,
     Param::float("residual_friction", "-", DefaultValue::Text("tan(friction_angle)"), Range::NON_NEGATIVE, "Coulomb friction μ of broken joints in compression."),
     Param::other("calibration", "string", "", "\"exact\"", "\"exact\": softening length δt = G/(f·∫z), the joint dissipates G; \"y_compatible\": δt = 3G/f as in the Y codes (dissipates 1.159·G with Munjiza's curve)."),
+    Param::other("rate_effects", "string", "", "\"none\"", "\"fib2010\": the strengths rise with the joint's loading rate as concrete's do with its strain rate (fib Model Code 2010 §5.1.11.2: f_t × DIF_t, c × DIF_c; the rate is the elastic traction over E divided by the time since the loading began), frozen once the joint is damaged; \"none\": rate-independent."),
 ];
 
 /// Parameters of `"tied"`.
@@ -190,6 +235,8 @@ pub struct Cohesive {
     pub tangential_penalty: Real,
     /// μ for broken joints in contact [-]
     pub residual_friction: Real,
+    /// Strain-rate dependence of f_t and c.
+    pub rate: RateEffects,
 }
 
 /// The part of a point's history that every step reads: damage and the maxima. Joints store
@@ -303,6 +350,7 @@ impl Cohesive {
             tangential_penalty: 0.0,
             residual_friction: value(COHESIVE_PARAMS, "residual_friction", given, Real::NAN)?
                 .unwrap_or(tan_friction),
+            rate: RateEffects::None,
         })
     }
 
@@ -333,6 +381,28 @@ impl Cohesive {
     /// stress σ_c (negative in compression).
     pub fn shear_strength(&self, compression: Real) -> Real {
         self.cohesion + (-compression).max(0.0) * self.tan_friction
+    }
+
+    /// The law with its tensile strength × `dif_t` and its cohesion × `dif_c` (a
+    /// rate-dependent law at given dynamic increase factors; the fracture energies are kept).
+    pub fn scaled(&self, dif_t: Real, dif_c: Real) -> Cohesive {
+        Cohesive {
+            tensile_strength: self.tensile_strength * dif_t,
+            cohesion: self.cohesion * dif_c,
+            ..self.clone()
+        }
+    }
+
+    /// Stored energy of an undamaged point at kinematics `k` [J/m²]: the D = 0 potential of
+    /// [`Self::evaluate_with`], ½σ_c·δn (compression) + f_t·δnp·Φ(x_n) + f_s·δsp·Φ(x_s).
+    pub fn intact_energy(&self, k: &PointKinematics, inv_h: Real) -> Real {
+        let (kn, kt) = (self.normal_penalty * inv_h, self.tangential_penalty * inv_h);
+        let compression = if k.opening < 0.0 { kn * k.opening } else { 0.0 };
+        let fs = self.shear_strength(compression);
+        let (dnp, dsp) = (2.0 * self.tensile_strength / kn, 2.0 * fs / kt);
+        0.5 * compression * k.opening.min(0.0)
+            + self.tensile_strength * dnp * prepeak_integral(k.opening.max(0.0) / dnp)
+            + fs * dsp * prepeak_integral(k.slip / dsp)
     }
 
     pub fn consts(&self) -> CohesiveConsts {
@@ -559,6 +629,60 @@ mod tests {
         assert!((integral - Z_INTEGRAL).abs() < 1e-9, "{integral}");
     }
 
+    /// fib Model Code 2010 eqs. 5.1-105…108 at hand-computed points (1e-3): tension
+    /// (ε̇/1e-6)^0.018 = 1.2823 at 1 /s and 1.3366 at 10 /s, 0.0062·(ε̇/1e-6)^(1/3) = 2.8778 at
+    /// 100 /s; compression (ε̇/3e-5)^0.014 = 1.2134 at 30 /s, 0.012·(ε̇/3e-5)^(1/3) = 1.7926 at
+    /// 100 /s. Clamped to 1 below the reference rates and held at the 300 /s values beyond.
+    #[test]
+    fn fib2010_dynamic_increase_factors() {
+        for (rate, dif) in [
+            (1.0, 1.2823),
+            (10.0, 1.3366),
+            (100.0, 2.8778),
+            (300.0, 4.1505),
+        ] {
+            let got = dif_tension_fib2010(rate);
+            assert!((got - dif).abs() < 1e-3, "DIF_t({rate}) = {got}, not {dif}");
+        }
+        for (rate, dif) in [
+            (1.0, 1.1570),
+            (30.0, 1.2134),
+            (100.0, 1.7926),
+            (300.0, 2.5853),
+        ] {
+            let got = dif_compression_fib2010(rate);
+            assert!((got - dif).abs() < 1e-3, "DIF_c({rate}) = {got}, not {dif}");
+        }
+        assert_eq!(dif_tension_fib2010(1e-9), 1.0);
+        assert_eq!(dif_compression_fib2010(0.0), 1.0);
+        assert_eq!(dif_tension_fib2010(1e4), dif_tension_fib2010(300.0));
+        assert_eq!(dif_compression_fib2010(1e4), dif_compression_fib2010(300.0));
+    }
+
+    /// The D = 0 potential used to book a rate-dependent law's change of strength is the
+    /// stored energy the law itself reports (1e-12), in tension, shear and compression.
+    #[test]
+    fn intact_energy_is_the_law_s_stored_energy() {
+        let law = rock();
+        for (dn, ds) in [(1e-7, 0.0), (0.0, 2e-7), (-1e-7, 1e-7), (3e-8, 5e-8)] {
+            let k = PointKinematics {
+                opening: dn,
+                slip: ds,
+                slip_vector: Vec3::new(ds, 0.0, 0.0),
+                normal: Vec3::z(),
+                size: 0.1,
+            };
+            let mut s = PointState::default();
+            let e = law.evaluate(&k, &mut s).energy;
+            assert_eq!(s.damage, 0.0);
+            let got = law.intact_energy(&k, 10.0);
+            assert!(
+                (got - e).abs() <= 1e-12 * e.abs(),
+                "({dn}, {ds}): {got} vs {e}"
+            );
+        }
+    }
+
     fn rock() -> Cohesive {
         Cohesive {
             softening: Softening::Munjiza,
@@ -571,6 +695,7 @@ mod tests {
             normal_penalty: 3e11,
             tangential_penalty: 3e11,
             residual_friction: 0.6,
+            rate: RateEffects::None,
         }
     }
 

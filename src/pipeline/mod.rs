@@ -660,7 +660,7 @@ impl Simulation {
         });
         let (js, bond) = timed(&mut self.timers, Stage::Joints, || {
             (
-                crate::joints::add_joint_forces(&mut self.joints, &mut self.nodes, sample),
+                crate::joints::add_joint_forces(&mut self.joints, &mut self.nodes, time, sample),
                 crate::joints::bond::add_bond_forces(
                     &mut self.bonds,
                     &mut self.nodes,

@@ -4,7 +4,7 @@ use super::api::keys_of;
 use super::opts::{err, vec3_to_array, Opts, RhaiResult};
 use super::types::{BodyHandle, JointLawValue, SimHandle};
 use super::ScriptContext;
-use crate::joints::law::{given_penalties, Calibration, Cohesive, Softening};
+use crate::joints::law::{given_penalties, Calibration, Cohesive, RateEffects, Softening};
 use crate::joints::JointLaw;
 use crate::math::Real;
 use rhai::{Array, Dynamic, Engine, FnPtr, Map};
@@ -45,7 +45,13 @@ pub fn register(engine: &mut Engine) {
         let resolve = |young: f64| {
             let (pn, pt) = crate::joints::law::penalties_or_default(law.penalties, young);
             match (&law.cohesive, &law.script) {
-                (Some(c), _) => JointLaw::Cohesive(Cohesive { normal_penalty: pn, tangential_penalty: pt, ..c.clone() }),
+                (Some(c), _) => {
+                    let rate = match c.rate {
+                        RateEffects::Fib2010 { .. } => RateEffects::Fib2010 { young },
+                        r => r,
+                    };
+                    JointLaw::Cohesive(Cohesive { normal_penalty: pn, tangential_penalty: pt, rate, ..c.clone() })
+                }
                 (None, Some(l)) => JointLaw::Script { law: l.clone(), normal_penalty: pn, tangential_penalty: pt },
                 (None, None) => JointLaw::Tied { normal_penalty: pn, tangential_penalty: pt },
             }
@@ -171,8 +177,18 @@ fn joint_law(ctx: &ScriptContext, kind: &str, m: Map) -> RhaiResult<JointLawValu
             ))
         }
     };
-    let cohesive =
+    let mut cohesive =
         Cohesive::from_params(softening, calibration, &|p| o.given(p)).map_err(|e| o.error(e))?;
+    cohesive.rate = match o.string("rate_effects")?.as_deref() {
+        None | Some("none") => RateEffects::None,
+        // Young's modulus is the body's, set by insert_joints.
+        Some("fib2010") => RateEffects::Fib2010 { young: Real::NAN },
+        Some(x) => {
+            return err(format!(
+                "joint_law(): rate_effects \"{x}\" is not \"none\" or \"fib2010\""
+            ))
+        }
+    };
     Ok(JointLawValue {
         name: kind.into(),
         cohesive: Some(cohesive),
