@@ -12,6 +12,7 @@ mod bindings_hooks;
 mod bindings_joints;
 mod bindings_loads;
 mod bindings_materials;
+mod bindings_measurements;
 mod bindings_mesh_io;
 mod bindings_params;
 mod bindings_queries;
@@ -20,6 +21,8 @@ mod bindings_rigid;
 mod bindings_simulation;
 pub mod numbers;
 pub mod opts;
+pub mod postprocess;
+mod rest;
 mod runner;
 pub mod types;
 
@@ -109,6 +112,7 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     bindings_materials::register(&mut engine);
     bindings_bodies::register(&mut engine);
     bindings_rigid::register(&mut engine);
+    bindings_measurements::register(&mut engine);
     bindings_loads::register(&mut engine);
     bindings_ground_motion::register(&mut engine);
     bindings_queries::register(&mut engine);
@@ -120,6 +124,7 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     bindings_reinforcement::register(&mut engine);
     bindings_reinforcement::register_script_laws(&mut engine, ctx.clone());
     bindings_mesh_io::register(&mut engine, ctx.clone());
+    rest::register(&mut engine, ctx.clone());
     numbers::register(&mut engine);
     // stdlib modules are compiled by this engine (they may call host functions).
     let mut stdlib = StaticModuleResolver::new();
