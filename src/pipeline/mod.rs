@@ -777,8 +777,9 @@ impl Simulation {
     /// The gravity work is sampled as the state function W = Σ m·g·(x − X), exact while g is
     /// constant. When the script changes g between steps (from g_old to g), W would jump by
     /// (g − g_old)·Σ m(x − X) without any work done: that jump is taken out of the running
-    /// sum (`accumulated.gravity_work`), so W grows by g·Δx from then on. Exact to
-    /// O(|Δg|·|Δx|) per change (g's change is booked at x_n, not over the step).
+    /// sum (`accumulated.gravity_work`), so W grows by g·Δx from then on. The change is
+    /// booked at the mid-step position x_n − dt_prev·v_{n−1/2}/2 (trapezoid in g), so a
+    /// gravity ramp keeps the balance to O(dt²).
     fn gravity_changed(&mut self) {
         let g = self.loads.gravity;
         if let Some(g_old) = self.gravity_applied {
@@ -786,11 +787,15 @@ impl Simulation {
                 // Fixed chunks summed in order: the same for any thread count.
                 const CHUNK: usize = 4096;
                 let nodes = &self.nodes;
+                // Booked at the middle of the last step, x_n − dt_prev·v(t − dt/2)/2: the
+                // work of g is then the trapezoid ½(g_old + g)·ΔΣmx over that step, and a
+                // ramp of g keeps the balance to O(dt²) instead of O(dt).
+                let back = 0.5 * self.dt_prev;
                 let partial: Vec<Vec3> = (0..nodes.len().div_ceil(CHUNK))
                     .into_par_iter()
                     .map(|c| {
                         (c * CHUNK..((c + 1) * CHUNK).min(nodes.len()))
-                            .map(|n| (nodes.x[n] - nodes.x0[n]) * nodes.m[n])
+                            .map(|n| (nodes.x[n] - nodes.v[n] * back - nodes.x0[n]) * nodes.m[n])
                             .sum::<Vec3>()
                     })
                     .collect();
