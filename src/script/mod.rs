@@ -99,8 +99,8 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
         .set_max_string_size(16 << 20)
         .set_max_array_size(50_000_000)
         .set_max_map_size(100_000);
-    let c = ctx.clone();
-    engine.on_print(move |s| c.say(s));
+    // The script's own output shows under `fdem check` too (up to its first run).
+    engine.on_print(|s| println!("{s}"));
     engine.on_debug(|s, src, pos| eprintln!("{}:{}: {s}", src.unwrap_or("script"), pos));
     // One `register` per section of the API (api.rs), each in its own bindings_*.rs file.
     // A binding converts Rhai values, calls the core (Simulation, mesh, loads) and turns its
