@@ -225,9 +225,51 @@ fn print_checked_model(script: &Path, s: &SimHandle) {
     );
     match (ready, &sim.dt_info) {
         (Err(e), _) => std::process::exit(fail(&format!("{}: {e}", script.display()))),
-        (Ok(()), Some(i)) => println!("    {i}"),
+        (Ok(()), Some(i)) => {
+            println!("    {i}");
+            if let Some(line) = dt_cost_line(sim) {
+                println!("    {line}");
+            }
+        }
         _ => {}
     }
+}
+
+/// What the worst tetrahedron costs: its own critical step against the median tet's, and the
+/// number of steps the model takes for it (a sliver from a mesher can cut the step tenfold).
+/// None without deformable tets.
+fn dt_cost_line(sim: &Simulation) -> Option<String> {
+    use crate::elements::tet4::tet_critical_dt;
+    let mut dts: Vec<(f64, usize)> = (0..sim.tets.len())
+        .filter(|&e| !sim.tets.rigid.get(e).copied().unwrap_or(false))
+        .map(|e| {
+            let m = &sim.materials[sim.tets.material[e] as usize];
+            (tet_critical_dt(&sim.tets.dm_inv[e], m), e)
+        })
+        .collect();
+    if dts.is_empty() {
+        return None;
+    }
+    dts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let (worst, e) = dts[0];
+    let median = dts[dts.len() / 2].0;
+    let c = sim.reference_centroid(e);
+    let body = &sim.bodies[sim.tets.body[e] as usize].name;
+    let ratio = median / worst;
+    let note = if ratio >= 3.0 {
+        "  <-- WARNING: a poorly shaped or tiny element sets the step; remesh (docs/meshing.md, avoiding slivers)"
+    } else {
+        ""
+    };
+    Some(format!(
+        "worst tet {e} of body '{body}' at ({:.4}, {:.4}, {:.4}) allows {} s; the median tet allows {} s: {}× the steps the median would need{note}",
+        c.x,
+        c.y,
+        c.z,
+        sig(worst, 4),
+        sig(median, 4),
+        sig(ratio, 3)
+    ))
 }
 
 /// Print a benchmark's JSON record (one line if `json`, else pretty); returns the exit code.
@@ -257,7 +299,9 @@ pub fn check_mesh_file(path: &std::path::Path) -> Result<String, String> {
     let t = Instant::now();
     let imported = match ext.as_str() {
         "msh" => gmsh::read_msh(path).map_err(|e| format!("error: {e}\n"))?,
-        "geo" => gmsh::mesh_geo(path, None).map_err(|e| format!("error: {e}\n"))?,
+        "geo" => gmsh::mesh_geo_cached(path, None)
+            .map(|c| c.imported)
+            .map_err(|e| format!("error: {e}\n"))?,
         _ => {
             return Err(format!(
                 "error: {}: expected a .msh or .geo file\n",

@@ -442,12 +442,17 @@ sim.contact_law("potential", #{ between: [m, m], friction_law: #{ source: "stdli
 sim.contact_detection(#{ skin: 0.01 });
 sim.on_new_contact_pair(|s, pair| ());
 sim.integrator("central_difference", #{ safety: 0.5, dt: 1e-5 });
-sim.damping(#{ mass_proportional: 1.0 });
+sim.damping(#{ mass_proportional: 1.0, frame: "body" });
+sim.gravity([0.0, 0.0, -9.81], #{ ramp: 1e-4, start: 0.0 });
+let sel = b.nodes(cyl, #{ at: "reference" });
+let bb = b.bounds(#{ at: "current" });
 sim.every(#{ steps: 2 }, |s| s.write_vtk());
 sim.every(#{ time: 1e-5 }, |s| ());
 let mon = sim.monitor("m", #{ every: 1 }, |s| s.time);
 sim.run(#{ max_time: 1.0, duration: 1e-4, steps: 5, stop_when: |s| false, check_every: 1 });
 expect_within("steps", sim.step, 5, 5);
+let rest = sim.bring_to_rest(#{ ratio: 1e-3, max_steps: 3, check_every: 1, damping: 1.0 });
+expect_within("rest stage steps", rest.steps, 1, 3);
 let eq = ground_motion("@GM@", #{ format: "at2", units: "g", scale: 0.5, start: 1.0, end: 10.0, baseline: true });
 let eq2 = ground_motion("@GM@", #{ units: "m/s2", pga: 1.0, dt: 0.01 });
 expect_within("records", eq.duration + eq2.duration, 49.0, 50.0);

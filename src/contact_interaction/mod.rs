@@ -166,6 +166,9 @@ pub struct ContactSums {
     pub max_overlap_ratio: Real,
     /// Largest mean pressure |F_n|/A over touching pairs [Pa].
     pub max_pressure: Real,
+    /// Σ A over touching pairs: the contact area (each pair's A is half the area of its
+    /// clipped facets, the area of a thin overlap) [m²].
+    pub area: Real,
     /// The first pair (in pair order) whose friction law gave a μ that is not finite and
     /// ≥ 0 in this step: the run must stop (the pair got μ = 0).
     pub law_failure: Option<FrictionLawFailure>,
@@ -182,6 +185,7 @@ impl ContactSums {
         self.max_overlap = self.max_overlap.max(s.max_overlap);
         self.max_overlap_ratio = self.max_overlap_ratio.max(s.max_overlap_ratio);
         self.max_pressure = self.max_pressure.max(s.max_pressure);
+        self.area += s.area;
         if self.law_failure.is_none() {
             self.law_failure = s.law_failure;
         }
@@ -704,6 +708,7 @@ fn interact(
     sums.active += 1;
     sums.normal_force += fn_mag;
     sums.max_pressure = sums.max_pressure.max(fn_mag / r.area);
+    sums.area += r.area;
     Some(PairOut {
         pair: pi as u32,
         tets: [ea, eb],

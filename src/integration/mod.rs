@@ -117,10 +117,15 @@ impl StepParams {
     }
 }
 
-/// Stage 7: advance velocities and positions by one central-difference step.
+/// Stage 7: advance velocities and positions by one central-difference step. With
+/// `body_frame` (the body of every node and each body's velocity), mass damping acts on the
+/// velocity relative to the node's body, −α·m·(v − V_body), instead of relative to
+/// `p.frame_velocity`: a body's translation is then not damped, only its deformation and
+/// rotation.
 pub fn central_difference(
     nodes: &mut Nodes,
     p: StepParams,
+    body_frame: Option<(&[u32], &[Vec3])>,
     partials: &mut Vec<IntegrationSums>,
 ) -> IntegrationSums {
     let StepCoefficients {
@@ -164,7 +169,14 @@ pub fn central_difference(
                 let mass = m[n];
                 let v_old = vs[i];
                 let acc = fs[i] / mass + body;
-                let mut v_new = (v_old * c_old + (acc + frame_push) * dt_bar) * c_inv;
+                let (frame_v, push) = match body_frame {
+                    None => (p.frame_velocity, frame_push),
+                    Some((of, vb)) => {
+                        let vb = vb[of[n] as usize];
+                        (vb, vb * p.mass_damping)
+                    }
+                };
+                let mut v_new = (v_old * c_old + (acc + push) * dt_bar) * c_inv;
                 if mask != 0 {
                     let mut r = Vec3::zeros();
                     for k in 0..3 {
@@ -182,8 +194,7 @@ pub fn central_difference(
                 }
                 if p.mass_damping > 0.0 {
                     // The damping force −α·m·((v_old + v_new)/2 − v_f), free components only.
-                    let mut fd =
-                        ((v_old + v_new) * 0.5 - p.frame_velocity) * (p.mass_damping * mass);
+                    let mut fd = ((v_old + v_new) * 0.5 - frame_v) * (p.mass_damping * mass);
                     for k in 0..3 {
                         if mask & (1 << k) != 0 {
                             fd[k] = 0.0;

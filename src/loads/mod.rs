@@ -110,6 +110,9 @@ pub fn parse_components(spec: &str) -> Result<[bool; 3], String> {
 pub struct Loads {
     /// Gravitational acceleration g [m/s²], applied to every node by stage 7.
     pub gravity: Vec3,
+    /// Gravity that varies in time: g(t) = g₀·s(t), set into `gravity` by stage 6 at the
+    /// start of every step (None: `gravity` is constant).
+    pub gravity_ramp: Option<(Vec3, TimeFunction)>,
     pub forces: Vec<NodalForces>,
     pub prescribed: Vec<PrescribedVelocity>,
     /// Ground motions driving the model (base motion or relative frame).
@@ -148,6 +151,9 @@ impl Loads {
 /// advance the ground of each shaking over the step (`dt_prev`: the previous step, 0 on the
 /// first). Base motions win over other prescriptions of their nodes.
 pub fn add_external_forces(loads: &mut Loads, nodes: &mut Nodes, t: Real, dt_prev: Real, dt: Real) {
+    if let Some((g0, s)) = &loads.gravity_ramp {
+        loads.gravity = g0 * s.eval(t);
+    }
     let mut work = 0.0;
     for set in &mut loads.forces {
         let s = set.scale.eval(t);

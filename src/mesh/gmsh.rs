@@ -142,22 +142,129 @@ pub fn gmsh_installed() -> bool {
 pub const GMSH_MISSING: &str =
     "gmsh is not installed; install it (Debian: apt-get install gmsh) or give a .msh file";
 
+/// 64-bit FNV-1a: a hash that is the same on every machine and Rust version (cache names).
+pub fn fnv1a(chunks: &[&[u8]]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for c in chunks {
+        for &b in *c {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+        // Separate the chunks, so ("ab", "c") and ("a", "bc") differ.
+        h ^= 0xff;
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    h
+}
+
+/// The gmsh version line (part of the cache key: another gmsh may mesh differently).
+fn gmsh_version() -> String {
+    std::process::Command::new("gmsh")
+        .arg("--version")
+        .output()
+        .map(|o| {
+            format!(
+                "{}{}",
+                String::from_utf8_lossy(&o.stdout),
+                String::from_utf8_lossy(&o.stderr)
+            )
+            .trim()
+            .to_string()
+        })
+        .unwrap_or_default()
+}
+
+/// A `.geo` file meshed through the cache: the mesh, the `.msh` file it was read from, and
+/// whether that file was already there.
+pub struct CachedMesh {
+    pub imported: Imported,
+    pub msh: std::path::PathBuf,
+    pub reused: bool,
+}
+
+/// Mesh a `.geo` file once per content: the `.msh` is kept as
+/// `<dir>/.fdem-cache/<stem>-<hash>.msh` (or in the temporary directory if the `.geo` file's
+/// directory is not writable), the hash covering the `.geo` text, `size` and the gmsh version.
+/// gmsh's 3-D meshers are not all deterministic (HXT is parallel), so `fdem check` and
+/// `fdem run` would otherwise see different meshes. Files the `.geo` merges are not in the key:
+/// delete the cache entry after changing them.
+pub fn mesh_geo_cached(geo: &Path, size: Option<Real>) -> Result<CachedMesh, String> {
+    let text = std::fs::read(geo).map_err(|e| format!("{}: cannot read: {e}", geo.display()))?;
+    if !gmsh_installed() {
+        return Err(format!("{}: {GMSH_MISSING}", geo.display()));
+    }
+    let size_key = size.map(|h| format!("clmax={h:e}")).unwrap_or_default();
+    let version = gmsh_version();
+    let key = fnv1a(&[
+        &text,
+        size_key.as_bytes(),
+        version.as_bytes(),
+        b"-3 -format msh41 -bin",
+    ]);
+    let stem = geo
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "mesh".into());
+    let name = format!("{stem}-{key:016x}.msh");
+    let dir = geo
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+        .join(".fdem-cache");
+    let beside = dir.join(&name);
+    let fallback = std::env::temp_dir().join("fdem-mesh-cache").join(&name);
+    for cached in [&beside, &fallback] {
+        if cached.is_file() {
+            if let Ok(mut m) = read_msh(cached) {
+                m.format = format!("cached gmsh mesh, {}", m.format);
+                return Ok(CachedMesh {
+                    imported: m,
+                    msh: cached.clone(),
+                    reused: true,
+                });
+            }
+        }
+    }
+    let target = if std::fs::create_dir_all(&dir).is_ok() {
+        beside
+    } else {
+        std::fs::create_dir_all(fallback.parent().unwrap_or(Path::new(".")))
+            .map_err(|e| format!("{}: cannot create a mesh cache: {e}", geo.display()))?;
+        fallback
+    };
+    let imported = mesh_geo_to(geo, size, &target)?;
+    Ok(CachedMesh {
+        imported,
+        msh: target,
+        reused: false,
+    })
+}
+
 /// Mesh a `.geo` file with the `gmsh` executable (`gmsh -3 -format msh41 -bin`, run in the
 /// file's directory so that files it merges are found) and import the result. `size` is the
 /// largest element size (`-clmax`).
 pub fn mesh_geo(geo: &Path, size: Option<Real>) -> Result<Imported, String> {
     static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let tmp = std::env::temp_dir().join(format!(
+        "fdem-gmsh-{}-{}.msh",
+        std::process::id(),
+        COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+    ));
+    let r = mesh_geo_to(geo, size, &tmp);
+    let _ = std::fs::remove_file(&tmp);
+    r
+}
+
+/// [`mesh_geo`] writing the `.msh` to `dest` (kept; written under a temporary name and
+/// renamed, so a cache never holds half a file).
+fn mesh_geo_to(geo: &Path, size: Option<Real>, dest: &Path) -> Result<Imported, String> {
     if !geo.is_file() {
         return Err(format!("{}: no such file", geo.display()));
     }
     if !gmsh_installed() {
         return Err(format!("{}: {GMSH_MISSING}", geo.display()));
     }
-    let tmp = std::env::temp_dir().join(format!(
-        "fdem-gmsh-{}-{}.msh",
-        std::process::id(),
-        COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-    ));
+    let tmp = dest.with_extension(format!("part{}.msh", std::process::id()));
     let dir = geo.parent().filter(|d| !d.as_os_str().is_empty());
     let name = geo.file_name().map(Path::new).unwrap_or(geo);
     let mut cmd = std::process::Command::new("gmsh");
@@ -205,6 +312,9 @@ pub fn mesh_geo(geo: &Path, size: Option<Real>) -> Result<Imported, String> {
             m
         })
         .map_err(|e| format!("{}: meshed by gmsh, but: {e}", geo.display()));
+    if r.is_ok() && std::fs::rename(&tmp, dest).is_ok() {
+        return r;
+    }
     let _ = std::fs::remove_file(&tmp);
     r
 }

@@ -53,7 +53,10 @@ pub fn cylinder(radius: Real, length: Real, h: Real) -> Result<Mesh, String> {
     need_positive("radius", radius)?;
     need_positive("length", length)?;
     need_positive("size", h)?;
-    let n = cells(PI * radius / 2.0, h, 2); // cells per quarter of the circle
+    // Cells per quarter of the circle, even, so that a vertex lies at each pole (±x, ±y of
+    // the section): the extremes of the polygon are then ±radius exactly, and a platen set at
+    // the radius touches the disc.
+    let n = 2 * cells(PI * radius / 4.0, h, 1);
     let a = 0.55 * radius; // half-side of the square core
     let m = cells(radius - a, h, 1); // radial cells of the ring blocks
     let nz = cells(length, h, 1);

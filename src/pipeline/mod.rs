@@ -6,9 +6,11 @@
 //! (energies, means over node sets, stresses, body masses, boundary faces) in `queries.rs`.
 
 mod edit;
+mod measurements;
 mod queries;
 mod reinforcement;
 
+pub use measurements::{axis_index, Bounds, Configuration};
 pub use reinforcement::RebarSpec;
 mod rigid;
 
@@ -256,6 +258,9 @@ pub struct Settings {
     pub dt: Option<Real>,
     /// Mass-proportional damping α [1/s].
     pub mass_damping: Real,
+    /// Mass damping acts on velocities relative to each body's centre-of-mass velocity
+    /// (`sim.damping(#{ frame: "body" })`) instead of the ground's.
+    pub damping_relative_to_body: bool,
     /// Sample the energy account every this many steps.
     pub energy_every: u64,
 }
@@ -266,6 +271,7 @@ impl Default for Settings {
             safety: 0.8,
             dt: None,
             mass_damping: 0.0,
+            damping_relative_to_body: false,
             energy_every: 50,
         }
     }
@@ -315,6 +321,8 @@ pub struct Simulation {
     ready: bool,
     elements_ws: ElementsWorkspace,
     integration_partials: Vec<IntegrationSums>,
+    /// Each body's mass-weighted velocity, for damping relative to bodies [m/s].
+    body_frame: Vec<Vec3>,
     contact_energy: Real,
     contact_dissipated: Real,
     /// Gravity of the last step (None before the first): a change (a ramp, a body force
@@ -435,29 +443,43 @@ impl Simulation {
         self.bodies.iter().position(|b| b.name == name)
     }
 
-    /// Nodes inside `region` (optionally of one body), in id order.
+    /// Nodes whose reference position lies inside `region` (optionally of one body), in id
+    /// order. Selections are made on the model as built, whatever it has done since.
     pub fn nodes_in(&self, region: &Region, body: Option<usize>) -> Vec<u32> {
+        self.nodes_in_at(region, body, Configuration::Reference)
+    }
+
+    /// Nodes inside `region` (optionally of one body) in configuration `at`: the reference
+    /// positions X (what [`Self::nodes_in`] uses) or the current positions x.
+    pub fn nodes_in_at(&self, region: &Region, body: Option<usize>, at: Configuration) -> Vec<u32> {
         let range = body
             .map(|b| self.bodies[b].nodes.clone())
             .unwrap_or(0..self.nodes.len());
         let tol = self.length_tolerance();
+        let x = self.positions(at);
         range
-            .filter(|&n| region.contains(&self.nodes.x[n], tol))
+            .filter(|&n| region.contains(&x[n], tol))
             .map(|n| n as u32)
             .collect()
     }
 
-    /// Tets whose centroid lies inside `region` (optionally of one body).
+    /// Tets whose reference centroid lies inside `region` (optionally of one body).
     pub fn tets_in(&self, region: &Region, body: Option<usize>) -> Vec<u32> {
+        self.tets_in_at(region, body, Configuration::Reference)
+    }
+
+    /// Tets whose centroid in configuration `at` lies inside `region`.
+    pub fn tets_in_at(&self, region: &Region, body: Option<usize>, at: Configuration) -> Vec<u32> {
         let range = body
             .map(|b| self.bodies[b].tets.clone())
             .unwrap_or(0..self.tets.len());
         let tol = self.length_tolerance();
+        let x = self.positions(at);
         range
             .filter(|&e| {
                 let c = self.tets.nodes[e]
                     .iter()
-                    .map(|&n| self.nodes.x[n as usize])
+                    .map(|&n| x[n as usize])
                     .sum::<Vec3>()
                     / 4.0;
                 region.contains(&c, tol)
@@ -698,15 +720,35 @@ impl Simulation {
             frame_velocity: self.loads.frame_velocity,
             sample,
         };
+        let body_frame = self.settings.damping_relative_to_body && params.mass_damping > 0.0;
+        if body_frame {
+            self.update_body_frame();
+        }
+        // Stage 7 writes the nodes and reads their body ids: lent out for the step.
+        let node_body = std::mem::take(&mut self.nodes.body);
         let is = timed(&mut self.timers, Stage::Integration, || {
+            let frame = body_frame.then_some((&node_body[..], &self.body_frame[..]));
             let mut is = integration::central_difference(
                 &mut self.nodes,
                 params,
+                frame,
                 &mut self.integration_partials,
             );
-            integration::rigid::advance(&mut self.rigid, &mut self.nodes, params, time, &mut is);
+            // A rigid body's motion is all rigid: relative to itself, nothing to damp.
+            let rigid_params = StepParams {
+                mass_damping: if body_frame { 0.0 } else { params.mass_damping },
+                ..params
+            };
+            integration::rigid::advance(
+                &mut self.rigid,
+                &mut self.nodes,
+                rigid_params,
+                time,
+                &mut is,
+            );
             is
         });
+        self.nodes.body = node_body;
         self.account(sample, &el, &js, &is, (&bs, &bond))?;
         self.dt_prev = dt;
         self.time += dt;
@@ -714,11 +756,30 @@ impl Simulation {
         Ok(())
     }
 
+    /// Each body's mass-weighted mean velocity Σm·v/Σm over its nodes (v at t − dt/2), for
+    /// mass damping relative to bodies. One pass over the nodes, in node order.
+    fn update_body_frame(&mut self) {
+        let nb = self.bodies.len();
+        self.body_frame.clear();
+        self.body_frame.resize(nb, Vec3::zeros());
+        for (b, body) in self.bodies.iter().enumerate() {
+            let (mut m, mut p) = (0.0, Vec3::zeros());
+            for n in body.nodes.clone() {
+                m += self.nodes.m[n];
+                p += self.nodes.v[n] * self.nodes.m[n];
+            }
+            if m > 0.0 {
+                self.body_frame[b] = p / m;
+            }
+        }
+    }
+
     /// The gravity work is sampled as the state function W = Σ m·g·(x − X), exact while g is
     /// constant. When the script changes g between steps (from g_old to g), W would jump by
     /// (g − g_old)·Σ m(x − X) without any work done: that jump is taken out of the running
-    /// sum (`accumulated.gravity_work`), so W grows by g·Δx from then on. Exact to
-    /// O(|Δg|·|Δx|) per change (g's change is booked at x_n, not over the step).
+    /// sum (`accumulated.gravity_work`), so W grows by g·Δx from then on. The change is
+    /// booked at the mid-step position x_n − dt_prev·v_{n−1/2}/2 (trapezoid in g), so a
+    /// gravity ramp keeps the balance to O(dt²).
     fn gravity_changed(&mut self) {
         let g = self.loads.gravity;
         if let Some(g_old) = self.gravity_applied {
@@ -726,11 +787,15 @@ impl Simulation {
                 // Fixed chunks summed in order: the same for any thread count.
                 const CHUNK: usize = 4096;
                 let nodes = &self.nodes;
+                // Booked at the middle of the last step, x_n − dt_prev·v(t − dt/2)/2: the
+                // work of g is then the trapezoid ½(g_old + g)·ΔΣmx over that step, and a
+                // ramp of g keeps the balance to O(dt²) instead of O(dt).
+                let back = 0.5 * self.dt_prev;
                 let partial: Vec<Vec3> = (0..nodes.len().div_ceil(CHUNK))
                     .into_par_iter()
                     .map(|c| {
                         (c * CHUNK..((c + 1) * CHUNK).min(nodes.len()))
-                            .map(|n| (nodes.x[n] - nodes.x0[n]) * nodes.m[n])
+                            .map(|n| (nodes.x[n] - nodes.v[n] * back - nodes.x0[n]) * nodes.m[n])
                             .sum::<Vec3>()
                     })
                     .collect();

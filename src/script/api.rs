@@ -408,13 +408,29 @@ pub const INTEGRATOR_KEYS: &[Key] = &[
     key("safety", "float", "-", "0.8", "dt = safety × critical time step (exact element bound: never above the true critical step)."),
     key("dt", "float", "s", "automatic", "Fixed time step; an error if larger than the critical step."),
 ];
-pub const DAMPING_KEYS: &[Key] = &[key(
-    "mass_proportional",
-    "float",
-    "1/s",
-    "0",
-    "α in the damping force −α·m·v (dynamic relaxation; critical for mode ω at α = 2ω).",
+pub const DAMPING_KEYS: &[Key] = &[
+    key("mass_proportional", "float", "1/s", "0", "α in the damping force −α·m·(v − v_frame) (dynamic relaxation; critical for mode ω at α = 2ω)."),
+    key("frame", "string", "", "\"ground\"", "What velocities are damped relative to: \"ground\" (v_frame = 0, or the ground's velocity under `shake_base`): every motion is resisted, also a body's imposed or free translation; \"body\": each deformable body's centre-of-mass velocity (its translation is not damped, its deformation and rotation are; rigid bodies are not damped). Costs one pass over the nodes per step."),
+];
+/// `at` of selections and bounds.
+pub const SELECT_KEYS: &[Key] = &[key("at", "string", "", "\"reference\"", "Where nodes are tested: \"reference\" (the positions as built: a selection means the same material points whenever it is made) or \"current\" (the positions now).")];
+pub const BOUNDS_KEYS: &[Key] = &[key(
+    "at",
+    "string",
+    "",
+    "\"current\"",
+    "\"current\" (the positions now) or \"reference\" (as built).",
 )];
+pub const GRAVITY_KEYS: &[Key] = &[
+    key("ramp", "float", "s", "required", "Ramp time: g grows linearly from 0 at `start` to its full value at `start` + ramp, then stays."),
+    key("start", "float", "s", "now", "Time the ramp starts."),
+];
+pub const REST_KEYS: &[Key] = &[
+    key("ratio", "float", "-", "1e-6", "At rest when the kinetic energy is at most ratio × the work W at two checks in a row; W = max(|external work|, strain energy)."),
+    key("max_steps", "int", "steps", "200000", "Step cap: the stage ends there, with a warning, if not at rest."),
+    key("check_every", "int", "steps", "50", "How often the kinetic energy is compared (and the adaptive α updated)."),
+    key("damping", "float", "1/s", "adaptive", "Mass-proportional α during the stage. Default: 2ω with ω² = 2U/Σm|u|², the Rayleigh quotient of the current displacement u (≈ the lowest mode once the model sags under its load), updated at every check; until something moved, the damping the model had."),
+];
 pub const EVERY_KEYS: &[Key] = &[
     key("steps", "int", "steps", "-", "Call every this many steps."),
     key(
@@ -506,7 +522,9 @@ pub const API: &[FnDoc] = &[
     FnDoc { section: "Simulation", name: "simulation", signature: "simulation(#{ … }) -> Simulation", summary: "Create an empty model.", keys: SIMULATION_KEYS, laws: &[] },
     FnDoc { section: "Simulation", name: "sim.integrator", signature: "sim.integrator(\"central_difference\", #{ … })",
         summary: "Time-integration options (stage 7). The chosen dt is printed with the element that sets the critical step.", keys: INTEGRATOR_KEYS, laws: &[] },
-    FnDoc { section: "Simulation", name: "sim.damping", signature: "sim.damping(#{ … })", summary: "Mass-proportional damping for quasi-static stages; set 0 to switch it off between runs.", keys: DAMPING_KEYS, laws: &[] },
+    FnDoc { section: "Simulation", name: "sim.damping", signature: "sim.damping(#{ … })", summary: "Mass-proportional damping for quasi-static stages; set 0 to switch it off between runs. It resists every velocity relative to its frame, also imposed ones: under a platen or loading point driven at a speed, the damping force of the nodes that move with it adds to the reaction (about α·v·(moving mass)). For loading by prescribed motion use `frame: \"body\"` (a body's translation is not damped), load slowly against the period of the first mode, or bring the model to rest between load steps with `sim.bring_to_rest(..)` and switch damping off while loading; a material's `viscosity` is damping on the strain rate alone (stiffness-proportional).", keys: DAMPING_KEYS, laws: &[] },
+    FnDoc { section: "Simulation", name: "sim.bring_to_rest", signature: "sim.bring_to_rest(#{ … }) -> #{ converged, steps, time, kinetic, work, ratio, damping }",
+        summary: "A dynamic-relaxation stage: run with mass-proportional damping until the kinetic energy stays below `ratio` × the work done on the model, or `max_steps` (then a warning, and `converged` is false). The damping of the model is restored afterwards; monitors, hooks and output run as in `sim.run`. It cannot end while something is driven at a speed (a prescribed velocity) or slides freely. Example, a column settled under its weight: `sim.gravity([0.0, 0.0, -9.81]); let r = sim.bring_to_rest(#{ ratio: 1e-8 }); print(r.steps);`.", keys: REST_KEYS, laws: &[] },
     FnDoc { section: "Simulation", name: "sim.run", signature: "sim.run(#{ … })",
         summary: "Advance the model. Runs are staged: each continues from where the last stopped. Needs max_time, duration or steps.", keys: RUN_KEYS, laws: &[] },
     // ── Materials
@@ -559,13 +577,13 @@ pub const API: &[FnDoc] = &[
     FnDoc { section: "Bodies and selections", name: "body.copy", signature: "body.copy(name) -> Body", summary: "Add a copy of the body (same mesh, material and layout, at its current reference placement).", keys: &[], laws: &[] },
     FnDoc { section: "Bodies and selections", name: "body.translate", signature: "body.translate([dx, dy, dz])", summary: "Move a body before the first step [m].", keys: &[], laws: &[] },
     FnDoc { section: "Bodies and selections", name: "body.rotate", signature: "body.rotate(#{ … })", summary: "Rotate a body before the first step.", keys: ROTATE_KEYS, laws: &[] },
-    FnDoc { section: "Bodies and selections", name: "body.nodes", signature: "body.nodes([shape]) -> Nodes", summary: "The body's nodes, or those inside a region (surface included, tolerance 1e-9 × model size).", keys: &[], laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.nodes", signature: "body.nodes([shape [, #{ at }]]) -> Nodes", summary: "The body's nodes, or those inside a region (surface included, tolerance 1e-9 × model size), tested at their reference positions by default: the same nodes before, during and after a run, however far the body moved (`#{ at: \"current\" }` tests the positions now).", keys: SELECT_KEYS, laws: &[] },
     FnDoc { section: "Bodies and selections", name: "body.set", signature: "body.set(name) -> Faces | Elements | Nodes",
         summary: "A named set of the body's mesh (from Gmsh physical groups) as a selection: a surface group gives its faces (`faces.nodes()` their nodes), a volume group its elements, a curve or point group its nodes. An unknown name is an error listing the body's sets.", keys: &[], laws: &[] },
     FnDoc { section: "Bodies and selections", name: "body.node_set", signature: "body.node_set(name), body.element_set(name), body.face_set(name)",
         summary: "A named set of one kind, for names used by several kinds. `node_set` gives every copy of the set's nodes (in a jointed body each tetrahedron has its own), so `sim.fix(body.node_set(\"base\"))` holds every tetrahedron touching the base; a face set's `nodes()` holds only the nodes of its faces' own tetrahedra.", keys: &[], laws: &[] },
-    FnDoc { section: "Bodies and selections", name: "sim.nodes", signature: "sim.nodes(shape) -> Nodes", summary: "Nodes of all bodies inside a region.", keys: &[], laws: &[] },
-    FnDoc { section: "Bodies and selections", name: "body.elements", signature: "body.elements([shape]) -> Elements", summary: "The body's tetrahedra, or those whose centroid is inside a region.", keys: &[], laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "sim.nodes", signature: "sim.nodes(shape [, #{ at }]) -> Nodes", summary: "Nodes of all bodies inside a region (reference positions unless `at: \"current\"`).", keys: SELECT_KEYS, laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.elements", signature: "body.elements([shape [, #{ at }]]) -> Elements", summary: "The body's tetrahedra, or those whose centroid is inside a region (reference positions unless `at: \"current\"`).", keys: SELECT_KEYS, laws: &[] },
     FnDoc { section: "Bodies and selections", name: "body.boundary", signature: "body.boundary([#{ … }]) -> Faces", summary: "Outer boundary faces of the body, optionally filtered. `faces.nodes()` gives their nodes, `faces.area` their area [m²].", keys: BOUNDARY_KEYS, laws: &[] },
     FnDoc { section: "Bodies and selections", name: "body.set_velocity", signature: "body.set_velocity([vx, vy, vz])",
         summary: "Give every point of the body the velocity [m/s] now, without spin (an initial condition; rigid or deformable).", keys: &[], laws: &[] },
@@ -577,6 +595,12 @@ pub const API: &[FnDoc] = &[
         summary: "Impose the velocity of a rigid body's centre of mass per component [m/s] (numbers or tables of time; later calls win per component) and hold or free its rotation (a platen at constant speed: `#{ z: -0.01, x: 0.0, y: 0.0, rotation: \"fixed\" }`). An error for a deformable body (use `sim.prescribe_velocity(body.nodes(), ..)`).", keys: BODY_VELOCITY_KEYS, laws: &[] },
     FnDoc { section: "Bodies and selections", name: "body.center_of_mass", signature: "body.center_of_mass(), body.velocity() -> [x, y, z]",
         summary: "Centre of mass now [m] and its velocity at the last half step [m/s] (rigid or deformable).", keys: &[], laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.bounds", signature: "mesh.bounds(), body.bounds([#{ at }]) -> #{ min, max, center, size }",
+        summary: "Axis-aligned bounding box [m] of a mesh's nodes, or of a body's nodes now (or `at: \"reference\"`). Curved generated surfaces are polygons: a box's extremes are vertices, not the ideal surface (docs/generators.md says where each generator's vertices lie). `print(disc(#{ radius: 0.025, thickness: 0.01 }).bounds().max)` gives `[0.025, 0.025, 0.005]`.", keys: BOUNDS_KEYS, laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.momentum", signature: "body.momentum(), body.angular_momentum([point]) -> [x, y, z]",
+        summary: "Linear momentum M·V [kg·m/s] and angular momentum [kg·m²/s] about `point` (default: the centre of mass now) of a body, from the last half-step velocities. Rigid bodies: exact inertia, L_c + M(c − p) × V. Deformable bodies: Σ m(x − p) × v with the lumped nodal masses (the lumped inertia differs from the exact one by O(h²)); with no external moment the central difference keeps it constant to round-off.", keys: &[], laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "body.place_against", signature: "body.place_against(other, axis [, gap]) -> [dx, dy, dz]",
+        summary: "Move the body along one axis so that its bounding box touches `other`'s (or faces it across `gap` [m]) before the first step; returns the translation. `axis` \"x\", \"y\" or \"z\" keeps the body on the side of `other` where its centre is; \"+y\" puts it on the +y side, \"-y\" on the −y side. The boxes touch, so curved bodies touch at their extreme vertex: `platen.place_against(disc, \"+y\")` sets a platen on top of a Brazilian disc.", keys: &[], laws: &[] },
     FnDoc { section: "Bodies and selections", name: "body.force", signature: "body.force(), body.torque(), body.acceleration(), body.mass_acceleration(), body.angular_velocity(), body.reaction(), body.reaction_torque() -> [x, y, z]; body.inertia() -> 3×3",
         summary: "A rigid body in the last step: resultant of the nodal forces on it (contact and applied loads, without gravity and the constraint) [N] and their moment about the centre of mass [N·m]; acceleration of the centre of mass (V(t+dt/2) − V(t−dt/2))/dt̄ [m/s²] and mass × acceleration [N] (= force + weight + reaction); angular velocity [rad/s]; force and torque of the constraint (`fix`, `prescribe_velocity`) [N], [N·m]; inertia tensor about the centre of mass in the current orientation [kg·m²]. An error naming the body if it is not rigid.", keys: &[], laws: &[] },
     FnDoc { section: "Bodies and selections", name: "set + set", signature: "nodes + nodes -> Nodes", summary: "Union of node sets (also for elements). All sets have `len()`.", keys: &[], laws: &[] },
@@ -610,9 +634,9 @@ pub const API: &[FnDoc] = &[
         summary: "A friction law written in Rhai: μ of each touching pair, every step, from its kinematics, compiled once to native code like the joint laws. The value must be finite and ≥ 0, or the run stops naming the function and its inputs. Example: `fn mu(c, p) { p.mu0 + p.k * c.slip_rate }` with `friction_law: #{ function: \"mu\", params: #{ mu0: 0.5, k: 2.0 } }`.", keys: crate::contact_interaction::FRICTION_LAW_PARAMS, laws: &[] },
     FnDoc { section: "Contact", name: "sim.contact_detection", signature: "sim.contact_detection(#{ … })", summary: "Options of the NBS contact detection (stage 4).", keys: CONTACT_DETECTION_KEYS, laws: &[] },
     FnDoc { section: "Contact", name: "sim.on_new_contact_pair", signature: "sim.on_new_contact_pair(|s, pair| …)", summary: "Call a closure for every pair of elements that starts touching, with `#{ time, point, bodies, elements }`.", keys: &[], laws: &[] },
-    FnDoc { section: "Contact", name: "s.contact", signature: "s.contact() -> #{ … }", summary: "Contact in the last step: `pairs` (candidates), `active` (touching), `surface_elements`, `normal_force` and `friction_force` (sums of magnitudes over pairs) [N], `energy` [J], `detections`.", keys: &[], laws: &[] },
-    FnDoc { section: "Contact", name: "s.contact_force", signature: "s.contact_force(body) -> [fx, fy, fz]", summary: "Total contact force on a body in the last step [N].", keys: &[], laws: &[] },
-    FnDoc { section: "Loads and constraints", name: "sim.gravity", signature: "sim.gravity([gx, gy, gz])", summary: "Gravitational acceleration [m/s²] on every node.", keys: &[], laws: &[] },
+    FnDoc { section: "Contact", name: "s.contact", signature: "s.contact() -> #{ … }", summary: "Contact in the last step: `pairs` (candidates), `active` (touching pairs of tetrahedra), `surface_elements`, `normal_force` and `friction_force` (sums of magnitudes over pairs) [N], `energy` [J], `detections`, `max_overlap` (deepest penetration of a touching pair) [m], `max_overlap_ratio` (that over the smaller element height), `max_pressure` (largest mean pressure |F_n|/A of a pair) [Pa], `area` (Σ of the pairs' contact areas) [m²].", keys: &[], laws: &[] },
+    FnDoc { section: "Contact", name: "s.contact_force", signature: "s.contact_force(body) -> [fx, fy, fz]", summary: "Total contact force on a body in the last step [N] (what the others exert on it). Record its history with a monitor: `sim.monitor(\"impact\", #{ every: 10 }, |s| s.contact_force(weight)[2])`.", keys: &[], laws: &[] },
+    FnDoc { section: "Loads and constraints", name: "sim.gravity", signature: "sim.gravity([gx, gy, gz] [, table | #{ ramp, start }])", summary: "Gravitational acceleration [m/s²] on every node; optionally scaled by a `table` of time, or ramped linearly from 0 over `ramp` seconds (a sudden load makes a structure vibrate about its static state with the static deflection as amplitude; a ramp over several periods of its first mode leaves little: `sim.gravity([0.0, 0.0, -9.81], #{ ramp: 0.05 })`). The work of a varying g is booked as it changes.", keys: GRAVITY_KEYS, laws: &[] },
     FnDoc { section: "Loads and constraints", name: "sim.fix", signature: "sim.fix(nodes [, \"xyz\"])", summary: "Fix all (or the listed) displacement components of the nodes.", keys: &[], laws: &[] },
     FnDoc { section: "Loads and constraints", name: "sim.prescribe_velocity", signature: "sim.prescribe_velocity(nodes, [vx, vy, vz] | #{ … })",
         summary: "Impose the velocity of components [m/s]; each a number or a `table` of time. The reaction is reported by `s.reaction(nodes)`.", keys: VELOCITY_KEYS, laws: &[] },
@@ -638,15 +662,18 @@ pub const API: &[FnDoc] = &[
     // ── Hooks and output
     FnDoc { section: "Hooks, monitors and output", name: "sim.every", signature: "sim.every(#{ … }, |s| …)", summary: "Call a closure periodically during runs (e.g. `|s| s.write_vtk()`).", keys: EVERY_KEYS, laws: &[] },
     FnDoc { section: "Hooks, monitors and output", name: "sim.monitor", signature: "sim.monitor(name, #{ … }, |s| value) -> Monitor",
-        summary: "Record a number during runs; written to `<out_dir>/<name>.csv` after every run. Monitor methods: `last()`, `peak()` (largest value), `min()`, `max()`, `len()`, `values()`, `times()`, `write_csv()`.", keys: MONITOR_KEYS, laws: &[] },
+        summary: "Record a number during runs; written to `<out_dir>/<name>.csv` after every run. Monitor methods: `last()`, `len()`, `values()`, `times()`, `write_csv()`, and the post-processing below.", keys: MONITOR_KEYS, laws: &[] },
+    FnDoc { section: "Hooks, monitors and output", name: "monitor.peak_abs", signature: "monitor.max(), min(), peak(), peak_abs(), argmax(), argmin(), argmax_abs(), at(t), first_crossing(level [, direction]), slope(t0, t1), fit(t0, t1)",
+        summary: "A monitor's history, measured: `max()` (= `peak()`) and `min()` the largest and smallest recorded value (0 before anything is recorded), `peak_abs()` the largest |value| (use it for a load whose sign depends on the direction, e.g. a compressive reaction); `argmax()`, `argmin()`, `argmax_abs()` the time [s] of those values (the first on ties); `at(t)` the value at time t, linear between samples (an error outside the recorded times); `first_crossing(level)` the first time the value reaches `level`, linear between the two samples around it, `()` if it never does (`direction` \"up\", \"down\" or \"any\", the default); `slope(t0, t1)` the least-squares slope over the samples with t0 ≤ t ≤ t1 and `fit(t0, t1)` the whole line `#{ slope, intercept, r2, n }` (an error with fewer than 2 samples). Example: `let rate = load.slope(0.0, 0.002);` (the loading rate [N/s] over the first 2 ms), `let t_half = load.first_crossing(0.5 * load.max(), \"up\");`.", keys: &[], laws: &[] },
     FnDoc { section: "Hooks, monitors and output", name: "sim.write_vtk", signature: "sim.write_vtk()",
         summary: "Write a ParaView frame `<name>_NNNNNN.vtu` and update `<name>.pvd`: displacement, velocity (points); Cauchy stress, von Mises, principal stresses, body, material, and with joints `damage` (largest joint damage on the tet's faces) and `fragment` (cells). Once a joint has broken it also writes the crack surface `<name>_cracks_NNNNNN.vtu` + `<name>_cracks.pvd`: one triangle per broken joint with `time` of breaking, `mode` (1 = I, 2 = II, 3 = mixed), `body`, `joint`.", keys: &[], laws: &[] },
     // ── Queries
     FnDoc { section: "Queries", name: "s.time", signature: "s.time, s.step, s.dt, s.n_nodes, s.n_tets", summary: "Simulated time [s], steps done, time step [s], sizes.", keys: &[], laws: &[] },
     FnDoc { section: "Queries", name: "s.kinetic_energy", signature: "s.kinetic_energy(), s.strain_energy()", summary: "Current kinetic and strain energy [J].", keys: &[], laws: &[] },
     FnDoc { section: "Queries", name: "s.energy", signature: "s.energy() -> map", summary: "Energy account at the last sample [J]: kinetic, strain, joint (elastic energy of the joints), external_work, gravity_work, force_work, reaction_work, ground_work (relative-frame ground motion), damping (mass-proportional + viscous), fracture (dissipated by joints), initial, balance_error, relative_error.", keys: &[], laws: &[] },
-    FnDoc { section: "Queries", name: "s.displacement", signature: "s.displacement(nodes) -> [x, y, z]", summary: "Mean displacement of the nodes [m]. Also `s.position(nodes)` [m] and `s.velocity(nodes)` [m/s] (means).", keys: &[], laws: &[] },
-    FnDoc { section: "Queries", name: "s.reaction", signature: "s.reaction(nodes) -> [x, y, z]", summary: "Sum of the constraint forces on the nodes in the last step [N].", keys: &[], laws: &[] },
+    FnDoc { section: "Queries", name: "s.displacement", signature: "s.displacement(nodes) -> [x, y, z]", summary: "Mean displacement of the nodes [m]. Also `s.position(nodes)` [m] and `s.velocity(nodes)` [m/s]. These are plain node means (every node counts once, whatever its mass): right for a face or a loading line; for the centre of mass of a part use `s.mass_position(nodes)` and `s.mass_velocity(nodes)`.", keys: &[], laws: &[] },
+    FnDoc { section: "Queries", name: "s.mass_position", signature: "s.mass_position(nodes), s.mass_velocity(nodes) -> [x, y, z]", summary: "Mass-weighted means over the nodes with their lumped masses: their centre of mass now [m] and its velocity at the last half step [m/s] (= momentum / mass). For a whole body the same as `body.center_of_mass()` and `body.velocity()`.", keys: &[], laws: &[] },
+    FnDoc { section: "Queries", name: "s.reaction", signature: "s.reaction(nodes) -> [x, y, z]", summary: "Sum of the constraint forces on the nodes in the last step [N]: the force the support or the driver exerts on the body, in global axes. A platen pushing down (−z) into a specimen reads a negative z reaction on the platen nodes, and the base that holds the specimen a positive one: `let f = sim.monitor(\"load\", #{ every: 20 }, |s| -s.reaction(top)[2]);` records compression as positive; `f.peak_abs()` is sign-proof.", keys: &[], laws: &[] },
     FnDoc { section: "Queries", name: "s.mean_stress", signature: "s.mean_stress(elements) -> [[..], [..], [..]]", summary: "Volume-weighted mean Cauchy stress of the elements [Pa]; `s.max_von_mises(elements)` the largest von Mises stress [Pa].", keys: &[], laws: &[] },
 ];
 

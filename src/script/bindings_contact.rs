@@ -116,6 +116,10 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
         m.insert("normal_force".into(), c.last.normal_force.into());
         m.insert("friction_force".into(), c.last.friction_force.into());
         m.insert("energy".into(), c.last.energy.into());
+        m.insert("max_overlap".into(), c.last.max_overlap.into());
+        m.insert("max_overlap_ratio".into(), c.last.max_overlap_ratio.into());
+        m.insert("max_pressure".into(), c.last.max_pressure.into());
+        m.insert("area".into(), c.last.area.into());
         m.insert("detections".into(), (cd.detector.detections as i64).into());
         m
     });

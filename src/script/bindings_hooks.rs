@@ -2,7 +2,8 @@
 //! quantities (written as CSV by `runner.rs`) and ParaView frames.
 
 use super::api::keys_of;
-use super::opts::{err, Opts, RhaiResult};
+use super::opts::{err, num, Opts, RhaiResult};
+use super::postprocess as pp;
 use super::runner;
 use super::types::{Hook, MonitorData, MonitorHandle, SimHandle};
 use crate::math::Real;
@@ -66,23 +67,7 @@ pub fn register(engine: &mut Engine) {
     engine.register_fn("last", |m: &mut MonitorHandle| {
         m.0.borrow().values.last().copied().unwrap_or(0.0)
     });
-    engine.register_fn("peak", |m: &mut MonitorHandle| {
-        m.0.borrow().values.iter().copied().fold(0.0_f64, Real::max)
-    });
-    engine.register_fn("max", |m: &mut MonitorHandle| {
-        m.0.borrow()
-            .values
-            .iter()
-            .copied()
-            .fold(Real::NEG_INFINITY, Real::max)
-    });
-    engine.register_fn("min", |m: &mut MonitorHandle| {
-        m.0.borrow()
-            .values
-            .iter()
-            .copied()
-            .fold(Real::INFINITY, Real::min)
-    });
+    register_post_processing(engine);
     engine.register_fn("len", |m: &mut MonitorHandle| {
         m.0.borrow().values.len() as i64
     });
@@ -106,4 +91,93 @@ pub fn register(engine: &mut Engine) {
     engine.register_fn("write_vtk", |s: &mut SimHandle| -> RhaiResult<()> {
         runner::write_vtk(s)
     });
+}
+
+/// The monitor's history through `postprocess`: extremes and their times, value at a time,
+/// crossings and straight-line fits. Empty histories give 0 for the extremes (as `last()`)
+/// and errors where a time is asked for.
+fn register_post_processing(engine: &mut Engine) {
+    type Pick = fn(&[f64]) -> Option<usize>;
+    // Extremes: the value (0 for an empty monitor).
+    let extremes: [(&str, Pick, bool); 4] = [
+        ("peak", pp::argmax, false),
+        ("max", pp::argmax, false),
+        ("min", pp::argmin, false),
+        ("peak_abs", pp::argmax_abs, true),
+    ];
+    for (name, pick, abs) in extremes {
+        engine.register_fn(name, move |m: &mut MonitorHandle| -> Real {
+            let d = m.0.borrow();
+            match pick(&d.values) {
+                Some(i) if abs => d.values[i].abs(),
+                Some(i) => d.values[i],
+                None => 0.0,
+            }
+        });
+    }
+    // When they happen [s].
+    let times: [(&str, Pick); 3] = [
+        ("argmax", pp::argmax),
+        ("argmin", pp::argmin),
+        ("argmax_abs", pp::argmax_abs),
+    ];
+    for (name, pick) in times {
+        engine.register_fn(name, move |m: &mut MonitorHandle| -> RhaiResult<Real> {
+            let d = m.0.borrow();
+            match pick(&d.values) {
+                Some(i) => Ok(d.times[i]),
+                None => err(format!(
+                    "{name}(): monitor '{}' has no finite value recorded yet",
+                    d.name
+                )),
+            }
+        });
+    }
+    engine.register_fn(
+        "at",
+        |m: &mut MonitorHandle, t: Dynamic| -> RhaiResult<Real> {
+            let t = num(&t, "at()")?;
+            let d = m.0.borrow();
+            pp::value_at(&d.times, &d.values, t)
+                .map_err(|e| format!("at(): monitor '{}': {e}", d.name).into())
+        },
+    );
+    let crossing =
+        |m: &mut MonitorHandle, level: Dynamic, dir: &str| -> RhaiResult<Dynamic> {
+            let level = num(&level, "first_crossing()")?;
+            let dir = pp::Direction::parse(dir).map_err(|e| format!("first_crossing(): {e}"))?;
+            let d = m.0.borrow();
+            Ok(pp::first_crossing(&d.times, &d.values, level, dir)
+                .map_or(Dynamic::UNIT, Dynamic::from))
+        };
+    engine.register_fn(
+        "first_crossing",
+        move |m: &mut MonitorHandle, level: Dynamic| crossing(m, level, "any"),
+    );
+    engine.register_fn("first_crossing", crossing);
+    engine.register_fn(
+        "fit",
+        |m: &mut MonitorHandle, t0: Dynamic, t1: Dynamic| -> RhaiResult<Map> {
+            let f = fit(m, t0, t1, "fit()")?;
+            let mut out = Map::new();
+            out.insert("slope".into(), f.slope.into());
+            out.insert("intercept".into(), f.intercept.into());
+            out.insert("r2".into(), f.r2.into());
+            out.insert("n".into(), (f.n as i64).into());
+            Ok(out)
+        },
+    );
+    engine.register_fn(
+        "slope",
+        |m: &mut MonitorHandle, t0: Dynamic, t1: Dynamic| -> RhaiResult<Real> {
+            Ok(fit(m, t0, t1, "slope()")?.slope)
+        },
+    );
+}
+
+fn fit(m: &MonitorHandle, t0: Dynamic, t1: Dynamic, what: &str) -> RhaiResult<pp::LineFit> {
+    let (t0, t1) = (num(&t0, what)?, num(&t1, what)?);
+    let d = m.0.borrow();
+    pp::fit_line(&d.times, &d.values, t0, t1)
+        .map_err(|e| format!("{what}: monitor '{}': {e}", d.name).into())
 }

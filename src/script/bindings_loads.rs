@@ -12,9 +12,38 @@ use rhai::{Array, Dynamic, Engine, Map, NativeCallContext};
 
 pub fn register(engine: &mut Engine) {
     engine.register_fn("gravity", |s: &mut SimHandle, g: Array| -> RhaiResult<()> {
-        s.0.borrow_mut().sim.loads.gravity = vec3_arg(&g, "gravity()")?;
+        let mut st = s.0.borrow_mut();
+        st.sim.loads.gravity = vec3_arg(&g, "gravity()")?;
+        st.sim.loads.gravity_ramp = None;
         Ok(())
     });
+    engine.register_fn(
+        "gravity",
+        |s: &mut SimHandle, g: Array, t: Table| -> RhaiResult<()> {
+            let g = vec3_arg(&g, "gravity()")?;
+            let mut st = s.0.borrow_mut();
+            st.sim.loads.gravity = g * t.0.eval(st.sim.time);
+            st.sim.loads.gravity_ramp = Some((g, t.0));
+            Ok(())
+        },
+    );
+    engine.register_fn(
+        "gravity",
+        |s: &mut SimHandle, g: Array, m: Map| -> RhaiResult<()> {
+            let g = vec3_arg(&g, "gravity()")?;
+            let o = Opts::new("gravity", m, keys_of("sim.gravity"))?;
+            let Some(ramp) = o.positive("ramp")? else {
+                return err("gravity(): missing required key 'ramp'");
+            };
+            let mut st = s.0.borrow_mut();
+            let start = o.float("start")?.unwrap_or(st.sim.time);
+            let table = TimeFunction::table(vec![(start, 0.0), (start + ramp, 1.0)])
+                .map_err(|e| format!("gravity(): {e}"))?;
+            st.sim.loads.gravity = g * table.eval(st.sim.time);
+            st.sim.loads.gravity_ramp = Some((g, table));
+            Ok(())
+        },
+    );
     engine.register_fn("fix", |s: &mut SimHandle, n: NodeSet| {
         s.0.borrow_mut().sim.fix(&n.0, [true; 3])
     });

@@ -109,7 +109,27 @@ fn load(nc: &NativeCallContext, ctx: &ScriptContext, path: &str, m: Map) -> Rhai
             }
             gmsh::read_msh(&file).map_err(|e| format!("gmsh(): {e}"))?
         }
-        "geo" => gmsh::mesh_geo(&file, size).map_err(|e| format!("gmsh(): {e}"))?,
+        "geo" => {
+            let c = gmsh::mesh_geo_cached(&file, size).map_err(|e| format!("gmsh(): {e}"))?;
+            // Said under `fdem check` too: which mesh the model is built on.
+            println!(
+                "gmsh(\"{path}\"): {} {} ({} tets, {} nodes){}",
+                if c.reused {
+                    "using the cached mesh"
+                } else {
+                    "meshed by gmsh into"
+                },
+                c.msh.display(),
+                c.imported.mesh.tets.len(),
+                c.imported.mesh.nodes.len(),
+                if c.reused {
+                    "; delete it to re-mesh"
+                } else {
+                    "; reused while the .geo text, size and gmsh version are unchanged"
+                }
+            );
+            c.imported
+        }
         _ => return err(format!("gmsh(\"{path}\"): expected a .msh or .geo file")),
     };
     for w in &imported.warnings {

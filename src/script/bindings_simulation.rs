@@ -50,6 +50,16 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
             }
             s.0.borrow_mut().sim.settings.mass_damping = a;
         }
+        match o.string("frame")?.as_deref() {
+            None => {}
+            Some("ground") => s.0.borrow_mut().sim.settings.damping_relative_to_body = false,
+            Some("body") => s.0.borrow_mut().sim.settings.damping_relative_to_body = true,
+            Some(x) => {
+                return err(format!(
+                    "damping(): frame \"{x}\" is not \"ground\" or \"body\""
+                ))
+            }
+        }
         Ok(())
     });
     let c = ctx;

@@ -12,6 +12,7 @@ mod bindings_hooks;
 mod bindings_joints;
 mod bindings_loads;
 mod bindings_materials;
+mod bindings_measurements;
 mod bindings_mesh_io;
 mod bindings_params;
 mod bindings_queries;
@@ -20,6 +21,8 @@ mod bindings_rigid;
 mod bindings_simulation;
 pub mod numbers;
 pub mod opts;
+pub mod postprocess;
+mod rest;
 mod runner;
 pub mod types;
 
@@ -96,8 +99,8 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
         .set_max_string_size(16 << 20)
         .set_max_array_size(50_000_000)
         .set_max_map_size(100_000);
-    let c = ctx.clone();
-    engine.on_print(move |s| c.say(s));
+    // The script's own output shows under `fdem check` too (up to its first run).
+    engine.on_print(|s| println!("{s}"));
     engine.on_debug(|s, src, pos| eprintln!("{}:{}: {s}", src.unwrap_or("script"), pos));
     // One `register` per section of the API (api.rs), each in its own bindings_*.rs file.
     // A binding converts Rhai values, calls the core (Simulation, mesh, loads) and turns its
@@ -109,6 +112,7 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     bindings_materials::register(&mut engine);
     bindings_bodies::register(&mut engine);
     bindings_rigid::register(&mut engine);
+    bindings_measurements::register(&mut engine);
     bindings_loads::register(&mut engine);
     bindings_ground_motion::register(&mut engine);
     bindings_queries::register(&mut engine);
@@ -120,6 +124,7 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     bindings_reinforcement::register(&mut engine);
     bindings_reinforcement::register_script_laws(&mut engine, ctx.clone());
     bindings_mesh_io::register(&mut engine, ctx.clone());
+    rest::register(&mut engine, ctx.clone());
     numbers::register(&mut engine);
     // stdlib modules are compiled by this engine (they may call host functions).
     let mut stdlib = StaticModuleResolver::new();

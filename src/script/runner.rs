@@ -8,7 +8,9 @@ use super::ScriptContext;
 use crate::io::{frame::encode_frame, write_csv};
 use crate::pipeline::{Energy, SimError, Simulation, Stage};
 use rhai::{Dynamic, FnPtr, NativeCallContext};
+use std::cell::Cell;
 use std::io::{IsTerminal, Write};
+use std::rc::Rc;
 use std::time::Instant;
 
 /// Token with which `fdem check` ends a script at its first `run`.
@@ -34,6 +36,48 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
         );
     }
     let limits = Limits::new(s, max_time, duration, steps, stop_when, check_every);
+    run_within(nc, ctx, s, limits)
+}
+
+/// A stop rule evaluated natively on the model (`sim.bring_to_rest`).
+pub type NativeStop = Box<dyn FnMut(&mut Simulation) -> bool>;
+
+/// Run `steps` steps at most, asking `stop` every `check_every` steps: a run as `run` does it
+/// (monitors, hooks, output), ended by a rule in Rust. Returns whether `stop` ended it.
+pub fn run_native(
+    nc: &NativeCallContext,
+    ctx: &ScriptContext,
+    s: &SimHandle,
+    steps: u64,
+    check_every: u64,
+    stop: NativeStop,
+) -> RhaiResult<bool> {
+    prepare_run(ctx, s)?;
+    if ctx.options.check_only {
+        return Err(
+            rhai::EvalAltResult::ErrorTerminated(CHECK_DONE.into(), rhai::Position::NONE).into(),
+        );
+    }
+    let mut limits = Limits::new(s, None, None, Some(steps), None, check_every);
+    let stopped = Rc::new(Cell::new(false));
+    let flag = stopped.clone();
+    let mut stop = stop;
+    limits.native_stop = Some(Box::new(move |sim: &mut Simulation| {
+        let done = stop(sim);
+        flag.set(done);
+        done
+    }));
+    run_within(nc, ctx, s, limits)?;
+    Ok(stopped.get())
+}
+
+/// The run itself: first monitor values, the time loop, the run's bookkeeping and output.
+fn run_within(
+    nc: &NativeCallContext,
+    ctx: &ScriptContext,
+    s: &SimHandle,
+    mut limits: Limits,
+) -> RhaiResult<()> {
     let mut progress = Progress::new(ctx.options.progress && std::io::stderr().is_terminal());
     // Monitors get a first value when the model has not moved yet.
     let monitors: Vec<MonitorHandle> = s.0.borrow().monitors.clone();
@@ -43,7 +87,7 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
         }
     }
     let wall = Instant::now();
-    let result = step_until_done(nc, ctx, s, &limits, &monitors, &mut progress);
+    let result = step_until_done(nc, ctx, s, &mut limits, &monitors, &mut progress);
     progress.finish();
     {
         let mut st = s.0.borrow_mut();
@@ -116,6 +160,8 @@ struct Limits {
     stop_when: Option<FnPtr>,
     /// `stop_when` is asked every `check_every` steps.
     check_every: u64,
+    /// A rule in Rust asked as `stop_when` is (`run_native`).
+    native_stop: Option<NativeStop>,
 }
 
 impl Limits {
@@ -147,6 +193,7 @@ impl Limits {
             step_end,
             stop_when,
             check_every,
+            native_stop: None,
         }
     }
 
@@ -171,7 +218,7 @@ fn step_until_done(
     nc: &NativeCallContext,
     ctx: &ScriptContext,
     s: &SimHandle,
-    lim: &Limits,
+    lim: &mut Limits,
     monitors: &[MonitorHandle],
     progress: &mut Progress,
 ) -> RhaiResult<()> {
@@ -236,16 +283,21 @@ fn warn_balance(ctx: &ScriptContext, st: &mut SimState) {
 fn stop_requested(
     nc: &NativeCallContext,
     s: &SimHandle,
-    lim: &Limits,
+    lim: &mut Limits,
     step: u64,
 ) -> RhaiResult<bool> {
-    let Some(f) = &lim.stop_when else {
-        return Ok(false);
-    };
     // `check_every` ≥ 1 (`positive_int`).
     if !(step - lim.step_start).is_multiple_of(lim.check_every) {
         return Ok(false);
     }
+    if let Some(stop) = &mut lim.native_stop {
+        if stop(&mut s.0.borrow_mut().sim) {
+            return Ok(true);
+        }
+    }
+    let Some(f) = &lim.stop_when else {
+        return Ok(false);
+    };
     let r: Dynamic = f.call_within_context(nc, (s.clone(),))?;
     match r.as_bool() {
         Ok(stop) => Ok(stop),
