@@ -534,4 +534,27 @@ fn geo_meshes_are_cached_by_content() {
     assert!(other.contains("meshed by gmsh into"), "{other}");
     let cached = std::fs::read_dir(dir.join(".fdem-cache")).unwrap().count();
     assert_eq!(cached, 2);
+    // A script named by a relative path, its .geo in a subdirectory: gmsh runs in the .geo's
+    // directory, so the cache file it writes must be given as an absolute path (a relative one
+    // was taken from there, and gmsh failed with "Unable to open file").
+    std::fs::create_dir_all(dir.join("sub")).unwrap();
+    std::fs::copy(dir.join("box_hole.geo"), dir.join("sub/box_hole.geo")).unwrap();
+    std::fs::write(
+        dir.join("c.rhai"),
+        "let m = gmsh(\"sub/box_hole.geo\", #{ size: 0.3 });\nprint(`tets ${m.n_tets}`);\n",
+    )
+    .unwrap();
+    let sub = common::fdem()
+        .current_dir(&dir)
+        .arg("check")
+        .arg("c.rhai")
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&sub.stdout).to_string();
+    assert!(
+        sub.status.success() && out.contains("meshed by gmsh into"),
+        "{out}{}",
+        String::from_utf8_lossy(&sub.stderr)
+    );
+    assert!(dir.join("sub/.fdem-cache").is_dir());
 }

@@ -264,7 +264,10 @@ fn mesh_geo_to(geo: &Path, size: Option<Real>, dest: &Path) -> Result<Imported, 
     if !gmsh_installed() {
         return Err(format!("{}: {GMSH_MISSING}", geo.display()));
     }
-    let tmp = dest.with_extension(format!("part{}.msh", std::process::id()));
+    // Absolute: gmsh runs in the .geo file's directory, and a relative output path would be
+    // taken from there (a script's `gmsh("meshes/x.geo")` failed with "Unable to open file").
+    let tmp = std::path::absolute(dest.with_extension(format!("part{}.msh", std::process::id())))
+        .map_err(|e| format!("{}: {e}", dest.display()))?;
     let dir = geo.parent().filter(|d| !d.as_os_str().is_empty());
     let name = geo.file_name().map(Path::new).unwrap_or(geo);
     let mut cmd = std::process::Command::new("gmsh");
