@@ -299,12 +299,15 @@ fn body_set(b: &mut BodyHandle, name: &str, kind: Option<Kind>) -> RhaiResult<Dy
     };
     let t0 = body.tets.start;
     Ok(match kind {
-        Kind::Elements => Dynamic::from(ElementSet(Rc::new(
-            sets.elements[name]
-                .iter()
-                .map(|&e| (t0 + e as usize) as u32)
-                .collect(),
-        ))),
+        Kind::Elements => Dynamic::from(ElementSet(
+            Rc::new(
+                sets.elements[name]
+                    .iter()
+                    .map(|&e| (t0 + e as usize) as u32)
+                    .collect(),
+            ),
+            st.owner.clone(),
+        )),
         Kind::Nodes => {
             // Every simulation node that is a copy of a mesh node of the set (one per mesh node
             // in continuous bodies, one per tet corner in jointed ones).
@@ -322,7 +325,7 @@ fn body_set(b: &mut BodyHandle, name: &str, kind: Option<Kind>) -> RhaiResult<Dy
             }
             ids.sort_unstable();
             ids.dedup();
-            Dynamic::from(NodeSet(Rc::new(ids)))
+            Dynamic::from(NodeSet(Rc::new(ids), st.owner.clone()))
         }
         Kind::Faces => {
             let x0 = &sim.nodes.x0;
@@ -343,6 +346,7 @@ fn body_set(b: &mut BodyHandle, name: &str, kind: Option<Kind>) -> RhaiResult<Dy
             Dynamic::from(FaceSet {
                 faces: Rc::new(faces),
                 area,
+                owner: st.owner.clone(),
             })
         }
     })

@@ -103,6 +103,7 @@ fn simulation(c: &ScriptContext, m: Map) -> RhaiResult<SimHandle> {
     };
     let handle = SimHandle(Rc::new(RefCell::new(SimState {
         sim,
+        owner: super::types::Owner::new(&name),
         vtk_encoding,
         vtk: VtkSeries::new(out_dir.clone(), name.clone()),
         cracks_vtk: VtkSeries::new(out_dir.clone(), format!("{name}_cracks")),
