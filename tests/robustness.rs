@@ -148,3 +148,85 @@ fn handles_of_the_same_simulation_work() {
         assert!(!e.contains("cannot be used with"), "{e}");
     }
 }
+
+// ─── Size guards, memory estimates, bounded reads ─────────────────────────────────────────
+
+/// Sizes whose integer products used to overflow (an abort or a panic), or that allocated
+/// gigabytes before their own check: each a placed error naming the key or the estimate.
+#[test]
+fn oversized_meshes_are_refused_before_anything_is_allocated() {
+    let cases: [(&str, &str, &[&str]); 9] = [
+        (
+            "divisions",
+            "let m = box(#{ min: [0, 0, 0], max: [1, 1, 1] }).mesh(#{ divisions: [4194304, 4194304, 4194304] });",
+            &["mesh()", "too many", ":1:"],
+        ),
+        (
+            "size",
+            "let m = box(#{ min: [0, 0, 0], max: [1, 1, 1] }).mesh(#{ size: 2.4e-7 });",
+            &["mesh()", "too many"],
+        ),
+        (
+            "memory",
+            "let m = box(#{ min: [0, 0, 0], max: [1, 1, 1] }).mesh(#{ divisions: [7000, 7000, 1] });",
+            &["mesh()", "would need about", "of memory"],
+        ),
+        (
+            "voussoirs",
+            "let a = arch(#{ radius: 1.0, thickness: 0.2, depth: 0.3, voussoirs: 4600000000000000000 });",
+            &["arch()", "'voussoirs' must be ≤ 1000000"],
+        ),
+        (
+            "wall",
+            "let w = wall(#{ courses: 1000000, bricks_per_course: 1000000, brick: [0.2, 0.1, 0.1] });",
+            &["wall()", "too many"],
+        ),
+        (
+            "dome",
+            "let d = dome(#{ radius: 5.0, thickness: 0.5, courses: 1000000, blocks_per_course: 1000000 });",
+            &["dome()", "too many"],
+        ),
+        (
+            "dome_size",
+            "let d = dome(#{ radius: 5.0, thickness: 0.5, courses: 10, blocks_per_course: 12, size: 1e-300 });",
+            &["dome()", "too many"],
+        ),
+        (
+            "array",
+            "let m = box(#{ min: [0, 0, 0], max: [1, 1, 1] }).mesh(#{ divisions: [1, 1, 1] });\nlet a = array(m, #{ count: [2147483648, 2147483648, 4], spacing: [1, 1, 1] });",
+            &["array()", "too many", ":2:"],
+        ),
+        (
+            "notch",
+            "let m = notched_beam(#{ length: 0.5, height: 0.1, width: 0.05, notch_depth: 0.03, notch_width: 1e-9 });",
+            &["notched_beam()", "too many"],
+        ),
+    ];
+    for (name, text, words) in cases {
+        let t = std::time::Instant::now();
+        let e = error_of(&format!("size_{name}"), text);
+        assert_has(&e, words);
+        assert!(
+            t.elapsed().as_secs_f64() < 5.0,
+            "{name} took {:?}",
+            t.elapsed()
+        );
+    }
+}
+
+/// `read_table("/dev/zero")` read without bound; a ground-motion record likewise. Now both
+/// stop at the limit with the path in the message.
+#[test]
+fn endless_input_files_are_read_up_to_a_limit() {
+    let e = error_of("dev_zero_table", "let t = read_table(\"/dev/zero\");");
+    assert_has(&e, &["read_table()", "/dev/zero", "larger than"]);
+    let e = error_of(
+        "dev_zero_record",
+        "let g = ground_motion(\"/dev/zero\", #{ dt: 0.01 });",
+    );
+    assert_has(&e, &["/dev/zero", "larger than"]);
+    let dir = common::temp_dir("dev_zero_mesh");
+    std::os::unix::fs::symlink("/dev/zero", dir.join("zero.msh")).unwrap();
+    let e = run_in(&dir, "z", "let m = gmsh(\"zero.msh\");").unwrap_err();
+    assert_has(&e, &["zero.msh", "larger than"]);
+}

@@ -108,10 +108,12 @@ fn element_type(t: u32) -> Option<(usize, u8, &'static str)> {
 /// Read a `.msh` file.
 pub fn read_msh(path: &Path) -> Result<Imported, GmshError> {
     let label = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|e| GmshError {
-        file: label.clone(),
-        place: Place::File,
-        message: format!("cannot read the file: {e}"),
+    let bytes = crate::limits::read_bounded(path, crate::limits::MAX_MESH_INPUT).map_err(|e| {
+        GmshError {
+            file: label.clone(),
+            place: Place::File,
+            message: format!("cannot read the file: {e}"),
+        }
     })?;
     parse_msh(&bytes, &label)
 }

@@ -135,6 +135,16 @@ fn add_body(
             }
         }
     };
+    let per_tet = match layout {
+        Layout::Jointed => crate::limits::JOINTED_BYTES_PER_TET,
+        _ => crate::limits::CONTINUOUS_BYTES_PER_TET,
+    };
+    let n = mesh.0.tets.len() as f64;
+    crate::limits::check_memory(
+        &format!("body '{name}' ({n} tets, {})", layout.name()),
+        n * per_tet,
+    )
+    .map_err(|e| format!("add_body(): {e}"))?;
     let mut st = s.0.borrow_mut();
     if st.sim.step > 0 {
         return err("add_body(): bodies must be added before the first step");

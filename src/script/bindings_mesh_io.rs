@@ -177,10 +177,16 @@ fn array(m: MeshValue, o: Map) -> RhaiResult<Array> {
             )?,
     };
     let spacing = o.req_vec3("spacing")?;
-    let total = count.iter().product::<i64>();
-    if total > 100_000 {
-        return err(format!("array(): {total} copies is too many"));
+    // In floating point: counts of 2³¹ each must not wrap around to a small product.
+    let total_f: f64 = count.iter().map(|&n| n as f64).product();
+    if total_f > 100_000.0 {
+        return err(format!(
+            "array(): {total_f:.4e} copies is too many (the limit is 100 000)"
+        ));
     }
+    let total = total_f as i64;
+    crate::limits::check_tets(total_f * m.0.tets.len() as f64)
+        .map_err(|e| format!("array(): {e}"))?;
     let mut out = Array::with_capacity(total as usize);
     for k in 0..count[2] {
         for j in 0..count[1] {

@@ -190,7 +190,7 @@ pub fn run_file_with_report(
     path: &Path,
     options: RunOptions,
 ) -> (ScriptReport, Result<(), ScriptError>) {
-    match std::fs::read_to_string(path) {
+    match crate::limits::read_text_bounded(path, crate::limits::MAX_TEXT_INPUT) {
         Ok(source) => run_source_with_report(path, &source, options),
         Err(e) => (
             ScriptReport { sims: Vec::new() },
