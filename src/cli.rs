@@ -38,6 +38,14 @@ enum Command {
         /// No progress bar and no end-of-run summary.
         #[arg(long)]
         quiet: bool,
+        /// Replace the output of an earlier run (each simulation's frames, energy.csv,
+        /// cracks.csv and monitor CSVs in its directory); without it that output is an error.
+        #[arg(long)]
+        overwrite: bool,
+        /// Stop the script after N Rhai operations without a time step (a runaway loop);
+        /// 0: no limit. Default 200000000 (about 10 s).
+        #[arg(long, value_name = "N")]
+        max_operations: Option<u64>,
     },
     /// Parse a script, build its model up to the first run() and validate it (nothing is
     /// stepped); or, with --mesh, validate a mesh file alone and print its summary.
@@ -99,9 +107,13 @@ pub fn main() {
             out,
             threads,
             quiet,
+            overwrite,
+            max_operations,
         } => {
-            set_threads(threads);
-            run_script(&script, &set, out, quiet)
+            if let Err(e) = set_threads(threads) {
+                std::process::exit(fail(&e));
+            }
+            run_script(&script, &set, out, quiet, overwrite, max_operations)
         }
         Command::Check {
             mesh: Some(mesh), ..
@@ -140,7 +152,9 @@ pub fn main() {
             threads,
             json,
         } => {
-            set_threads(threads);
+            if let Err(e) = set_threads(threads) {
+                std::process::exit(fail(&e));
+            }
             let result = match case.as_str() {
                 "rigid" => bench_rigid(tets, steps, &material),
                 "detection" => bench_detection(elements),
@@ -155,7 +169,14 @@ pub fn main() {
 }
 
 /// `fdem run`: run `script` (summaries printed unless `quiet`); returns the exit code.
-fn run_script(script: &Path, set: &[String], out: Option<PathBuf>, quiet: bool) -> i32 {
+fn run_script(
+    script: &Path,
+    set: &[String],
+    out: Option<PathBuf>,
+    quiet: bool,
+    overwrite: bool,
+    max_operations: Option<u64>,
+) -> i32 {
     let overrides = match parse_sets(set) {
         Err(e) => return fail(&e),
         Ok(overrides) => overrides,
@@ -166,7 +187,10 @@ fn run_script(script: &Path, set: &[String], out: Option<PathBuf>, quiet: bool) 
         quiet,
         check_only: false,
         progress: !quiet,
+        overwrite,
+        max_operations,
     };
+    crate::io::interrupt::install();
     // The summaries (timing, energy account) are printed whether the script succeeded or
     // not: a failed self-check is when they are needed most.
     let (report, result) = script::run_file_with_report(script, options);
@@ -177,7 +201,11 @@ fn run_script(script: &Path, set: &[String], out: Option<PathBuf>, quiet: bool) 
     }
     match result {
         Ok(()) => 0,
-        Err(e) => fail(&e.to_string()),
+        Err(e) => {
+            fail(&e.to_string());
+            // 128 + the signal number when SIGINT or SIGTERM stopped the run, as shells do.
+            crate::io::interrupt::requested().map_or(1, |sig| 128 + sig)
+        }
     }
 }
 
@@ -332,15 +360,25 @@ fn fail(msg: &str) -> i32 {
     1
 }
 
-fn set_threads(threads: Option<usize>) {
-    if let Some(n) = threads {
-        if let Err(e) = rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()
-        {
-            eprintln!("warning: could not set {n} threads: {e}");
-        }
+/// The most worker threads `--threads` may ask for (results are the same for any count;
+/// more threads than cores only cost memory and time).
+const MAX_THREADS: usize = 1024;
+
+/// `--threads N`: the size of the worker pool, 1 ..= [`MAX_THREADS`].
+fn set_threads(threads: Option<usize>) -> Result<(), String> {
+    let Some(n) = threads else {
+        return Ok(());
+    };
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    if n == 0 || n > MAX_THREADS {
+        return Err(format!(
+            "--threads {n}: give 1 to {MAX_THREADS} (this machine has {cores} cores; results are the same for any count)"
+        ));
     }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build_global()
+        .map_err(|e| format!("--threads {n}: cannot start the worker threads: {e}"))
 }
 
 fn parse_sets(set: &[String]) -> Result<Vec<(String, String)>, String> {

@@ -43,7 +43,17 @@ pub struct RunOptions {
     pub check_only: bool,
     /// Show a progress bar on a terminal.
     pub progress: bool,
+    /// `--overwrite`: replace the output of an earlier run in the same directory (without
+    /// it, a simulation whose files are already there is an error naming them).
+    pub overwrite: bool,
+    /// `--max-operations N`: stop a script that runs more than N Rhai operations without a
+    /// time step (a runaway loop); None: [`DEFAULT_MAX_OPERATIONS`]; Some(0): no limit.
+    pub max_operations: Option<u64>,
 }
+
+/// Rhai operations a script may run between two time steps (about 10 s on one core of the
+/// reference machine) before it is stopped as a runaway loop; `--max-operations` changes it.
+pub const DEFAULT_MAX_OPERATIONS: u64 = 200_000_000;
 
 /// State shared by the bindings of one script run.
 pub struct ScriptContext {
@@ -53,6 +63,16 @@ pub struct ScriptContext {
     pub sims: RefCell<Vec<SimHandle>>,
     /// The running script's AST (joint laws written in it are compiled from here).
     pub ast: RefCell<Option<rhai::AST>>,
+    /// Output directories claimed by the simulations of this script (directory, name).
+    pub out_dirs: RefCell<Vec<(PathBuf, String)>>,
+    /// Rhai's operation count when the last time step was taken (the runaway-loop limit
+    /// counts from there).
+    pub ops_at_step: Cell<u64>,
+    /// A time step was taken since the progress callback last looked.
+    pub stepped: Cell<bool>,
+    /// Inside a run's time loop: an interrupt is handled by the runner at the end of the
+    /// step, not by the progress callback.
+    pub in_run: Cell<bool>,
 }
 
 impl ScriptContext {
@@ -91,11 +111,15 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
         .set_fail_on_invalid_map_property(true)
         .set_max_expr_depths(128, 64)
         .set_max_call_levels(64)
-        .set_max_operations(20_000_000_000)
+        // Unlimited in total (a long run's hooks add up); the progress callback below stops a
+        // script that runs too long between two time steps.
+        .set_max_operations(0)
         .set_max_modules(64)
         .set_max_string_size(16 << 20)
         .set_max_array_size(50_000_000)
         .set_max_map_size(100_000);
+    let c = ctx.clone();
+    engine.on_progress(move |ops| progress(&c, ops));
     let c = ctx.clone();
     engine.on_print(move |s| c.say(s));
     engine.on_debug(|s, src, pos| eprintln!("{}:{}: {s}", src.unwrap_or("script"), pos));
@@ -142,6 +166,35 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     resolvers.push(FileModuleResolver::new_with_path(base));
     engine.set_module_resolver(resolvers);
     engine
+}
+
+/// The progress callback: stop a runaway script (too many operations since the last time
+/// step) and a script interrupted by SIGINT/SIGTERM outside a run's time loop.
+fn progress(c: &ScriptContext, ops: u64) -> Option<rhai::Dynamic> {
+    if c.stepped.get() {
+        c.stepped.set(false);
+        c.ops_at_step.set(ops);
+    }
+    if ops < c.ops_at_step.get() {
+        c.ops_at_step.set(0);
+    }
+    let limit = c.options.max_operations.unwrap_or(DEFAULT_MAX_OPERATIONS);
+    if limit > 0 && ops - c.ops_at_step.get() > limit {
+        return Some(
+            format!(
+                "the script ran {limit} operations without a time step (a runaway loop?); if it really needs more, raise the limit with fdem run --max-operations N (0: no limit)"
+            )
+            .into(),
+        );
+    }
+    if !c.in_run.get() {
+        if let Some(sig) = crate::io::interrupt::requested() {
+            return Some(
+                format!("interrupted by {}", crate::io::interrupt::signal_name(sig)).into(),
+            );
+        }
+    }
+    None
 }
 
 /// What a finished script leaves behind (used by tests and the CLI summary).
@@ -224,6 +277,10 @@ pub fn run_source_with_report(
         params_called: Cell::new(false),
         sims: RefCell::new(Vec::new()),
         ast: RefCell::new(None),
+        out_dirs: RefCell::new(Vec::new()),
+        ops_at_step: Cell::new(0),
+        stepped: Cell::new(false),
+        in_run: Cell::new(false),
     });
     let result = run_in(&ctx, path, source);
     let sims = ctx.sims.borrow().clone();
@@ -354,6 +411,7 @@ fn format_eval_error(label: &str, source: &str, e: &EvalAltResult) -> String {
     let pos = cur.position();
     let msg = match cur {
         EvalAltResult::ErrorRuntime(d, _) => d.to_string(),
+        EvalAltResult::ErrorTerminated(d, _) => d.to_string(),
         other => {
             let s = other.to_string();
             // Rhai appends " (line l, position c)"; the location is printed in front already.

@@ -49,6 +49,37 @@ pub struct SimState {
     pub on_new_contact_pair: Option<FnPtr>,
     /// The balance-error warning was printed (once per simulation).
     pub balance_warned: bool,
+    /// `energy.csv`, streamed from the first run on.
+    pub energy_csv: Option<crate::io::CsvStream>,
+    /// Energy samples already in `energy.csv`.
+    pub energy_rows: usize,
+    /// `cracks.csv` (models with joints), streamed from the first run on.
+    pub cracks_csv: Option<crate::io::CsvStream>,
+    /// Break events already in `cracks.csv`.
+    pub crack_rows: usize,
+    /// `fdem check`: nothing is written.
+    pub dry: bool,
+    /// `--overwrite`: earlier output of this simulation may be replaced.
+    pub overwrite: bool,
+}
+
+/// Error unless `name` can name a file: not empty, not `.` or `..`, no path separator,
+/// no leading dot, no control character, at most 100 characters.
+pub fn check_file_name(func: &str, what: &str, name: &str) -> Result<(), Box<rhai::EvalAltResult>> {
+    let bad = name.is_empty()
+        || name.starts_with('.')
+        || name.chars().count() > 100
+        || name
+            .chars()
+            .any(|c| c == '/' || c == '\\' || c.is_control());
+    if bad {
+        return Err(format!(
+            "{func}: {what} '{}' cannot name a file: use letters, digits, '_' or '-' (not empty, no leading '.', no '/' or '\\', at most 100 characters)",
+            name.escape_debug()
+        )
+        .into());
+    }
+    Ok(())
 }
 
 /// A joint law from `joint_law(..)`; penalties default to 10 × the Young's modulus of the
@@ -83,6 +114,10 @@ pub struct MonitorData {
     pub steps: Vec<u64>,
     pub values: Vec<f64>,
     pub path: PathBuf,
+    /// The CSV file, created with the first sample (none under `fdem check`).
+    pub csv: Option<crate::io::CsvStream>,
+    /// `fdem check`: nothing is written.
+    pub dry: bool,
 }
 
 #[derive(Clone)]
