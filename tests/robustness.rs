@@ -230,3 +230,390 @@ fn endless_input_files_are_read_up_to_a_limit() {
     let e = run_in(&dir, "z", "let m = gmsh(\"zero.msh\");").unwrap_err();
     assert_has(&e, &["zero.msh", "larger than"]);
 }
+
+// ─── Hangs ─────────────────────────────────────────────────────────────────────────────────
+
+/// A small model that runs: one 2×1×1 box under gravity, a monitor of its kinetic energy.
+const SMALL: &str = r#"
+let rock = material("elastic/small_strain", #{ density: 2000.0, young: 1e7, poisson: 0.25 });
+let sim = simulation(#{ name: "small" });
+let b = sim.add_body("b", box(#{ min: [0, 0, 0], max: [2, 1, 1] }).mesh(#{ divisions: [2, 1, 1] }), rock);
+sim.fix(b.nodes(half_space(#{ point: [0, 0, 0], normal: [-1, 0, 0] })));
+sim.gravity([0, 0, -9.81]);
+"#;
+
+/// `every(#{ time: 1e-300 })` could never advance its clock: refused at run() naming dt.
+#[test]
+fn a_hook_period_below_the_time_step_is_refused() {
+    let text = format!(
+        "{SMALL}sim.every(#{{ time: 1e-300 }}, |s| s.write_vtk());\nsim.run(#{{ steps: 10 }});\n"
+    );
+    let e = error_of("every_tiny", &text);
+    assert_has(
+        &e,
+        &[
+            "every(#{ time: 1e-300 })",
+            "shorter than the time step",
+            "steps: 1",
+        ],
+    );
+}
+
+/// `dt: 1e-300` (or `safety: 1e-300`) with a run to a time: 1e297 steps, refused at run().
+#[test]
+fn a_run_that_would_never_finish_is_refused() {
+    let text = format!("{SMALL}sim.integrator(\"central_difference\", #{{ dt: 1e-300 }});\nsim.run(#{{ max_time: 1.0 }});\n");
+    let e = error_of("dt_tiny", &text);
+    assert_has(&e, &["run()", "would not finish", "dt = 1e-300"]);
+    let text = format!("{SMALL}sim.integrator(\"central_difference\", #{{ safety: 1e-300 }});\nsim.run(#{{ max_time: 1.0 }});\n");
+    let e = error_of("safety_tiny", &text);
+    assert_has(&e, &["integrator()", "safety"]);
+}
+
+/// `loop {}` is stopped by the operation limit (here 1e6, set like --max-operations),
+/// with a message naming the option; a run with many steps is not (the limit counts
+/// operations between two time steps).
+#[test]
+fn a_runaway_loop_is_stopped_by_the_operation_limit() {
+    let dir = common::temp_dir("runaway");
+    let path = dir.join("loop.rhai");
+    let options = RunOptions {
+        out_dir: Some(dir.join("out")),
+        quiet: true,
+        max_operations: Some(1_000_000),
+        ..Default::default()
+    };
+    let t = std::time::Instant::now();
+    let e = run_source(&path, "let x = 0;\nloop { x += 1; }\n", options.clone())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(t.elapsed().as_secs_f64() < 5.0);
+    assert_has(
+        &e,
+        &["loop.rhai:2:", "without a time step", "--max-operations"],
+    );
+    // 2000 steps, each calling a monitor: far more than 1e6 operations in total.
+    let text = format!("{SMALL}let k = sim.monitor(\"k\", #{{}}, |s| {{ let a = 0; for i in 0..300 {{ a += i; }} s.kinetic_energy() }});\nsim.run(#{{ steps: 2000 }});\n");
+    run_source(&dir.join("long.rhai"), &text, options).unwrap();
+}
+
+/// `--threads 100000` used to start (or try to start) 100 000 threads: refused.
+#[test]
+fn absurd_thread_counts_are_refused() {
+    let dir = common::temp_dir("threads");
+    for n in ["100000", "0"] {
+        let (ok, _, stderr) = common::run_script(&dir, "t", SMALL, &["--threads", n]);
+        assert!(!ok);
+        assert_has(&stderr, &[&format!("--threads {n}"), "give 1 to 1024"]);
+    }
+}
+
+// ─── Output: never lost, never overwritten ─────────────────────────────────────────────────
+
+/// Two simulations under one `--out`: the second writes to `<out>/<name>`, so their
+/// energy.csv and monitor CSVs do not overwrite each other.
+#[test]
+fn two_simulations_under_one_out_dir_write_to_two_directories() {
+    let dir = common::temp_dir("two_sims_out");
+    let text = format!(
+        "{SMALL}let m = sim.monitor(\"ke\", #{{}}, |s| s.kinetic_energy());\nsim.run(#{{ steps: 5 }});\n{}let m2 = sim.monitor(\"ke\", #{{}}, |s| s.kinetic_energy());\nsim.run(#{{ steps: 7 }});\n",
+        SMALL.replace("let rock", "let rock2").replace("\"small\"", "\"other\"")
+    );
+    let (ok, stdout, stderr) = common::run_script_with(&dir, "two", &text, &[]);
+    assert!(ok, "{stdout}\n{stderr}");
+    let out = dir.join("out");
+    assert!(stdout.contains("[other] output in"), "{stdout}");
+    let first = std::fs::read_to_string(out.join("energy.csv")).unwrap();
+    let second = std::fs::read_to_string(out.join("other/energy.csv")).unwrap();
+    // The last sample of a run of n steps is taken in its last step (step n − 1 at its start).
+    assert!(first.lines().last().unwrap().starts_with("4,"), "{first}");
+    assert!(second.lines().last().unwrap().starts_with("6,"), "{second}");
+    assert!(out.join("ke.csv").exists() && out.join("other/ke.csv").exists());
+}
+
+/// Names that cannot name a file (`..`, separators, a leading dot) and a monitor named
+/// `energy` (which energy.csv would overwrite) are refused where they are given.
+#[test]
+fn simulation_and_monitor_names_are_validated() {
+    for (name, bad) in [
+        ("dotdot", ".."),
+        ("slash", "a/b"),
+        ("dot", ".hidden"),
+        ("empty", ""),
+    ] {
+        let e = error_of(
+            &format!("name_{name}"),
+            &format!("let sim = simulation(#{{ name: \"{bad}\" }});"),
+        );
+        assert_has(&e, &["simulation()", "cannot name a file", ":1:"]);
+    }
+    let e = error_of(
+        "monitor_energy",
+        &format!("{SMALL}let m = sim.monitor(\"energy\", #{{}}, |s| 1.0);"),
+    );
+    assert_has(&e, &["monitor()", "'energy' is taken", "energy.csv"]);
+    let e = error_of(
+        "monitor_dotdot",
+        &format!("{SMALL}let m = sim.monitor(\"../x\", #{{}}, |s| 1.0);"),
+    );
+    assert_has(&e, &["monitor()", "cannot name a file"]);
+}
+
+/// A second run into a directory that holds the first run's output: refused without
+/// `--overwrite` (naming the directory, a file, and the option); with it, the old files of the
+/// simulation are replaced and no stale frame of the longer first run remains.
+#[test]
+fn earlier_output_is_not_overwritten_without_overwrite() {
+    let dir = common::temp_dir("overwrite");
+    let long = format!("{SMALL}let m = sim.monitor(\"ke\", #{{}}, |s| s.kinetic_energy());\nsim.every(#{{ steps: 2 }}, |s| s.write_vtk());\nsim.run(#{{ steps: 10 }});\n");
+    let (ok, _, stderr) = common::run_script(&dir, "ow", &long, &[]);
+    assert!(ok, "{stderr}");
+    let out = dir.join("out");
+    assert!(out.join("small_000004.vtu").exists());
+    let (ok, _, stderr) = common::run_script(&dir, "ow", &long, &[]);
+    assert!(!ok);
+    assert_has(
+        &stderr,
+        &[
+            "already holds output of simulation 'small'",
+            "energy.csv",
+            "--overwrite",
+            "ow.rhai:",
+        ],
+    );
+    let short = long.replace("steps: 10", "steps: 4");
+    let (ok, _, stderr) = common::run_script(&dir, "ow", &short, &["--overwrite"]);
+    assert!(ok, "{stderr}");
+    assert!(out.join("small_000001.vtu").exists());
+    assert!(
+        !out.join("small_000004.vtu").exists(),
+        "a stale frame of the first run is left"
+    );
+    let ke = std::fs::read_to_string(out.join("ke.csv")).unwrap();
+    assert_eq!(ke.lines().count(), 1 + 5, "{ke}");
+}
+
+/// A monitor CSV of an earlier run is not overwritten either.
+#[test]
+fn an_earlier_monitor_file_is_not_overwritten() {
+    let dir = common::temp_dir("monitor_exists");
+    std::fs::create_dir_all(dir.join("out")).unwrap();
+    std::fs::write(dir.join("out/ke.csv"), "precious\n").unwrap();
+    let text = format!("{SMALL}let m = sim.monitor(\"ke\", #{{}}, |s| s.kinetic_energy());\n");
+    let e = run_in(&dir, "m", &text).unwrap_err();
+    assert_has(&e, &["monitor()", "ke.csv", "--overwrite"]);
+    assert_eq!(
+        std::fs::read_to_string(dir.join("out/ke.csv")).unwrap(),
+        "precious\n"
+    );
+}
+
+/// `fdem check` on a script that writes a frame and a monitor before run() writes nothing
+/// (it used to rewrite the previous run's .pvd and CSVs).
+#[test]
+fn check_writes_nothing() {
+    let dir = common::temp_dir("check_writes");
+    let text = format!("{SMALL}let m = sim.monitor(\"ke\", #{{}}, |s| s.kinetic_energy());\nsim.write_vtk();\nm.write_csv();\nsim.run(#{{ steps: 3 }});\n");
+    let path = dir.join("c.rhai");
+    std::fs::write(&path, &text).unwrap();
+    let out = common::fdem()
+        .current_dir(&dir)
+        .arg("check")
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(
+        files,
+        vec![std::ffi::OsString::from("c.rhai")],
+        "fdem check wrote files"
+    );
+}
+
+/// A failed write stops the run at once, naming the path and the OS error: `--out` below a
+/// file, and a monitor whose CSV is /dev/full (a full disk).
+#[test]
+fn a_failed_write_stops_the_run_naming_the_path() {
+    let dir = common::temp_dir("write_fail");
+    std::fs::write(dir.join("file"), "").unwrap();
+    let path = dir.join("w.rhai");
+    let text = format!("{SMALL}sim.run(#{{ steps: 3 }});\n");
+    std::fs::write(&path, &text).unwrap();
+    let out = common::fdem()
+        .args(["run", "--quiet", "--out"])
+        .arg(dir.join("file/sub"))
+        .arg(&path)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert_has(&stderr, &["file/sub", "Not a directory", "w.rhai:"]);
+
+    std::fs::create_dir_all(dir.join("out")).unwrap();
+    std::os::unix::fs::symlink("/dev/full", dir.join("out/ke.csv")).unwrap();
+    let text = format!("{SMALL}let m = sim.monitor(\"ke\", #{{}}, |s| s.kinetic_energy());\nsim.run(#{{ steps: 1000 }});\n");
+    let (ok, _, stderr) = common::run_script(&dir, "full", &text, &["--overwrite"]);
+    assert!(!ok);
+    assert_has(&stderr, &["ke.csv", "No space left on device"]);
+}
+
+/// Histories are streamed: a run that fails at step 30 (its hook throws) has 30 monitor
+/// rows and the energy samples up to there on disk.
+#[test]
+fn histories_are_on_disk_when_a_run_fails() {
+    let dir = common::temp_dir("streamed");
+    let text = format!("{SMALL}let m = sim.monitor(\"ke\", #{{}}, |s| s.kinetic_energy());\nsim.every(#{{ steps: 30 }}, |s| throw \"stop here\");\nsim.run(#{{ steps: 1000 }});\n");
+    let e = run_in(&dir, "f", &text).unwrap_err();
+    assert_has(&e, &["stop here"]);
+    let ke = std::fs::read_to_string(dir.join("out/ke.csv")).unwrap();
+    // The initial value, then one per step up to step 29 (the hook of step 30 throws before
+    // the monitor of step 30 is recorded).
+    assert_eq!(ke.lines().count(), 1 + 30, "{ke}");
+    let energy = std::fs::read_to_string(dir.join("out/energy.csv")).unwrap();
+    assert!(energy.starts_with("step,time,kinetic"));
+}
+
+/// Wait (up to 60 s) until `path` has at least `lines` lines.
+fn wait_for_lines(path: &Path, lines: usize) {
+    let t = std::time::Instant::now();
+    while std::fs::read_to_string(path).map_or(0, |s| s.lines().count()) < lines {
+        assert!(
+            t.elapsed().as_secs() < 60,
+            "{} never got {lines} lines",
+            path.display()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
+
+/// Send `sig` to a child process.
+fn signal(child: &std::process::Child, sig: &str) {
+    let ok = std::process::Command::new("kill")
+        .args([sig, &child.id().to_string()])
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok);
+}
+
+/// A long run in a child `fdem`, with a monitor `ke` and frames every 50 steps.
+fn spawn_long_run(dir: &Path) -> std::process::Child {
+    let text = format!("{SMALL}let m = sim.monitor(\"ke\", #{{}}, |s| s.kinetic_energy());\nsim.every(#{{ steps: 50 }}, |s| s.write_vtk());\nsim.run(#{{ steps: 100000000 }});\n");
+    let path = dir.join("long.rhai");
+    std::fs::write(&path, text).unwrap();
+    common::fdem()
+        .args(["run", "--out"])
+        .arg(dir.join("out"))
+        .arg(&path)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// No `.tmp` file in `dir`.
+fn assert_no_tmp(dir: &Path) {
+    for e in std::fs::read_dir(dir).unwrap() {
+        let name = e.unwrap().file_name().into_string().unwrap();
+        assert!(!name.ends_with(".tmp"), "{name} left behind");
+    }
+}
+
+/// SIGINT (and SIGTERM) stop the run at the end of a step: the monitor and energy.csv are
+/// on disk, a final frame is written, the summary printed, the exit code is 128 + signal.
+#[test]
+fn sigint_and_sigterm_stop_the_run_with_histories_and_a_final_frame() {
+    for (sig, code) in [("-INT", 130), ("-TERM", 143)] {
+        let dir = common::temp_dir(&format!("sig{sig}"));
+        let child = spawn_long_run(&dir);
+        wait_for_lines(&dir.join("out/ke.csv"), 200);
+        signal(&child, sig);
+        let out = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(out.status.code(), Some(code), "{stderr}");
+        assert_has(
+            &stderr,
+            &["interrupted by SIG", "a final frame", "long.rhai:"],
+        );
+        assert!(stdout.contains("── small:"), "no summary:\n{stdout}");
+        let ke = std::fs::read_to_string(dir.join("out/ke.csv")).unwrap();
+        let energy = std::fs::read_to_string(dir.join("out/energy.csv")).unwrap();
+        assert!(ke.lines().count() >= 200 && energy.lines().count() >= 2);
+        // The final frame is in the .pvd, after the periodic ones.
+        let pvd = std::fs::read_to_string(dir.join("out/small.pvd")).unwrap();
+        let last_step: u64 = ke
+            .lines()
+            .last()
+            .unwrap()
+            .split(',')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!(
+            pvd.matches("<DataSet").count() as u64 > last_step / 50,
+            "{pvd}"
+        );
+        assert_no_tmp(&dir.join("out"));
+    }
+}
+
+/// A second SIGINT exits at once; the files written are valid and no .tmp is left. A kill -9
+/// loses at most the sample being written.
+#[test]
+fn a_second_sigint_or_a_kill_leaves_valid_files() {
+    for sigs in [&["-INT", "-INT"][..], &["-KILL"][..]] {
+        let dir = common::temp_dir(&format!("hard{}", sigs.len()));
+        let child = spawn_long_run(&dir);
+        wait_for_lines(&dir.join("out/ke.csv"), 200);
+        for s in sigs {
+            signal(&child, s);
+        }
+        let out = child.wait_with_output().unwrap();
+        assert!(!out.status.success());
+        let ke = std::fs::read_to_string(dir.join("out/ke.csv")).unwrap();
+        let rows: Vec<&str> = ke.lines().collect();
+        assert!(rows.len() >= 200);
+        // Every complete line has three numbers; only the last may be cut.
+        for r in &rows[1..rows.len() - 1] {
+            assert_eq!(
+                r.split(',').filter(|c| c.parse::<f64>().is_ok()).count(),
+                3,
+                "{r}"
+            );
+        }
+        assert_no_tmp(&dir.join("out"));
+    }
+}
+
+/// Ctrl-C stops a script that is not stepping (a loop at the top level).
+#[test]
+fn sigint_stops_a_looping_script() {
+    let dir = common::temp_dir("sigint_loop");
+    let path = dir.join("spin.rhai");
+    std::fs::write(&path, "let x = 0;\nloop { x += 1; }\n").unwrap();
+    let child = common::fdem()
+        .args(["run", "--quiet", "--max-operations", "0"])
+        .arg(&path)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    signal(&child, "-INT");
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(130));
+    assert_has(
+        &String::from_utf8_lossy(&out.stderr),
+        &["interrupted by SIGINT", "spin.rhai:2:"],
+    );
+}
