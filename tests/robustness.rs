@@ -617,3 +617,118 @@ fn sigint_stops_a_looping_script() {
         &["interrupted by SIGINT", "spin.rhai:2:"],
     );
 }
+
+// ─── Instability caught at once ────────────────────────────────────────────────────────────
+
+/// A block crushed by a plate moving at 10 × its wave speed: the run stops in the step after
+/// the one that inverted an element (it used to run on for up to 50 steps, writing frames of
+/// inverted tets and NaN stresses), naming the element, its body, position, stage and the
+/// likely cause; no frame holds an inverted element.
+#[test]
+fn an_inverted_element_stops_the_run_at_once_with_its_cause() {
+    let dir = common::temp_dir("crushed");
+    let text = r#"
+let soft = material("elastic/neo_hookean", #{ density: 2000.0, young: 1e6, poisson: 0.3 });
+let sim = simulation(#{ name: "crushed", energy_every: 1000 });
+let b = sim.add_body("block", box(#{ min: [0, 0, 0], max: [1, 1, 1] }).mesh(#{ divisions: [3, 3, 3] }), soft);
+sim.fix(b.nodes(half_space(#{ point: [0, 0, 0], normal: [0, 0, -1] })));
+sim.prescribe_velocity(b.nodes(half_space(#{ point: [0, 0, 1], normal: [0, 0, 1] })), [0, 0, -30.0]);
+sim.every(#{ steps: 1 }, |s| s.write_vtk());
+sim.run(#{ steps: 10000 });
+"#;
+    let e = run_in(&dir, "crush", text).unwrap_err();
+    assert_has(
+        &e,
+        &[
+            "inverted (det F ≤ 0) by the motion of step",
+            "found by",
+            "of body 'block'",
+            "Likely cause",
+            "wave speed",
+            "crush.rhai:",
+        ],
+    );
+    // The step named is the one whose motion inverted a tet: a frame after each step before
+    // it, none after.
+    let step: u64 = e
+        .split("motion of step ")
+        .nth(1)
+        .unwrap()
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let pvd = std::fs::read_to_string(dir.join("out/crushed.pvd")).unwrap();
+    assert_eq!(pvd.matches("<DataSet").count() as u64, step, "{e}\n{pvd}");
+    assert!(step > 0 && step < 50, "{e}");
+}
+
+/// With elastic/small_strain (which does not resist inversion) the cause names the law.
+#[test]
+fn an_inverted_small_strain_element_names_its_law() {
+    let text = r#"
+let soft = material("elastic/small_strain", #{ density: 2000.0, young: 1e6, poisson: 0.3 });
+let sim = simulation(#{ name: "sq" });
+let b = sim.add_body("block", box(#{ min: [0, 0, 0], max: [1, 1, 1] }).mesh(#{ divisions: [2, 2, 2] }), soft);
+sim.fix(b.nodes(half_space(#{ point: [0, 0, 0], normal: [0, 0, -1] })));
+sim.prescribe_velocity(b.nodes(half_space(#{ point: [0, 0, 1], normal: [0, 0, 1] })), [0, 0, -3.0]);
+sim.run(#{ steps: 100000 });
+"#;
+    let e = error_of("small_strain_inverts", text);
+    assert_has(
+        &e,
+        &[
+            "inverted",
+            "body 'block'",
+            "elastic/small_strain",
+            "neo_hookean",
+        ],
+    );
+}
+
+/// NaN and ∞ are refused by the call that takes them (they used to surface at run() as
+/// `dt = inf`): coordinates, gravity, velocities, forces, tables, material values.
+#[test]
+fn non_finite_inputs_are_refused_where_they_are_given() {
+    let calls: [(&str, &str); 9] = [
+        ("sim.gravity([nan, 0, -9.81]);", "gravity()"),
+        ("sim.initial_velocity(b.nodes(), [inf, 0, 0]);", "initial_velocity()"),
+        ("sim.nodal_force(b.nodes(), [0, nan, 0]);", "nodal_force()"),
+        ("sim.prescribe_velocity(b.nodes(), [0, 0, nan]);", "prescribe_velocity()"),
+        ("let t = table([[0, 0], [1, nan]]);", "table()"),
+        ("let s = box(#{ min: [nan, 0, 0], max: [1, 1, 1] });", "box(): key 'min'"),
+        ("b.translate([0, inf, 0]);", "translate()"),
+        ("let m = material(\"elastic/small_strain\", #{ density: nan, young: 1e6, poisson: 0.3 });", "'density'"),
+        ("let t = read_table(\"t.csv\", nan);", "read_table() scale"),
+    ];
+    for (i, (call, func)) in calls.iter().enumerate() {
+        let text = format!("let nan = 0.0 / 0.0;\nlet inf = 1.0 / 0.0;\n{SMALL}{call}\n");
+        let line = text.lines().count();
+        let e = error_of(&format!("nan_{i}"), &text);
+        assert_has(&e, &[func, "finite", &format!(":{line}:")]);
+    }
+}
+
+/// `mass_proportional: 1e7` reversed every velocity each step: refused, with the limit 2/dt.
+#[test]
+fn unstable_mass_damping_is_refused_with_its_limit() {
+    let text =
+        format!("{SMALL}sim.damping(#{{ mass_proportional: 1e7 }});\nsim.run(#{{ steps: 10 }});\n");
+    let e = error_of("damping", &text);
+    assert_has(
+        &e,
+        &[
+            "mass-proportional damping",
+            "α·dt",
+            "above the central difference's limit 2",
+            "use α ≤ 2/dt",
+        ],
+    );
+    // Just below the limit runs.
+    let dir = common::temp_dir("damping_ok");
+    let ok = format!(
+        "{SMALL}sim.damping(#{{ mass_proportional: 1.9 / sim.dt }});\nsim.run(#{{ steps: 10 }});\n"
+    );
+    run_in(&dir, "ok", &ok).unwrap();
+}

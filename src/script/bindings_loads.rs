@@ -66,11 +66,16 @@ fn register_tables(engine: &mut Engine) {
         for (i, p) in points.iter().enumerate() {
             let pair: Option<(Real, Real)> =
                 p.read_lock::<Array>().and_then(|a| match a.as_slice() {
-                    [t, v] => Some((to_float(t)?, to_float(v)?)),
+                    [t, v] => Some((to_float(t)?, to_float(v)?))
+                        .filter(|(t, v)| t.is_finite() && v.is_finite()),
                     _ => None,
                 });
             pts.push(pair.map_or_else(
-                || err(format!("table(): point {i} must be [t, value], got {p}")),
+                || {
+                    err(format!(
+                        "table(): point {i} must be [t, value] with finite numbers, got {p}"
+                    ))
+                },
                 Ok,
             )?);
         }
@@ -97,15 +102,16 @@ pub(super) fn time_fn(d: &Dynamic, what: &str) -> RhaiResult<TimeFunction> {
     if let Some(t) = d.clone().try_cast::<Table>() {
         return Ok(t.0);
     }
-    to_float(d).map(TimeFunction::Constant).map_or_else(
-        || {
-            err(format!(
-                "{what}: expected a number or a table, got {} ({d})",
-                d.type_name()
-            ))
-        },
-        Ok,
-    )
+    match to_float(d) {
+        Some(x) if x.is_finite() => Ok(TimeFunction::Constant(x)),
+        Some(x) => err(format!(
+            "{what}: expected a finite number or a table, got {x}"
+        )),
+        None => err(format!(
+            "{what}: expected a number or a table, got {} ({d})",
+            d.type_name()
+        )),
+    }
 }
 
 /// `sim.prescribe_velocity(nodes, [vx, vy, vz])`.

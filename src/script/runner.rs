@@ -563,6 +563,13 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
         // `fdem check` writes nothing.
         return Ok(());
     }
+    // No frame shows inverted elements: the last step's motion is checked before it is
+    // written (stage 1 of the next step would find them, but a frame may come first).
+    if st.sim.step > 0 {
+        st.sim
+            .check_configuration()
+            .map_err(|e| format!("write_vtk(): {e}"))?;
+    }
     let bytes = encode_frame(&st.sim, st.stress_output, st.vtk_encoding)
         .map_err(|e| format!("write_vtk(): {e}"))?;
     let t = st.sim.time;
