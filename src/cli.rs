@@ -46,6 +46,8 @@ enum Command {
         /// 0: no limit. Default 200000000 (about 10 s).
         #[arg(long, value_name = "N")]
         max_operations: Option<u64>,
+        #[command(flatten)]
+        geo: GeoArgs,
     },
     /// Parse a script, build its model up to the first run() and validate it (nothing is
     /// stepped); or, with --mesh, validate a mesh file alone and print its summary.
@@ -57,6 +59,8 @@ enum Command {
         /// A mesh file to check (.msh; .geo when gmsh is installed).
         #[arg(long, value_name = "FILE")]
         mesh: Option<PathBuf>,
+        #[command(flatten)]
+        geo: GeoArgs,
     },
     /// Print the script API reference (Markdown).
     Doc,
@@ -97,6 +101,36 @@ enum Command {
     },
 }
 
+/// How `.geo` files are run through gmsh (`run` and `check`).
+#[derive(clap::Args, Clone, Debug)]
+struct GeoArgs {
+    /// Let .geo files run programs (gmsh's SystemCall, Shell, OnelabRun); refused without
+    /// it. Only for files you trust.
+    #[arg(long)]
+    allow_geo_commands: bool,
+    /// Stop gmsh after this many seconds (default 600).
+    #[arg(long, value_name = "SECONDS")]
+    gmsh_timeout: Option<f64>,
+}
+
+impl GeoArgs {
+    fn policy(&self) -> Result<crate::mesh::gmsh::GeoPolicy, String> {
+        let mut p = crate::mesh::gmsh::GeoPolicy {
+            allow_commands: self.allow_geo_commands,
+            ..Default::default()
+        };
+        if let Some(t) = self.gmsh_timeout {
+            if !(t > 0.0 && t <= 1e7) {
+                return Err(format!(
+                    "--gmsh-timeout {t}: give a number of seconds in (0, 1e7]"
+                ));
+            }
+            p.timeout = std::time::Duration::from_secs_f64(t);
+        }
+        Ok(p)
+    }
+}
+
 /// The `fdem` command: parse the arguments, run the subcommand and exit with its code.
 pub fn main() {
     let cli = Cli::parse();
@@ -109,23 +143,41 @@ pub fn main() {
             quiet,
             overwrite,
             max_operations,
+            geo,
         } => {
             if let Err(e) = set_threads(threads) {
                 std::process::exit(fail(&e));
             }
-            run_script(&script, &set, out, quiet, overwrite, max_operations)
+            let geo = match geo.policy() {
+                Ok(g) => g,
+                Err(e) => std::process::exit(fail(&e)),
+            };
+            let options = RunOptions {
+                out_dir: out,
+                quiet,
+                check_only: false,
+                progress: !quiet,
+                overwrite,
+                max_operations,
+                geo,
+                ..Default::default()
+            };
+            run_script(&script, &set, options)
         }
         Command::Check {
-            mesh: Some(mesh), ..
-        } => match check_mesh_file(&mesh) {
+            mesh: Some(mesh),
+            geo,
+            ..
+        } => match geo
+            .policy()
+            .and_then(|g| check_mesh_file_with(&mesh, &g).map_err(|e| e.trim_end().to_string()))
+        {
             Ok(report) => {
                 print!("{report}");
                 0
             }
-            Err(report) => {
-                print!("{report}");
-                1
-            }
+            // Errors on stderr, like every other command's.
+            Err(report) => fail(&report),
         },
         Command::Check {
             script: None,
@@ -135,8 +187,12 @@ pub fn main() {
         Command::Check {
             script: Some(script),
             set,
+            geo,
             ..
-        } => check_script(&script, &set),
+        } => match geo.policy() {
+            Ok(g) => check_script(&script, &set, g),
+            Err(e) => fail(&e),
+        },
         Command::Doc => {
             print!("{}", script::api::markdown());
             0
@@ -169,28 +225,13 @@ pub fn main() {
 }
 
 /// `fdem run`: run `script` (summaries printed unless `quiet`); returns the exit code.
-fn run_script(
-    script: &Path,
-    set: &[String],
-    out: Option<PathBuf>,
-    quiet: bool,
-    overwrite: bool,
-    max_operations: Option<u64>,
-) -> i32 {
-    let overrides = match parse_sets(set) {
+fn run_script(script: &Path, set: &[String], mut options: RunOptions) -> i32 {
+    options.overrides = match parse_sets(set) {
         Err(e) => return fail(&e),
         Ok(overrides) => overrides,
     };
-    let options = RunOptions {
-        overrides,
-        out_dir: out,
-        quiet,
-        check_only: false,
-        progress: !quiet,
-        overwrite,
-        max_operations,
-    };
-    crate::io::interrupt::install();
+    let quiet = options.quiet;
+    crate::limits::interrupt::install();
     // The summaries (timing, energy account) are printed whether the script succeeded or
     // not: a failed self-check is when they are needed most.
     let (report, result) = script::run_file_with_report(script, options);
@@ -204,13 +245,13 @@ fn run_script(
         Err(e) => {
             fail(&e.to_string());
             // 128 + the signal number when SIGINT or SIGTERM stopped the run, as shells do.
-            crate::io::interrupt::requested().map_or(1, |sig| 128 + sig)
+            crate::limits::interrupt::requested().map_or(1, |sig| 128 + sig)
         }
     }
 }
 
 /// `fdem check SCRIPT`: build the models up to their first run, one line each; the exit code.
-fn check_script(script: &Path, set: &[String]) -> i32 {
+fn check_script(script: &Path, set: &[String], geo: crate::mesh::gmsh::GeoPolicy) -> i32 {
     let overrides = match parse_sets(set) {
         Err(e) => return fail(&e),
         Ok(overrides) => overrides,
@@ -219,6 +260,7 @@ fn check_script(script: &Path, set: &[String]) -> i32 {
         overrides,
         check_only: true,
         quiet: true,
+        geo,
         ..Default::default()
     };
     match script::run_file(script, options) {
@@ -276,6 +318,14 @@ fn print_bench(result: Result<serde_json::Value, String>, json: bool) -> i32 {
 /// `fdem check --mesh FILE`: import and check a mesh file; the summary (Ok) or the summary
 /// with the problems (Err), as printed.
 pub fn check_mesh_file(path: &std::path::Path) -> Result<String, String> {
+    check_mesh_file_with(path, &Default::default())
+}
+
+/// [`check_mesh_file`] with `.geo` files run under `policy`.
+pub fn check_mesh_file_with(
+    path: &std::path::Path,
+    policy: &crate::mesh::gmsh::GeoPolicy,
+) -> Result<String, String> {
     use crate::mesh::{checks::fmt_point, gmsh};
     use std::fmt::Write;
     let ext = path
@@ -285,7 +335,7 @@ pub fn check_mesh_file(path: &std::path::Path) -> Result<String, String> {
     let t = Instant::now();
     let imported = match ext.as_str() {
         "msh" => gmsh::read_msh(path).map_err(|e| format!("error: {e}\n"))?,
-        "geo" => gmsh::mesh_geo(path, None).map_err(|e| format!("error: {e}\n"))?,
+        "geo" => gmsh::mesh_geo_with(path, None, policy).map_err(|e| format!("error: {e}\n"))?,
         _ => {
             return Err(format!(
                 "error: {}: expected a .msh or .geo file\n",

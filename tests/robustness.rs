@@ -367,11 +367,27 @@ fn simulation_and_monitor_names_are_validated() {
 fn earlier_output_is_not_overwritten_without_overwrite() {
     let dir = common::temp_dir("overwrite");
     let long = format!("{SMALL}let m = sim.monitor(\"ke\", #{{}}, |s| s.kinetic_energy());\nsim.every(#{{ steps: 2 }}, |s| s.write_vtk());\nsim.run(#{{ steps: 10 }});\n");
-    let (ok, _, stderr) = common::run_script(&dir, "ow", &long, &[]);
+    let path = dir.join("ow.rhai");
+    // Without the helper's --overwrite.
+    let run = |text: &str, extra: &[&str]| {
+        std::fs::write(&path, text).unwrap();
+        let out = common::fdem()
+            .args(["run", "--quiet", "--out"])
+            .arg(dir.join("out"))
+            .args(extra)
+            .arg(&path)
+            .output()
+            .unwrap();
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let (ok, stderr) = run(&long, &[]);
     assert!(ok, "{stderr}");
     let out = dir.join("out");
     assert!(out.join("small_000004.vtu").exists());
-    let (ok, _, stderr) = common::run_script(&dir, "ow", &long, &[]);
+    let (ok, stderr) = run(&long, &[]);
     assert!(!ok);
     assert_has(
         &stderr,
@@ -383,7 +399,7 @@ fn earlier_output_is_not_overwritten_without_overwrite() {
         ],
     );
     let short = long.replace("steps: 10", "steps: 4");
-    let (ok, _, stderr) = common::run_script(&dir, "ow", &short, &["--overwrite"]);
+    let (ok, stderr) = run(&short, &["--overwrite"]);
     assert!(ok, "{stderr}");
     assert!(out.join("small_000001.vtu").exists());
     assert!(
@@ -461,7 +477,7 @@ fn a_failed_write_stops_the_run_naming_the_path() {
     std::fs::create_dir_all(dir.join("out")).unwrap();
     std::os::unix::fs::symlink("/dev/full", dir.join("out/ke.csv")).unwrap();
     let text = format!("{SMALL}let m = sim.monitor(\"ke\", #{{}}, |s| s.kinetic_energy());\nsim.run(#{{ steps: 1000 }});\n");
-    let (ok, _, stderr) = common::run_script(&dir, "full", &text, &["--overwrite"]);
+    let (ok, _, stderr) = common::run_script(&dir, "full", &text, &[]);
     assert!(!ok);
     assert_has(&stderr, &["ke.csv", "No space left on device"]);
 }
@@ -731,4 +747,170 @@ fn unstable_mass_damping_is_refused_with_its_limit() {
         "{SMALL}sim.damping(#{{ mass_proportional: 1.9 / sim.dt }});\nsim.run(#{{ steps: 10 }});\n"
     );
     run_in(&dir, "ok", &ok).unwrap();
+}
+
+// ─── gmsh sandbox ──────────────────────────────────────────────────────────────────────────
+
+/// A `.geo` (or a file it includes) that calls SystemCall, Shell or OnelabRun is refused
+/// before gmsh runs, naming the file, the line and the option that allows it; the command did
+/// not run. This check needs no gmsh.
+#[test]
+fn geo_files_that_run_commands_are_refused() {
+    let dir = common::temp_dir("geo_commands");
+    let marker = dir.join("pwned");
+    for (i, call) in [
+        format!("SystemCall \"touch {}\";", marker.display()),
+        format!("NonBlockingSystemCall \"touch {}\";", marker.display()),
+        format!("Shell \"touch {}\";", marker.display()),
+        "OnelabRun(\"x\", \"y\");".to_string(),
+    ]
+    .iter()
+    .enumerate()
+    {
+        // The command hides in an included file, after a comment that names another one.
+        std::fs::write(
+            dir.join(format!("inc{i}.geo")),
+            format!("// Shell in a comment\nx = 1;\n{call}\n"),
+        )
+        .unwrap();
+        std::fs::write(
+            dir.join(format!("m{i}.geo")),
+            format!("/* SystemCall */\nInclude \"inc{i}.geo\";\nBox(1) = {{0, 0, 0, 1, 1, 1}};\n"),
+        )
+        .unwrap();
+        let text = format!("let m = gmsh(\"m{i}.geo\");\n");
+        let e = run_in(&dir, &format!("g{i}"), &text).unwrap_err();
+        assert_has(
+            &e,
+            &[
+                &format!("inc{i}.geo:3:"),
+                "runs programs",
+                "--allow-geo-commands",
+                ":1:",
+            ],
+        );
+        // `fdem check --mesh` refuses it too, on stderr.
+        let out = common::fdem()
+            .args(["check", "--mesh"])
+            .arg(dir.join(format!("m{i}.geo")))
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        assert_has(
+            &String::from_utf8_lossy(&out.stderr),
+            &["--allow-geo-commands"],
+        );
+    }
+    assert!(!marker.exists(), "a command ran");
+}
+
+/// With --allow-geo-commands the SystemCall runs (the user said so).
+#[test]
+#[ignore = "needs gmsh"]
+fn geo_commands_run_when_allowed() {
+    let dir = common::temp_dir("geo_allowed");
+    let marker = dir.join("ran");
+    std::fs::write(
+        dir.join("m.geo"),
+        format!("SetFactory(\"OpenCASCADE\");\nSystemCall \"touch {}\";\nBox(1) = {{0, 0, 0, 1, 1, 1}};\n", marker.display()),
+    )
+    .unwrap();
+    let out = common::fdem()
+        .args(["check", "--allow-geo-commands", "--mesh"])
+        .arg(dir.join("m.geo"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(marker.exists());
+}
+
+/// A `.geo` that loops is stopped at the time limit (--gmsh-timeout), naming the option; the
+/// private temporary directory is removed.
+#[test]
+#[ignore = "needs gmsh"]
+fn a_looping_geo_is_stopped_by_the_time_limit() {
+    let dir = common::temp_dir("geo_loop");
+    std::fs::write(
+        dir.join("loop.geo"),
+        "For i In {1:2000000000}\n  x = i;\nEndFor\n",
+    )
+    .unwrap();
+    let before = gmsh_temp_dirs();
+    let t = std::time::Instant::now();
+    let out = common::fdem()
+        .args(["check", "--gmsh-timeout", "1", "--mesh"])
+        .arg(dir.join("loop.geo"))
+        .output()
+        .unwrap();
+    assert!(t.elapsed().as_secs_f64() < 20.0);
+    assert!(!out.status.success());
+    assert_has(
+        &String::from_utf8_lossy(&out.stderr),
+        &["loop.geo", "longer than 1 s", "--gmsh-timeout"],
+    );
+    assert_eq!(
+        gmsh_temp_dirs(),
+        before,
+        "a temporary directory was left behind"
+    );
+}
+
+/// The fdem-gmsh-* entries of the temporary directory.
+fn gmsh_temp_dirs() -> Vec<std::ffi::OsString> {
+    let mut v: Vec<_> = std::fs::read_dir(std::env::temp_dir())
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.file_name()))
+        .filter(|n| n.to_string_lossy().starts_with("fdem-gmsh-"))
+        .collect();
+    v.sort();
+    v
+}
+
+// ─── Smaller ones ──────────────────────────────────────────────────────────────────────────
+
+/// MSH 4.1 with one element tag used twice: refused like MSH 2.2 (it was accepted), naming
+/// the tag and the line.
+#[test]
+fn msh41_duplicate_element_tags_are_refused() {
+    let text = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 5 1 5\n3 1 0 5\n1\n2\n3\n4\n5\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n$EndNodes\n$Elements\n1 2 1 2\n3 1 4 2\n7 1 2 3 4\n7 2 3 4 5\n$EndElements\n";
+    let e = fdem::mesh::gmsh::parse_msh(text.as_bytes(), "dup.msh")
+        .err()
+        .expect("a duplicate tag must be refused")
+        .to_string();
+    assert_has(&e, &["dup.msh:22", "element tag 7 appears twice"]);
+}
+
+/// `--set` on a script without params(): refused before the script runs (it used to fail
+/// after the whole run), naming the key.
+#[test]
+fn set_without_params_fails_before_running() {
+    let dir = common::temp_dir("set_no_params");
+    let text = format!("{SMALL}print(\"ran\");\nsim.run(#{{ steps: 5 }});\n");
+    let (ok, stdout, stderr) = common::run_script(&dir, "np", &text, &["--set", "h=0.1"]);
+    assert!(!ok);
+    assert!(!stdout.contains("ran"), "the script ran: {stdout}");
+    assert_has(&stderr, &["--set h", "params("]);
+    assert!(!dir.join("out/energy.csv").exists());
+}
+
+/// Errors inside an imported module and inside an `eval` string point at the module's file
+/// and line (and the eval's line in its string), with the import or eval call site.
+#[test]
+fn errors_in_modules_and_eval_point_at_the_right_place() {
+    let dir = common::temp_dir("module_lines");
+    std::fs::write(
+        dir.join("helpers.rhai"),
+        "fn ok() { 1 }\n\nfn bad(x) {\n    x.no_such_method()\n}\n",
+    )
+    .unwrap();
+    let text = "import \"helpers\" as h;\nlet a = 1;\nh::bad(2);\n";
+    let e = run_in(&dir, "main", text).unwrap_err();
+    assert_has(&e, &["helpers.rhai:4:", "no_such_method", "main.rhai:3:"]);
+    let text = "let a = 1;\nlet b = 2;\neval(\"let c = 3;\\nlet d = no_such_var;\");\n";
+    let e = run_in(&dir, "ev", text).unwrap_err();
+    assert_has(&e, &["no_such_var", "ev.rhai:3:", "eval"]);
 }

@@ -5,7 +5,6 @@
 //! flushed to the OS as it is sampled), so a killed run keeps every sample but the last.
 
 pub mod frame;
-pub mod interrupt;
 pub mod vtu;
 
 use std::path::{Path, PathBuf};

@@ -446,7 +446,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     name.push(".tmp");
     let tmp: PathBuf = path.with_file_name(name);
     // A second SIGINT exits at once and removes the temporary files noted here.
-    super::interrupt::begin_temp(&tmp);
+    crate::limits::interrupt::begin_temp(&tmp);
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
@@ -456,7 +456,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
-    super::interrupt::end_temp(&tmp);
+    crate::limits::interrupt::end_temp(&tmp);
     result
 }
 

@@ -109,7 +109,8 @@ fn load(nc: &NativeCallContext, ctx: &ScriptContext, path: &str, m: Map) -> Rhai
             }
             gmsh::read_msh(&file).map_err(|e| format!("gmsh(): {e}"))?
         }
-        "geo" => gmsh::mesh_geo(&file, size).map_err(|e| format!("gmsh(): {e}"))?,
+        "geo" => gmsh::mesh_geo_with(&file, size, &ctx.options.geo)
+            .map_err(|e| format!("gmsh(): {e}"))?,
         _ => return err(format!("gmsh(\"{path}\"): expected a .msh or .geo file")),
     };
     for w in &imported.warnings {

@@ -49,6 +49,8 @@ pub struct RunOptions {
     /// `--max-operations N`: stop a script that runs more than N Rhai operations without a
     /// time step (a runaway loop); None: [`DEFAULT_MAX_OPERATIONS`]; Some(0): no limit.
     pub max_operations: Option<u64>,
+    /// How `.geo` files are run through gmsh (commands refused unless allowed, time limit).
+    pub geo: crate::mesh::gmsh::GeoPolicy,
 }
 
 /// Rhai operations a script may run between two time steps (about 10 s on one core of the
@@ -188,9 +190,13 @@ fn progress(c: &ScriptContext, ops: u64) -> Option<rhai::Dynamic> {
         );
     }
     if !c.in_run.get() {
-        if let Some(sig) = crate::io::interrupt::requested() {
+        if let Some(sig) = crate::limits::interrupt::requested() {
             return Some(
-                format!("interrupted by {}", crate::io::interrupt::signal_name(sig)).into(),
+                format!(
+                    "interrupted by {}",
+                    crate::limits::interrupt::signal_name(sig)
+                )
+                .into(),
             );
         }
     }
@@ -295,6 +301,13 @@ fn run_in(ctx: &Rc<ScriptContext>, path: &Path, source: &str) -> Result<(), Scri
         .compile(source)
         .map_err(|e| ScriptError(format_parse_error(&label, source, &e)))?;
     ast.set_source(label.clone());
+    if !ctx.options.overrides.is_empty() && !may_call_params(&ast) {
+        return Err(set_without_params(
+            &label,
+            &ctx.options.overrides,
+            " (nothing was run)",
+        ));
+    }
     *ctx.ast.borrow_mut() = Some(ast.clone());
     let result = engine.run_ast(&ast);
     // Finish output of every simulation, even after an error.
@@ -310,18 +323,34 @@ fn run_in(ctx: &Rc<ScriptContext>, path: &Path, source: &str) -> Result<(), Scri
         r => r.map_err(|e| ScriptError(format_eval_error(&label, source, &e)))?,
     }
     if !ctx.options.overrides.is_empty() && !ctx.params_called.get() {
-        let keys: Vec<&str> = ctx
-            .options
-            .overrides
-            .iter()
-            .map(|(k, _)| k.as_str())
-            .collect();
-        return Err(ScriptError(format!(
-            "{label}: error: --set {} given, but the script declares no params(#{{..}})",
-            keys.join(", ")
-        )));
+        return Err(set_without_params(&label, &ctx.options.overrides, ""));
     }
     Ok(())
+}
+
+/// Whether the script calls `params(..)` anywhere or imports a module (which might): a
+/// `--set` on a script that cannot declare parameters is refused before it runs.
+fn may_call_params(ast: &rhai::AST) -> bool {
+    use rhai::{ASTNode, Expr, Stmt};
+    let mut found = false;
+    ast.walk(&mut |path: &[ASTNode]| {
+        found = match path.last() {
+            Some(ASTNode::Expr(Expr::FnCall(f, _))) => f.name == "params",
+            Some(ASTNode::Stmt(Stmt::Import(..))) => true,
+            _ => false,
+        };
+        !found
+    });
+    found
+}
+
+/// `--set` given to a script without `params(..)`.
+fn set_without_params(label: &str, overrides: &[(String, String)], note: &str) -> ScriptError {
+    let keys: Vec<&str> = overrides.iter().map(|(k, _)| k.as_str()).collect();
+    ScriptError(format!(
+        "{label}: error: --set {} given, but the script declares no params(#{{..}}) to override{note}",
+        keys.join(", ")
+    ))
 }
 
 impl ScriptReport {
@@ -379,6 +408,28 @@ fn format_parse_error(label: &str, source: &str, e: &ParseError) -> String {
     )
 }
 
+/// The file of an imported module named `src` in Rhai's errors (`helpers` for `import
+/// "helpers"`): `<script dir>/helpers.rhai` when that file exists, else `src` as it is (the
+/// embedded stdlib modules are named `stdlib/….rhai` already).
+fn module_file(label: &str, src: &str) -> String {
+    let p = Path::new(src);
+    if p.is_file() || src.starts_with("stdlib/") {
+        return src.to_string();
+    }
+    let dir = Path::new(label).parent().unwrap_or(Path::new(""));
+    let with_ext = if p.extension().is_some() {
+        p.to_path_buf()
+    } else {
+        p.with_extension("rhai")
+    };
+    let q = dir.join(with_ext);
+    if q.is_file() {
+        q.display().to_string()
+    } else {
+        src.to_string()
+    }
+}
+
 /// Unwrap nested function-call errors down to the innermost one, keeping the call chain.
 fn format_eval_error(label: &str, source: &str, e: &EvalAltResult) -> String {
     let mut chain = Vec::new();
@@ -393,8 +444,11 @@ fn format_eval_error(label: &str, source: &str, e: &EvalAltResult) -> String {
                     format!("function '{name}'")
                 };
                 chain.push(format!("  in {shown} called at {}", loc(&src_label, *pos)));
-                if !src.is_empty() {
-                    src_label = src.clone();
+                if name == "eval" {
+                    // Positions inside are lines of the evaluated string, not of the file.
+                    src_label = "eval string".to_string();
+                } else if !src.is_empty() {
+                    src_label = module_file(label, src);
                 }
                 cur = inner;
             }
@@ -424,7 +478,10 @@ fn format_eval_error(label: &str, source: &str, e: &EvalAltResult) -> String {
     let snip = if src_label == label {
         snippet(source, pos)
     } else {
-        String::new()
+        // An imported module's own file, when it can be read.
+        crate::limits::read_text_bounded(Path::new(&src_label), 1 << 20)
+            .map(|text| snippet(&text, pos))
+            .unwrap_or_default()
     };
     let mut out = format!("{}: error: {msg}{snip}", loc(&src_label, pos));
     for c in chain.iter().rev() {

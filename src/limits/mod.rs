@@ -7,6 +7,8 @@
 //! jointed body 850 B, a jointed body with joints on every internal face 1 430 B. The
 //! constants below round these up.
 
+pub mod interrupt;
+
 use std::io::Read;
 use std::path::Path;
 
