@@ -649,6 +649,12 @@ impl Simulation {
                 sample,
             )
         });
+        // An element inverted by the last step's motion stops the run here, before the
+        // other stages act on it (a neo-Hookean stress is NaN there, and would make the
+        // nodes non-finite, hiding the cause).
+        if el.inverted > 0 {
+            return Err(SimError::Unstable(self.describe_instability(el.inverted)));
+        }
         let bs = timed(&mut self.timers, Stage::Elements, || {
             elements::bar2::add_bar_forces(
                 &mut self.nodes,
@@ -836,9 +842,8 @@ impl Simulation {
                 return Err(SimError::Unstable(self.describe_instability(el.inverted)));
             }
         }
-        // Every step: stage 1 counted the elements inverted by the last step's motion, stage 7
-        // the nodes it made non-finite.
-        if el.inverted > 0 || is.non_finite > 0 {
+        // Every step: stage 7 counted the nodes it made non-finite.
+        if is.non_finite > 0 {
             return Err(SimError::Unstable(self.describe_instability(el.inverted)));
         }
         self.accumulated.viscous_damping += viscous;
