@@ -35,7 +35,7 @@ pub(crate) fn need_positive(key: &str, v: Real) -> Result<(), String> {
 /// tetrahedra, or more than the machine's memory could simulate. Callers compute `estimate`
 /// in floating point (products of cell counts, none of which may overflow).
 pub(crate) fn need_reasonable(estimate: Real) -> Result<(), String> {
-    if !(estimate <= 2.0e7) {
+    if estimate.is_nan() || estimate > 2.0e7 {
         let n = if estimate.is_finite() {
             format!("about {estimate:.3e}")
         } else {

@@ -29,7 +29,7 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
             let o = Opts::new("integrator", m, keys_of("sim.integrator"))?;
             let mut st = s.0.borrow_mut();
             if let Some(safety) = o.float("safety")? {
-                if !(safety >= 1e-6 && safety <= 1.0) {
+                if !(1e-6..=1.0).contains(&safety) {
                     return err(format!(
                         "integrator(): safety must lie in [1e-6, 1], got {safety} (below 1e-6 the time step would be a millionth of the stable one and the run would not finish)"
                     ));

@@ -78,6 +78,21 @@ pub struct ScriptContext {
 }
 
 impl ScriptContext {
+    /// The context of a script at `script_path` run with `options`, before it runs.
+    pub fn new(options: RunOptions, script_path: PathBuf) -> Self {
+        ScriptContext {
+            options,
+            script_path,
+            params_called: Cell::new(false),
+            sims: RefCell::new(Vec::new()),
+            ast: RefCell::new(None),
+            out_dirs: RefCell::new(Vec::new()),
+            ops_at_step: Cell::new(0),
+            stepped: Cell::new(false),
+            in_run: Cell::new(false),
+        }
+    }
+
     /// Print a line of script output (silent under `fdem check`).
     pub fn say(&self, msg: &str) {
         if !self.options.check_only {
@@ -277,17 +292,7 @@ pub fn run_source_with_report(
     source: &str,
     options: RunOptions,
 ) -> (ScriptReport, Result<(), ScriptError>) {
-    let ctx = Rc::new(ScriptContext {
-        options,
-        script_path: path.to_path_buf(),
-        params_called: Cell::new(false),
-        sims: RefCell::new(Vec::new()),
-        ast: RefCell::new(None),
-        out_dirs: RefCell::new(Vec::new()),
-        ops_at_step: Cell::new(0),
-        stepped: Cell::new(false),
-        in_run: Cell::new(false),
-    });
+    let ctx = Rc::new(ScriptContext::new(options, path.to_path_buf()));
     let result = run_in(&ctx, path, source);
     let sims = ctx.sims.borrow().clone();
     (ScriptReport { sims }, result)

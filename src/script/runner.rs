@@ -339,7 +339,10 @@ fn step_until_done(
             if st.sim.energy_history.len() > samples {
                 warn_balance(ctx, &mut st);
             }
+            // A frame that failed to write (on the background thread) stops the run now.
             st.vtk.check().map_err(|e| format!("run(): {e}"))?;
+            st.cracks_vtk.check().map_err(|e| format!("run(): {e}"))?;
+            st.bars_vtk.check().map_err(|e| format!("run(): {e}"))?;
         }
         call_hooks(nc, s)?;
         dispatch_break_events(nc, s)?;
