@@ -890,7 +890,7 @@ impl Simulation {
                 / 4.0;
             let j = elements::deformation_gradient(&self.tets, &self.nodes.x, e).determinant();
             return format!(
-                "{inverted} element(s) inverted (det F ≤ 0) by the motion of step {} (t = {:.6e} → {t:.6e} s, dt = {dt:.4e} s), found by {found_by}; first: tet {e} of body '{b}' at ({:.4}, {:.4}, {:.4}) with det F = {j:.3e}. Likely cause: {}",
+                "{inverted} element(s) inverted (det F ≤ 0) in step {} (by its motion, t = {:.6e} → {t:.6e} s, dt = {dt:.4e} s), found by {found_by}; first: tet {e} of body '{b}' at ({:.4}, {:.4}, {:.4}) with det F = {j:.3e}. Likely cause: {}",
                 step.saturating_sub(1),
                 t - self.dt_prev,
                 c.x, c.y, c.z,
@@ -912,6 +912,16 @@ impl Simulation {
             .map(|&n| self.nodes.v[n as usize].norm())
             .fold(0.0, Real::max);
         let mut causes = Vec::new();
+        if let Some(info) = self
+            .dt_info
+            .as_ref()
+            .filter(|i| self.dt > i.critical * (1.0 + 1e-9))
+        {
+            causes.push(format!(
+                "the time step {:.4e} s is above the critical step {:.4e} s (lower it)",
+                self.dt, info.critical
+            ));
+        }
         if v > 0.1 * c {
             causes.push(format!(
                 "its nodes move at {v:.4e} m/s, {:.2} of the material's wave speed √(E/ρ) = {c:.4e} m/s: the impact or prescribed velocity crushes the elements faster than they can resist (lower the loading rate, or refine the mesh there)",

@@ -21,6 +21,15 @@ pub fn register(engine: &mut Engine) {
                 return err("every(): give exactly one of 'steps' or 'time'");
             }
             let mut st = s.0.borrow_mut();
+            // Refused here when the step is known (else at run()): a period shorter than dt.
+            if let (Some(t), true) = (time, st.sim.step > 0) {
+                if t < st.sim.dt * (1.0 - 1e-9) {
+                    return err(format!(
+                        "every(): time {t:e} s is shorter than the time step dt = {:e} s: the hook would run on every step; use #{{ steps: 1 }} for that, or a longer time",
+                        st.sim.dt
+                    ));
+                }
+            }
             let next_time = time
                 .map(|t| ((st.sim.time / t).floor() + 1.0) * t)
                 .unwrap_or(0.0);

@@ -426,8 +426,16 @@ fn call_hooks(nc: &NativeCallContext, s: &SimHandle) -> RhaiResult<()> {
             let due = match (h.every_steps, h.every_time) {
                 (Some(k), _) => step % k == 0,
                 (None, Some(t)) if time >= h.next_time * (1.0 - 1e-12) => {
+                    // Bounded: a period far below dt (a hook added inside a run, which
+                    // `check_hook_periods` has not seen) jumps instead of looping.
+                    let mut n = 0;
                     while h.next_time <= time * (1.0 + 1e-12) {
                         h.next_time += t;
+                        n += 1;
+                        if n > 1000 {
+                            h.next_time = time + t.max(time * 1e-12);
+                            break;
+                        }
                     }
                     true
                 }
