@@ -203,6 +203,10 @@ fn oversized_meshes_are_refused_before_anything_is_allocated() {
         ),
     ];
     for (name, text, words) in cases {
+        // 2.9e8 tets need ~106 GB: a refusal only where less memory is available.
+        if name == "memory" && fdem::limits::available_memory().is_some_and(|m| m > 100e9) {
+            continue;
+        }
         let t = std::time::Instant::now();
         let e = error_of(&format!("size_{name}"), text);
         assert_has(&e, words);
