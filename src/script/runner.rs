@@ -1,5 +1,6 @@
 //! `sim.run(..)`: the time loop as seen from a script — steps, periodic hooks, monitors,
-//! `stop_when`, progress on a terminal, and the output written after every run.
+//! `stop_when`, progress on a terminal, histories streamed as they are sampled, and a stop
+//! at the end of a step on SIGINT/SIGTERM.
 
 use super::numbers::sig;
 use super::opts::{Opts, RhaiResult};
