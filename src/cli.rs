@@ -38,6 +38,16 @@ enum Command {
         /// No progress bar and no end-of-run summary.
         #[arg(long)]
         quiet: bool,
+        /// Replace the output of an earlier run (each simulation's frames, energy.csv,
+        /// cracks.csv and monitor CSVs in its directory); without it that output is an error.
+        #[arg(long)]
+        overwrite: bool,
+        /// Stop the script after N Rhai operations without a time step (a runaway loop);
+        /// 0: no limit. Default 200000000 (about 10 s).
+        #[arg(long, value_name = "N")]
+        max_operations: Option<u64>,
+        #[command(flatten)]
+        geo: GeoArgs,
     },
     /// Parse a script, build its model up to the first run() and validate it (nothing is
     /// stepped); or, with --mesh, validate a mesh file alone and print its summary.
@@ -49,6 +59,8 @@ enum Command {
         /// A mesh file to check (.msh; .geo when gmsh is installed).
         #[arg(long, value_name = "FILE")]
         mesh: Option<PathBuf>,
+        #[command(flatten)]
+        geo: GeoArgs,
     },
     /// Print the script API reference (Markdown).
     Doc,
@@ -89,6 +101,36 @@ enum Command {
     },
 }
 
+/// How `.geo` files are run through gmsh (`run` and `check`).
+#[derive(clap::Args, Clone, Debug)]
+struct GeoArgs {
+    /// Let .geo files run programs (gmsh's SystemCall, Shell, OnelabRun); refused without
+    /// it. Only for files you trust.
+    #[arg(long)]
+    allow_geo_commands: bool,
+    /// Stop gmsh after this many seconds (default 600).
+    #[arg(long, value_name = "SECONDS")]
+    gmsh_timeout: Option<f64>,
+}
+
+impl GeoArgs {
+    fn policy(&self) -> Result<crate::mesh::gmsh::GeoPolicy, String> {
+        let mut p = crate::mesh::gmsh::GeoPolicy {
+            allow_commands: self.allow_geo_commands,
+            ..Default::default()
+        };
+        if let Some(t) = self.gmsh_timeout {
+            if !(t > 0.0 && t <= 1e7) {
+                return Err(format!(
+                    "--gmsh-timeout {t}: give a number of seconds in (0, 1e7]"
+                ));
+            }
+            p.timeout = std::time::Duration::from_secs_f64(t);
+        }
+        Ok(p)
+    }
+}
+
 /// The `fdem` command: parse the arguments, run the subcommand and exit with its code.
 pub fn main() {
     let cli = Cli::parse();
@@ -99,21 +141,43 @@ pub fn main() {
             out,
             threads,
             quiet,
+            overwrite,
+            max_operations,
+            geo,
         } => {
-            set_threads(threads);
-            run_script(&script, &set, out, quiet)
+            if let Err(e) = set_threads(threads) {
+                std::process::exit(fail(&e));
+            }
+            let geo = match geo.policy() {
+                Ok(g) => g,
+                Err(e) => std::process::exit(fail(&e)),
+            };
+            let options = RunOptions {
+                out_dir: out,
+                quiet,
+                check_only: false,
+                progress: !quiet,
+                overwrite,
+                max_operations,
+                geo,
+                ..Default::default()
+            };
+            run_script(&script, &set, options)
         }
         Command::Check {
-            mesh: Some(mesh), ..
-        } => match check_mesh_file(&mesh) {
+            mesh: Some(mesh),
+            geo,
+            ..
+        } => match geo
+            .policy()
+            .and_then(|g| check_mesh_file_with(&mesh, &g).map_err(|e| e.trim_end().to_string()))
+        {
             Ok(report) => {
                 print!("{report}");
                 0
             }
-            Err(report) => {
-                print!("{report}");
-                1
-            }
+            // Errors on stderr, like every other command's.
+            Err(report) => fail(&report),
         },
         Command::Check {
             script: None,
@@ -123,8 +187,12 @@ pub fn main() {
         Command::Check {
             script: Some(script),
             set,
+            geo,
             ..
-        } => check_script(&script, &set),
+        } => match geo.policy() {
+            Ok(g) => check_script(&script, &set, g),
+            Err(e) => fail(&e),
+        },
         Command::Doc => {
             print!("{}", script::api::markdown());
             0
@@ -140,7 +208,9 @@ pub fn main() {
             threads,
             json,
         } => {
-            set_threads(threads);
+            if let Err(e) = set_threads(threads) {
+                std::process::exit(fail(&e));
+            }
             let result = match case.as_str() {
                 "rigid" => bench_rigid(tets, steps, &material),
                 "detection" => bench_detection(elements),
@@ -155,18 +225,13 @@ pub fn main() {
 }
 
 /// `fdem run`: run `script` (summaries printed unless `quiet`); returns the exit code.
-fn run_script(script: &Path, set: &[String], out: Option<PathBuf>, quiet: bool) -> i32 {
-    let overrides = match parse_sets(set) {
+fn run_script(script: &Path, set: &[String], mut options: RunOptions) -> i32 {
+    options.overrides = match parse_sets(set) {
         Err(e) => return fail(&e),
         Ok(overrides) => overrides,
     };
-    let options = RunOptions {
-        overrides,
-        out_dir: out,
-        quiet,
-        check_only: false,
-        progress: !quiet,
-    };
+    let quiet = options.quiet;
+    crate::limits::interrupt::install();
     // The summaries (timing, energy account) are printed whether the script succeeded or
     // not: a failed self-check is when they are needed most.
     let (report, result) = script::run_file_with_report(script, options);
@@ -177,12 +242,16 @@ fn run_script(script: &Path, set: &[String], out: Option<PathBuf>, quiet: bool) 
     }
     match result {
         Ok(()) => 0,
-        Err(e) => fail(&e.to_string()),
+        Err(e) => {
+            fail(&e.to_string());
+            // 128 + the signal number when SIGINT or SIGTERM stopped the run, as shells do.
+            crate::limits::interrupt::requested().map_or(1, |sig| 128 + sig)
+        }
     }
 }
 
 /// `fdem check SCRIPT`: build the models up to their first run, one line each; the exit code.
-fn check_script(script: &Path, set: &[String]) -> i32 {
+fn check_script(script: &Path, set: &[String], geo: crate::mesh::gmsh::GeoPolicy) -> i32 {
     let overrides = match parse_sets(set) {
         Err(e) => return fail(&e),
         Ok(overrides) => overrides,
@@ -191,6 +260,7 @@ fn check_script(script: &Path, set: &[String]) -> i32 {
         overrides,
         check_only: true,
         quiet: true,
+        geo,
         ..Default::default()
     };
     match script::run_file(script, options) {
@@ -290,6 +360,14 @@ fn print_bench(result: Result<serde_json::Value, String>, json: bool) -> i32 {
 /// `fdem check --mesh FILE`: import and check a mesh file; the summary (Ok) or the summary
 /// with the problems (Err), as printed.
 pub fn check_mesh_file(path: &std::path::Path) -> Result<String, String> {
+    check_mesh_file_with(path, &Default::default())
+}
+
+/// [`check_mesh_file`] with `.geo` files run under `policy`.
+pub fn check_mesh_file_with(
+    path: &std::path::Path,
+    policy: &crate::mesh::gmsh::GeoPolicy,
+) -> Result<String, String> {
     use crate::mesh::{checks::fmt_point, gmsh};
     use std::fmt::Write;
     let ext = path
@@ -299,7 +377,7 @@ pub fn check_mesh_file(path: &std::path::Path) -> Result<String, String> {
     let t = Instant::now();
     let imported = match ext.as_str() {
         "msh" => gmsh::read_msh(path).map_err(|e| format!("error: {e}\n"))?,
-        "geo" => gmsh::mesh_geo_cached(path, None)
+        "geo" => gmsh::mesh_geo_cached(path, None, policy)
             .map(|c| c.imported)
             .map_err(|e| format!("error: {e}\n"))?,
         _ => {
@@ -376,15 +454,25 @@ fn fail(msg: &str) -> i32 {
     1
 }
 
-fn set_threads(threads: Option<usize>) {
-    if let Some(n) = threads {
-        if let Err(e) = rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()
-        {
-            eprintln!("warning: could not set {n} threads: {e}");
-        }
+/// The most worker threads `--threads` may ask for (results are the same for any count;
+/// more threads than cores only cost memory and time).
+const MAX_THREADS: usize = 1024;
+
+/// `--threads N`: the size of the worker pool, 1 ..= [`MAX_THREADS`].
+fn set_threads(threads: Option<usize>) -> Result<(), String> {
+    let Some(n) = threads else {
+        return Ok(());
+    };
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    if n == 0 || n > MAX_THREADS {
+        return Err(format!(
+            "--threads {n}: give 1 to {MAX_THREADS} (this machine has {cores} cores; results are the same for any count)"
+        ));
     }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build_global()
+        .map_err(|e| format!("--threads {n}: cannot start the worker threads: {e}"))
 }
 
 fn parse_sets(set: &[String]) -> Result<Vec<(String, String)>, String> {

@@ -28,6 +28,7 @@ pub mod fracture;
 pub mod integration;
 pub mod io;
 pub mod joints;
+pub mod limits;
 pub mod loads;
 pub mod material;
 pub mod math;

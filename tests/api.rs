@@ -13,13 +13,10 @@ use std::rc::Rc;
 /// Functions the engine registers: names from Rhai's signatures, without operators, property
 /// getters and setters, indexers and the generic `to_string`.
 fn registered() -> BTreeSet<String> {
-    let ctx = Rc::new(fdem::script::ScriptContext {
-        options: Default::default(),
-        script_path: "api_test.rhai".into(),
-        params_called: Default::default(),
-        sims: Default::default(),
-        ast: Default::default(),
-    });
+    let ctx = Rc::new(fdem::script::ScriptContext::new(
+        Default::default(),
+        "api_test.rhai".into(),
+    ));
     let engine = fdem::script::build_engine(ctx);
     engine
         .gen_fn_signatures(false)

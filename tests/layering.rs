@@ -17,6 +17,7 @@ use std::path::Path;
 const ORDER: &[&str] = &[
     // foundation
     "math",
+    "limits",
     "params",
     "mesh",
     "material",

@@ -880,7 +880,13 @@ fn check_mesh_command_prints_a_summary_and_fails_on_problems() {
         .arg(dir.join("fold.msh"))
         .output()
         .unwrap();
-    let text = String::from_utf8_lossy(&out.stdout);
+    // Errors go to stderr (issue 15: they were printed on stdout), stdout stays empty.
+    let text = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.stdout.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
     assert!(!out.status.success());
     assert!(
         text.contains("error: tets 0 and 1 fold over each other")

@@ -168,8 +168,8 @@ pub fn critical_time_step(tets: &Tets, materials: &[Material]) -> (Real, usize) 
 }
 
 /// Stage 1: add the internal (elastic + viscous) forces of every tetrahedron to `nodes.f`.
-/// Always returns the viscous power; with `want_energy` also the strain energy and the count
-/// of inverted elements (otherwise zero).
+/// Always returns the viscous power and the count of inverted elements (det F ≤ 0 or NaN);
+/// with `want_energy` also the strain energy (otherwise zero).
 pub fn add_internal_forces(
     nodes: &mut Nodes,
     tets: &Tets,

@@ -1,6 +1,8 @@
 //! Output: ParaView frames (VTK XML `.vtu` + `.pvd` series) written on a background thread,
-//! and CSV histories. Every file is written whole to a temporary name and renamed into place,
-//! so no output is ever left half-written, even when a run stops with an error.
+//! and CSV histories. Frames and whole files are written to a temporary name and renamed into
+//! place, so none is ever left half-written, even when a run stops with an error; histories
+//! are streamed ([`CsvStream`]: the header when the file is opened, each row appended and
+//! flushed to the OS as it is sampled), so a killed run keeps every sample but the last.
 
 pub mod frame;
 pub mod vtu;
@@ -33,10 +35,76 @@ pub fn write_csv(
 /// A CSV number: integers (step counts, exact zeros) as integers, everything else in
 /// shortest round-trip exponent form (`1.25e-3`).
 pub fn format_number(v: f64) -> String {
+    let mut s = String::new();
+    push_number(&mut s, v);
+    s
+}
+
+/// [`format_number`] appended to `s` (no allocation once `s` has grown).
+pub fn push_number(s: &mut String, v: f64) {
+    use std::fmt::Write;
     if v == v.trunc() && v.abs() < 1e15 {
-        format!("{}", v as i64)
+        let _ = write!(s, "{}", v as i64);
     } else {
-        format!("{v:e}")
+        let _ = write!(s, "{v:e}");
+    }
+}
+
+/// `create_dir_all` whose error names the directory.
+pub fn create_dir(dir: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("creating directory {}: {e}", dir.display()))
+}
+
+/// A CSV history written as it is sampled: the header when the file is created, then each
+/// row appended with one `write` and no buffering in the process (a killed run loses at most
+/// the row being written). Errors name the file and the OS error.
+pub struct CsvStream {
+    path: PathBuf,
+    file: std::fs::File,
+    line: String,
+}
+
+impl CsvStream {
+    /// Create (or truncate) `path` and write the header row.
+    pub fn create(path: &Path, header: &[&str]) -> Result<Self, String> {
+        if let Some(dir) = path.parent() {
+            create_dir(dir)?;
+        }
+        let file =
+            std::fs::File::create(path).map_err(|e| format!("writing {}: {e}", path.display()))?;
+        let mut s = CsvStream {
+            path: path.to_path_buf(),
+            file,
+            line: String::with_capacity(64 * header.len()),
+        };
+        s.line.push_str(&header.join(","));
+        s.line.push('\n');
+        s.write_line()?;
+        Ok(s)
+    }
+
+    /// Append one row of numbers.
+    pub fn row(&mut self, values: &[f64]) -> Result<(), String> {
+        self.line.clear();
+        for (i, &v) in values.iter().enumerate() {
+            if i > 0 {
+                self.line.push(',');
+            }
+            push_number(&mut self.line, v);
+        }
+        self.line.push('\n');
+        self.write_line()
+    }
+
+    fn write_line(&mut self) -> Result<(), String> {
+        use std::io::Write;
+        self.file
+            .write_all(self.line.as_bytes())
+            .map_err(|e| format!("writing {}: {e}", self.path.display()))
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
     }
 }
 
@@ -106,8 +174,10 @@ impl VtkSeries {
     }
 
     /// Queue a frame (its complete `.vtu` bytes) at simulated time `t`. Returns the file path.
-    pub fn push(&mut self, t: f64, bytes: Vec<u8>) -> std::io::Result<PathBuf> {
-        std::fs::create_dir_all(&self.dir)?;
+    /// A write error of an earlier frame is returned here, naming its file.
+    pub fn push(&mut self, t: f64, bytes: Vec<u8>) -> Result<PathBuf, String> {
+        self.check()?;
+        create_dir(&self.dir)?;
         let file = format!("{}_{:06}.vtu", self.name, self.entries.len());
         self.entries.push((t, file.clone()));
         let path = self.dir.join(&file);
@@ -121,8 +191,16 @@ impl VtkSeries {
         };
         self.sender()
             .send(job)
-            .map_err(|_| std::io::Error::other("VTK writer thread stopped"))?;
+            .map_err(|_| format!("writing {}: the VTK writer thread stopped", path.display()))?;
         Ok(path)
+    }
+
+    /// The first write error of the background writer so far, without waiting for it.
+    pub fn check(&mut self) -> Result<(), String> {
+        match self.error.lock().map(|mut e| e.take()) {
+            Ok(Some(e)) => Err(e),
+            _ => Ok(()),
+        }
     }
 
     /// Wait until every queued frame is on disk; report the first write error, if any.

@@ -445,6 +445,8 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         .to_os_string();
     name.push(".tmp");
     let tmp: PathBuf = path.with_file_name(name);
+    // A second SIGINT exits at once and removes the temporary files noted here.
+    crate::limits::interrupt::begin_temp(&tmp);
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
@@ -454,6 +456,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
+    crate::limits::interrupt::end_temp(&tmp);
     result
 }
 

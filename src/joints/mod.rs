@@ -668,6 +668,10 @@ fn joint_jumps(faces: &[[u32; 3]; 2], x: &[Vec3]) -> (Vec3, Real, [Real; 3], [Ve
 /// joint's dynamic increase factors ([`RateState`], updated here at the step's `time`). When the factors change at fixed
 /// kinematics (an undamaged joint), its stored energy changes by Δψ with no work done; that
 /// change is booked in the step's dissipation (−Δψ) so the energy account stays closed.
+///
+/// Kept whole: the hot loop over each colour block's joints, one pass per joint (kinematics,
+/// rate factors, law, damage, energy, scatter into `f`); split, a joint's state would be
+/// threaded through several functions per step.
 pub fn add_joint_forces(
     joints: &mut Joints,
     nodes: &mut Nodes,

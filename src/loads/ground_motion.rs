@@ -260,7 +260,7 @@ pub fn parse_one_column(text: &str, file: &str, dt: Real) -> Result<Vec<Real>, S
 impl GroundMotion {
     /// Read a record file (see [`ReadOptions`]); errors name the file and the line.
     pub fn read(path: &Path, opts: &ReadOptions) -> Result<Self, String> {
-        let text = std::fs::read_to_string(path)
+        let text = crate::limits::read_text_bounded(path, crate::limits::MAX_TEXT_INPUT)
             .map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
         let is_at2 = path
             .extension()

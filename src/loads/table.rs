@@ -80,10 +80,13 @@ pub fn parse_table(text: &str, scale: Real) -> Result<Vec<(Real, Real)>, BadLine
 /// A piecewise-linear [`TimeFunction`] from a table file (see [`parse_table`]), its values
 /// multiplied by `scale`. Times in the file's unit (s), values in the file's unit × `scale`.
 pub fn read_table(path: &Path, scale: Real) -> Result<TimeFunction, TableError> {
-    let text = std::fs::read_to_string(path).map_err(|error| TableError::Read {
-        path: path.to_path_buf(),
-        error,
-    })?;
+    let text =
+        crate::limits::read_text_bounded(path, crate::limits::MAX_TEXT_INPUT).map_err(|error| {
+            TableError::Read {
+                path: path.to_path_buf(),
+                error,
+            }
+        })?;
     let pts = parse_table(&text, scale).map_err(|bad| TableError::Line {
         path: path.to_path_buf(),
         bad,

@@ -18,7 +18,7 @@
 use super::{Mesh, TET_FACES};
 use crate::math::{Real, Vec3};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Where in the file a problem is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -108,10 +108,12 @@ fn element_type(t: u32) -> Option<(usize, u8, &'static str)> {
 /// Read a `.msh` file.
 pub fn read_msh(path: &Path) -> Result<Imported, GmshError> {
     let label = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|e| GmshError {
-        file: label.clone(),
-        place: Place::File,
-        message: format!("cannot read the file: {e}"),
+    let bytes = crate::limits::read_bounded(path, crate::limits::MAX_MESH_INPUT).map_err(|e| {
+        GmshError {
+            file: label.clone(),
+            place: Place::File,
+            message: format!("cannot read the file: {e}"),
+        }
     })?;
     parse_msh(&bytes, &label)
 }
@@ -187,9 +189,17 @@ pub struct CachedMesh {
 /// directory is not writable), the hash covering the `.geo` text, `size` and the gmsh version.
 /// gmsh's 3-D meshers are not all deterministic (HXT is parallel), so `fdem check` and
 /// `fdem run` would otherwise see different meshes. Files the `.geo` merges are not in the key:
-/// delete the cache entry after changing them.
-pub fn mesh_geo_cached(geo: &Path, size: Option<Real>) -> Result<CachedMesh, String> {
+/// delete the cache entry after changing them. The [`GeoPolicy`] is applied before the cache
+/// is looked at; gmsh meshes into a private temporary directory and the result is moved into
+/// the cache under a temporary name and renamed, so a cache never holds half a file.
+pub fn mesh_geo_cached(
+    geo: &Path,
+    size: Option<Real>,
+    policy: &GeoPolicy,
+) -> Result<CachedMesh, String> {
     let text = std::fs::read(geo).map_err(|e| format!("{}: cannot read: {e}", geo.display()))?;
+    // The sandbox first: a cached mesh of a .geo that runs commands is not reused either.
+    check_commands(geo, policy)?;
     if !gmsh_installed() {
         return Err(format!("{}: {GMSH_MISSING}", geo.display()));
     }
@@ -232,7 +242,7 @@ pub fn mesh_geo_cached(geo: &Path, size: Option<Real>) -> Result<CachedMesh, Str
             .map_err(|e| format!("{}: cannot create a mesh cache: {e}", geo.display()))?;
         fallback
     };
-    let imported = mesh_geo_to(geo, size, &target)?;
+    let imported = mesh_geo_impl(geo, size, policy, Some(&target))?;
     Ok(CachedMesh {
         imported,
         msh: target,
@@ -240,34 +250,161 @@ pub fn mesh_geo_cached(geo: &Path, size: Option<Real>) -> Result<CachedMesh, Str
     })
 }
 
-/// Mesh a `.geo` file with the `gmsh` executable (`gmsh -3 -format msh41 -bin`, run in the
-/// file's directory so that files it merges are found) and import the result. `size` is the
-/// largest element size (`-clmax`).
-pub fn mesh_geo(geo: &Path, size: Option<Real>) -> Result<Imported, String> {
-    static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-    let tmp = std::env::temp_dir().join(format!(
-        "fdem-gmsh-{}-{}.msh",
-        std::process::id(),
-        COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-    ));
-    let r = mesh_geo_to(geo, size, &tmp);
-    let _ = std::fs::remove_file(&tmp);
-    r
+/// How `.geo` files are run through gmsh.
+#[derive(Clone, Debug)]
+pub struct GeoPolicy {
+    /// Allow `.geo` files (or the files they `Include`) that run commands: `SystemCall`,
+    /// `NonBlockingSystemCall`, `Shell`, `OnelabRun`. Off by default: a model downloaded with
+    /// a script must not run programs on the user's machine (`fdem run --allow-geo-commands`).
+    pub allow_commands: bool,
+    /// gmsh is stopped after this long (a `.geo` that loops would hang fdem).
+    pub timeout: std::time::Duration,
 }
 
-/// [`mesh_geo`] writing the `.msh` to `dest` (kept; written under a temporary name and
-/// renamed, so a cache never holds half a file).
-fn mesh_geo_to(geo: &Path, size: Option<Real>, dest: &Path) -> Result<Imported, String> {
+/// gmsh's default time limit [s] (`--gmsh-timeout` changes it).
+pub const GMSH_TIMEOUT_SECONDS: u64 = 600;
+
+impl Default for GeoPolicy {
+    fn default() -> Self {
+        GeoPolicy {
+            allow_commands: false,
+            timeout: std::time::Duration::from_secs(GMSH_TIMEOUT_SECONDS),
+        }
+    }
+}
+
+/// The gmsh commands that run programs.
+const COMMANDS: [&str; 3] = ["SystemCall", "Shell", "OnelabRun"];
+
+/// The first command of [`COMMANDS`] in `geo` or in a file it includes: (file, line, command).
+/// Comments are skipped; `Include "f";` is followed (relative to the including file, up to
+/// 32 levels, each file once).
+pub fn find_commands(geo: &Path) -> Result<Option<(PathBuf, usize, &'static str)>, String> {
+    let mut todo = vec![(geo.to_path_buf(), 0usize)];
+    let mut seen: Vec<PathBuf> = Vec::new();
+    while let Some((file, depth)) = todo.pop() {
+        if seen.contains(&file) || depth > 32 {
+            continue;
+        }
+        seen.push(file.clone());
+        let text = crate::limits::read_text_bounded(&file, crate::limits::MAX_TEXT_INPUT)
+            .map_err(|e| format!("{}: cannot read: {e}", file.display()))?;
+        let code = strip_comments(&text);
+        for (k, line) in code.lines().enumerate() {
+            for word in line.split(|c: char| !(c.is_ascii_alphanumeric() || c == '_')) {
+                let hit = COMMANDS
+                    .iter()
+                    .find(|&&c| word == c || word == "NonBlockingSystemCall" && c == "SystemCall");
+                if let Some(c) = hit {
+                    return Ok(Some((file, k + 1, c)));
+                }
+            }
+            if let Some(rest) = line.trim_start().strip_prefix("Include") {
+                if let Some(name) = rest.split('"').nth(1) {
+                    let dir = file.parent().unwrap_or(Path::new(""));
+                    todo.push((dir.join(name), depth + 1));
+                }
+            }
+        }
+    }
+    Ok(None)
+}
+
+/// `text` with `//` and `/* */` comments blanked (newlines kept, so lines still count).
+fn strip_comments(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut chars = text.chars().peekable();
+    let (mut line_comment, mut block_comment, mut in_string) = (false, false, false);
+    while let Some(c) = chars.next() {
+        if line_comment {
+            if c == '\n' {
+                line_comment = false;
+                out.push(c);
+            }
+        } else if block_comment {
+            if c == '*' && chars.peek() == Some(&'/') {
+                chars.next();
+                block_comment = false;
+            } else if c == '\n' {
+                out.push(c);
+            }
+        } else if !in_string && c == '/' && chars.peek() == Some(&'/') {
+            line_comment = true;
+        } else if !in_string && c == '/' && chars.peek() == Some(&'*') {
+            chars.next();
+            block_comment = true;
+        } else {
+            if c == '"' {
+                in_string = !in_string;
+            }
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// Mesh a `.geo` file with the `gmsh` executable (`gmsh -3 -format msh41 -bin`, run in the
+/// file's directory so that files it merges are found) and import the result. `size` is the
+/// largest element size (`-clmax`). The default [`GeoPolicy`]: commands refused, 600 s.
+pub fn mesh_geo(geo: &Path, size: Option<Real>) -> Result<Imported, String> {
+    mesh_geo_with(geo, size, &GeoPolicy::default())
+}
+
+/// [`mesh_geo`] under `policy`: a `.geo` that runs commands is refused unless allowed; gmsh
+/// writes into a private temporary directory (unpredictable name, removed afterwards) and is
+/// killed when it runs past the time limit.
+pub fn mesh_geo_with(
+    geo: &Path,
+    size: Option<Real>,
+    policy: &GeoPolicy,
+) -> Result<Imported, String> {
+    mesh_geo_impl(geo, size, policy, None)
+}
+
+/// The [`GeoPolicy`] sandbox: an error naming the file, line and command if `geo` (or a file
+/// it includes) runs commands and they are not allowed.
+fn check_commands(geo: &Path, policy: &GeoPolicy) -> Result<(), String> {
+    if !policy.allow_commands {
+        if let Some((file, line, c)) = find_commands(geo)? {
+            return Err(format!(
+                "{}:{line}: the .geo file calls {c}, which runs programs on this machine; fdem refuses it unless you allow it with --allow-geo-commands (only for files you trust)",
+                file.display()
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// [`mesh_geo_with`], also keeping the `.msh` as `keep` if given (copied beside it under a
+/// temporary name and renamed, so a cache never holds half a file).
+fn mesh_geo_impl(
+    geo: &Path,
+    size: Option<Real>,
+    policy: &GeoPolicy,
+    keep: Option<&Path>,
+) -> Result<Imported, String> {
     if !geo.is_file() {
         return Err(format!("{}: no such file", geo.display()));
     }
+    check_commands(geo, policy)?;
     if !gmsh_installed() {
         return Err(format!("{}: {GMSH_MISSING}", geo.display()));
     }
+    let tmp_dir = tempfile::Builder::new()
+        .prefix("fdem-gmsh-")
+        .tempdir()
+        .map_err(|e| {
+            format!(
+                "{}: cannot create a temporary directory: {e}",
+                geo.display()
+            )
+        })?;
     // Absolute: gmsh runs in the .geo file's directory, and a relative output path would be
-    // taken from there (a script's `gmsh("meshes/x.geo")` failed with "Unable to open file").
-    let tmp = std::path::absolute(dest.with_extension(format!("part{}.msh", std::process::id())))
-        .map_err(|e| format!("{}: {e}", dest.display()))?;
+    // taken from there (a script's `gmsh("meshes/x.geo")` failed with "Unable to open file";
+    // the temporary directory is relative when TMPDIR is).
+    let tmp = std::path::absolute(tmp_dir.path().join("mesh.msh"))
+        .map_err(|e| format!("{}: {e}", geo.display()))?;
+    let log = tmp_dir.path().join("gmsh.log");
     let dir = geo.parent().filter(|d| !d.as_os_str().is_empty());
     let name = geo.file_name().map(Path::new).unwrap_or(geo);
     let mut cmd = std::process::Command::new("gmsh");
@@ -280,17 +417,19 @@ fn mesh_geo_to(geo: &Path, size: Option<Real>, dest: &Path) -> Result<Imported, 
     if let Some(h) = size {
         cmd.arg("-clmax").arg(format!("{h:e}"));
     }
-    let out = cmd
-        .output()
-        .map_err(|e| format!("{}: cannot run gmsh: {e}", geo.display()))?;
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let log_file = std::fs::File::create(&log)
+        .map_err(|e| format!("{}: cannot create {}: {e}", geo.display(), log.display()))?;
+    let log_err = log_file
+        .try_clone()
+        .map_err(|e| format!("{}: {e}", geo.display()))?;
+    cmd.stdin(std::process::Stdio::null())
+        .stdout(log_file)
+        .stderr(log_err);
+    let status = run_with_timeout(&mut cmd, policy.timeout)
+        .map_err(|e| format!("{}: {e}", geo.display()))?;
+    let text = std::fs::read_to_string(&log).unwrap_or_default();
     let errors: Vec<&str> = text.lines().filter(|l| l.contains("Error")).collect();
-    if !out.status.success() || !errors.is_empty() || !tmp.is_file() {
-        let _ = std::fs::remove_file(&tmp);
+    if !status.success() || !errors.is_empty() || !tmp.is_file() {
         let shown = if errors.is_empty() {
             text.lines()
                 .rev()
@@ -304,9 +443,8 @@ fn mesh_geo_to(geo: &Path, size: Option<Real>, dest: &Path) -> Result<Imported, 
             errors.join("\n")
         };
         return Err(format!(
-            "{}: gmsh failed to mesh the file ({}):\n{shown}",
-            geo.display(),
-            out.status
+            "{}: gmsh failed to mesh the file ({status}):\n{shown}",
+            geo.display()
         ));
     }
     let r = read_msh(&tmp)
@@ -315,11 +453,45 @@ fn mesh_geo_to(geo: &Path, size: Option<Real>, dest: &Path) -> Result<Imported, 
             m
         })
         .map_err(|e| format!("{}: meshed by gmsh, but: {e}", geo.display()));
-    if r.is_ok() && std::fs::rename(&tmp, dest).is_ok() {
-        return r;
+    if let (Ok(_), Some(dest)) = (&r, keep) {
+        // The private directory may be on another file system: copy beside `dest`, then
+        // rename (atomic), so a cache never holds half a file. A failure only loses the cache.
+        let part = dest.with_extension(format!("part{}.msh", std::process::id()));
+        if std::fs::copy(&tmp, &part).is_err() || std::fs::rename(&part, dest).is_err() {
+            let _ = std::fs::remove_file(&part);
+        }
     }
-    let _ = std::fs::remove_file(&tmp);
     r
+}
+
+/// Run `cmd`, killing it after `timeout`; its exit status.
+fn run_with_timeout(
+    cmd: &mut std::process::Command,
+    timeout: std::time::Duration,
+) -> Result<std::process::ExitStatus, String> {
+    let mut child = cmd.spawn().map_err(|e| format!("cannot run gmsh: {e}"))?;
+    let start = std::time::Instant::now();
+    loop {
+        match child.try_wait() {
+            Ok(Some(status)) => return Ok(status),
+            Ok(None) => {}
+            Err(e) => return Err(format!("waiting for gmsh: {e}")),
+        }
+        let interrupted = crate::limits::interrupt::requested().is_some();
+        if start.elapsed() >= timeout || interrupted {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err(if interrupted {
+                "gmsh stopped: interrupted".to_string()
+            } else {
+                format!(
+                    "gmsh ran longer than {} s and was stopped (a .geo that loops?); raise the limit with --gmsh-timeout SECONDS",
+                    timeout.as_secs_f64()
+                )
+            });
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
 }
 
 // ─── Low-level reading ──────────────────────────────────────────────────────────
@@ -920,6 +1092,10 @@ impl<'a> Reader<'a> {
         let blocks = self.count(blocks, bat, 4, "element blocks")?;
         let total_n = self.count(total, tat, 4, "elements")?;
         let mut seen = 0usize;
+        // Element tags are unique in MSH 4.1 (MSH 2.2 repeats an element only with the same
+        // nodes, once per physical group; here each element comes once).
+        let mut tags: std::collections::HashSet<u64> =
+            std::collections::HashSet::with_capacity(total_n);
         for _ in 0..blocks {
             let (edim, dat) = self.int("the entity dimension of an element block")?;
             let (etag, _) = self.int("the entity tag of an element block")?;
@@ -946,6 +1122,11 @@ impl<'a> Reader<'a> {
                 .unwrap_or_default();
             for _ in 0..n {
                 let (tag, at) = self.size("an element tag")?;
+                if !tags.insert(tag) {
+                    return Err(
+                        self.err_at(at, format!("element tag {tag} appears twice in $Elements"))
+                    );
+                }
                 let mut nodes = Vec::with_capacity(nn);
                 for _ in 0..nn {
                     let (nt, nat) = self.size("a node tag of an element")?;

@@ -9,7 +9,7 @@
 //! every contact face and glues it with a mortar joint.
 
 use super::generators::box_mesh;
-use super::solids::{need_positive, need_reasonable};
+use super::solids::{need_positive, need_reasonable, product};
 use super::structured::{add_all_elements, add_face_set, add_face_set_by_ids, cells, lerp, Tri2};
 use super::Mesh;
 use crate::math::{Real, Vec3};
@@ -76,11 +76,17 @@ impl Assembly {
     }
 }
 
+/// The largest block or course count of a generator (a typo guard: products of counts are
+/// estimated in floating point before anything is built).
+pub const MAX_COUNT: usize = 1_000_000;
+
 fn need_count(key: &str, v: usize, min: usize) -> Result<(), String> {
-    if v >= min {
-        Ok(())
-    } else {
+    if v < min {
         Err(format!("'{key}' must be ≥ {min}, got {v}"))
+    } else if v > MAX_COUNT {
+        Err(format!("'{key}' must be ≤ {MAX_COUNT}, got {v}"))
+    } else {
+        Ok(())
     }
 }
 
@@ -129,7 +135,7 @@ pub fn arch(a: &Arch, h: Real) -> Result<Assembly, String> {
     let nr = cells(a.thickness, h, 1);
     let nt = cells(0.5 * (r0 + r1) * span / n as Real, h, 1);
     let ny = cells(a.depth, h, 1);
-    need_reasonable((n * nr * nt * ny * 6) as Real)?;
+    need_reasonable(product(&[n, nr, nt, ny, 6]))?;
     let tol = 1e-9 * r1.max(a.depth);
     let mut blocks = Vec::with_capacity(n);
     for i in 0..n {
@@ -222,7 +228,7 @@ pub fn wall(w: &Wall, h: Real) -> Result<Assembly, String> {
     }
     let m = cells(0.5 * bl, h, 1); // cells per half brick
     let (ny, nz) = (cells(bw, h, 1), cells(bh, h, 1));
-    need_reasonable((w.courses * w.bricks_per_course * 2 * m * ny * nz * 6) as Real)?;
+    need_reasonable(product(&[w.courses, w.bricks_per_course, 2, m, ny, nz, 6]))?;
     let g = w.head_gap;
     let mut blocks = Vec::new();
     for c in 0..w.courses {
@@ -323,22 +329,25 @@ pub fn dome(d: &Dome, h: Real) -> Result<Assembly, String> {
     let (s0, s1) = (a0.sin(), a1.sin());
     let s_max = if a1 >= PI / 2.0 { 1.0 } else { s0.max(s1) };
     let s_ref = (s0.min(s1) * s_max).sqrt();
-    let m = 2 * ((rm * s_ref * dphi / (2.0 * h)).ceil() as usize).max(1);
-    let nphi = nb * m; // φ cells around the whole dome
+    let m_half = (rm * s_ref * dphi / (2.0 * h)).ceil().max(1.0);
     let nr = cells(d.thickness, h, 1);
+    // A lower bound (one θ cell per course) before any count is multiplied in integers.
+    need_reasonable(product(&[nb, d.courses, nr, 6]) * 2.0 * m_half)?;
+    let m = 2 * m_half as usize;
+    let nphi = nb * m; // φ cells around the whole dome
     let tol = 1e-9 * r1;
     let theta_edge = |c: usize| lerp(a1, a0, c, d.courses); // polar angle of bed c (0 = base)
-    let mut estimate = 0usize;
+    let mut estimate = 0.0;
     let n_theta: Vec<usize> = (0..d.courses)
         .map(|c| {
             let (tlo, thi) = (theta_edge(c + 1), theta_edge(c));
             let width = rm * (0.5 * (tlo + thi)).sin() * dphi / m as Real;
             let n = cells(rm * (thi - tlo), (h * width).sqrt(), 1);
-            estimate += nb * n * m * nr * 6;
+            estimate += product(&[nb, n, m, nr, 6]);
             n
         })
         .collect();
-    need_reasonable(estimate as Real)?;
+    need_reasonable(estimate)?;
     let phi_of = |q: usize| 2.0 * PI * (q % nphi) as Real / nphi as Real;
     let sph = |r: Real, t: Real, f: Real| {
         Vec3::new(r * t.sin() * f.cos(), r * t.sin() * f.sin(), r * t.cos())

@@ -31,15 +31,26 @@ pub(crate) fn need_positive(key: &str, v: Real) -> Result<(), String> {
     }
 }
 
-/// Refuse meshes that would be absurdly large (a typo in `size`).
+/// Refuse meshes that would be absurdly large (a typo in `size`): more than 2·10⁷
+/// tetrahedra, or more than the machine's memory could simulate. Callers compute `estimate`
+/// in floating point (products of cell counts, none of which may overflow).
 pub(crate) fn need_reasonable(estimate: Real) -> Result<(), String> {
-    if estimate > 2.0e7 {
-        Err(format!(
-            "about {estimate:.3e} tetrahedra is too many; use a larger 'size'"
-        ))
-    } else {
-        Ok(())
+    if estimate.is_nan() || estimate > 2.0e7 {
+        let n = if estimate.is_finite() {
+            format!("about {estimate:.3e}")
+        } else {
+            "a number beyond any machine's memory of".into()
+        };
+        return Err(format!(
+            "{n} tetrahedra is too many (the generators stop at 2e7); use a larger 'size'"
+        ));
     }
+    crate::limits::check_tets(estimate)
+}
+
+/// A product of cell counts in floating point (no overflow, whatever the counts).
+pub(crate) fn product(counts: &[usize]) -> Real {
+    counts.iter().map(|&n| n as Real).product()
 }
 
 fn rel_tol(scale: Real) -> Real {
@@ -60,7 +71,7 @@ pub fn cylinder(radius: Real, length: Real, h: Real) -> Result<Mesh, String> {
     let a = 0.55 * radius; // half-side of the square core
     let m = cells(radius - a, h, 1); // radial cells of the ring blocks
     let nz = cells(length, h, 1);
-    need_reasonable(((n * n + 4 * n * m) * 2 * 3 * nz) as Real)?;
+    need_reasonable((product(&[n, n]) + product(&[4, n, m])) * product(&[2, 3, nz]))?;
     let tri = disc_section(radius, a, n, m);
     let mut mesh = tri.extrude(nz, |p, k| Vec3::new(p[0], p[1], lerp(0.0, length, k, nz)));
     let tol = rel_tol(radius.max(length));
@@ -125,7 +136,7 @@ pub fn sphere(radius: Real, h: Real) -> Result<Mesh, String> {
     need_positive("size", h)?;
     // A cube face maps onto a quarter great circle along its middle: n cells across it.
     let n = 2 * cells(PI * radius / 4.0, h, 1);
-    need_reasonable((6 * n * n * n) as Real)?;
+    need_reasonable(product(&[6, n, n, n]))?;
     let half = n / 2;
     let (mut mesh, _) = hex_grid(
         [n, n, n],
@@ -174,7 +185,7 @@ pub fn hollow_cylinder(
     let nr = cells(outer_radius - inner_radius, h, 1);
     let nt = cells(PI * (inner_radius + outer_radius), h, 12);
     let nz = cells(length, h, 1);
-    need_reasonable((nr * nt * nz * 6) as Real)?;
+    need_reasonable(product(&[nr, nt, nz, 6]))?;
     let mut tri = Tri2::new(rel_tol(outer_radius));
     tri.quad_grid(
         nr,
@@ -279,6 +290,11 @@ pub fn notched_beam(b: &NotchedBeam, h: Real) -> Result<Mesh, String> {
         };
         h.min(hn + 0.35 * d)
     };
+    // Before any grid is built: an upper bound of the cells along x (the notch at hn, the
+    // growth ∫ dx/(hn + 0.35 d) on each side, the rest at h), and z and y at h.
+    let nx_bound =
+        b.notch_width / hn + 2.0 * (1.0 + 0.35 * b.length / hn).ln() / 0.35 + b.length / h;
+    need_reasonable(6.0 * nx_bound * (b.height / h + 2.0) * (b.width / h + 1.0))?;
     let mut xs: Vec<Real> = Vec::new();
     let mut breaks = vec![0.0, xs1, xn1, xc, xn2, xs2, b.length];
     breaks.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * b.abs().max(1.0));
@@ -294,7 +310,7 @@ pub fn notched_beam(b: &NotchedBeam, h: Real) -> Result<Mesh, String> {
     zs.extend(&grid_1d(b.notch_depth, b.height, |_| h)[1..]);
     let ny = cells(b.width, h, 1);
     let (nx, nz) = (xs.len() - 1, zs.len() - 1);
-    need_reasonable((6 * nx * ny * nz) as Real)?;
+    need_reasonable(product(&[6, nx, ny, nz]))?;
     let ic = xs
         .iter()
         .position(|&x| x == xc)

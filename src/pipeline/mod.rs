@@ -19,7 +19,7 @@ use crate::contact_interaction::{self, ContactInteraction};
 use crate::elements::{self, ElementsWorkspace};
 use crate::integration::{self, IntegrationSums, StepParams};
 use crate::loads::{self, Loads};
-use crate::material::Material;
+use crate::material::{Formulation, Material};
 use crate::math::{Real, Vec3};
 use crate::mesh::{boundary_faces, BoundaryFace, Mesh, Region};
 use crate::state::{Bars, Body, Layout, MaterialId, Nodes, Rebar, Tets};
@@ -655,6 +655,7 @@ impl Simulation {
     /// Advance one time step through the seven stages, each timed; then the energy account.
     pub fn step(&mut self) -> Result<(), SimError> {
         self.prepare()?;
+        self.check_mass_damping()?;
         let sample = self.step == 0
             || self.sample_next
             || self.step.is_multiple_of(self.settings.energy_every.max(1));
@@ -670,6 +671,12 @@ impl Simulation {
                 sample,
             )
         });
+        // An element inverted by the last step's motion stops the run here, before the
+        // other stages act on it (a neo-Hookean stress is NaN there, and would make the
+        // nodes non-finite, hiding the cause).
+        if el.inverted > 0 {
+            return Err(SimError::Unstable(self.describe_instability(el.inverted)));
+        }
         let bs = timed(&mut self.timers, Stage::Elements, || {
             elements::bar2::add_bar_forces(
                 &mut self.nodes,
@@ -896,10 +903,11 @@ impl Simulation {
                 time: self.time,
                 energy: self.energy,
             });
-            if el.inverted > 0 || !self.energy.kinetic.is_finite() {
+            if !self.energy.kinetic.is_finite() {
                 return Err(SimError::Unstable(self.describe_instability(el.inverted)));
             }
         }
+        // Every step: stage 7 counted the nodes it made non-finite.
         if is.non_finite > 0 {
             return Err(SimError::Unstable(self.describe_instability(el.inverted)));
         }
@@ -912,12 +920,19 @@ impl Simulation {
         Ok(())
     }
 
+    /// What stopped the run, where, in which stage, and the likely cause: the first node
+    /// made non-finite by stage 7 (integration), or the first element found inverted by
+    /// stage 1 (elements) from the positions the previous step produced.
     fn describe_instability(&self, inverted: usize) -> String {
-        let at = format!(
-            "in step {} (from t = {:.6e} s, dt = {:.4e} s)",
-            self.step, self.time, self.dt
-        );
-        let hint = "reduce the time step safety factor or the loading rate, or check the material parameters";
+        self.describe_instability_found_by(
+            inverted,
+            &format!("stage 1 (elements) of step {}", self.step),
+        )
+    }
+
+    /// [`Self::describe_instability`], the inverted elements found by `found_by`.
+    fn describe_instability_found_by(&self, inverted: usize, found_by: &str) -> String {
+        let (step, t, dt) = (self.step, self.time, self.dt);
         if let Some(n) = (0..self.nodes.len()).find(|&n| !self.node_is_finite(n)) {
             let owner = match self.rebars.iter().find(|r| r.nodes.contains(&n)) {
                 Some(r) => format!("rebar '{}'", r.name),
@@ -925,8 +940,9 @@ impl Simulation {
             };
             let p = self.nodes.x0[n];
             return format!(
-                "{} node(s) have non-finite position or velocity {at}; first: node {n} of {owner} (reference position ({:.4}, {:.4}, {:.4})); {hint}",
+                "{} node(s) got a non-finite position or velocity in step {step} (stage 7, integration; t = {t:.6e} → {:.6e} s, dt = {dt:.4e} s); first: node {n} of {owner}, reference position ({:.4}, {:.4}, {:.4}). Likely cause: a non-finite force (a law or a table returned NaN or ∞), or a stiffness far above the one the time step was chosen for (a contact or joint penalty, a stiffening material); check the loads and laws acting there",
                 (0..self.nodes.len()).filter(|&i| !self.node_is_finite(i)).count(),
+                t + dt,
                 p.x, p.y, p.z
             );
         }
@@ -939,11 +955,79 @@ impl Simulation {
                 / 4.0;
             let j = elements::deformation_gradient(&self.tets, &self.nodes.x, e).determinant();
             return format!(
-                "{inverted} element(s) inverted {at}; first: tet {e} of body '{b}' at ({:.4}, {:.4}, {:.4}) with det F = {j:.3e}; {hint}",
-                c.x, c.y, c.z
+                "{inverted} element(s) inverted (det F ≤ 0) in step {} (by its motion, t = {:.6e} → {t:.6e} s, dt = {dt:.4e} s), found by {found_by}; first: tet {e} of body '{b}' at ({:.4}, {:.4}, {:.4}) with det F = {j:.3e}. Likely cause: {}",
+                step.saturating_sub(1),
+                t - self.dt_prev,
+                c.x, c.y, c.z,
+                self.inversion_cause(e)
             );
         }
-        format!("non-finite energy {at}; {hint}")
+        format!(
+            "non-finite energy in step {step} (t = {t:.6e} s, dt = {dt:.4e} s); likely cause: a law returned NaN or ∞"
+        )
+    }
+
+    /// The likeliest reason why tet `e` inverted, from its nodes' speed against the material's
+    /// wave speed, its elastic law, and whether contact is on.
+    fn inversion_cause(&self, e: usize) -> String {
+        let m = &self.materials[self.tets.material[e] as usize];
+        let c = (m.young / m.density).sqrt();
+        let v = self.tets.nodes[e]
+            .iter()
+            .map(|&n| self.nodes.v[n as usize].norm())
+            .fold(0.0, Real::max);
+        let mut causes = Vec::new();
+        if let Some(info) = self
+            .dt_info
+            .as_ref()
+            .filter(|i| self.dt > i.critical * (1.0 + 1e-9))
+        {
+            causes.push(format!(
+                "the time step {:.4e} s is above the critical step {:.4e} s (lower it)",
+                self.dt, info.critical
+            ));
+        }
+        if v > 0.1 * c {
+            causes.push(format!(
+                "its nodes move at {v:.4e} m/s, {:.2} of the material's wave speed √(E/ρ) = {c:.4e} m/s: the impact or prescribed velocity crushes the elements faster than they can resist (lower the loading rate, or refine the mesh there)",
+                v / c
+            ));
+        }
+        if m.formulation == Formulation::SmallStrain {
+            causes.push(format!(
+                "material '{}' is elastic/small_strain, which offers no resistance to large compression or rotation (use elastic/neo_hookean or elastic/munjiza for large deformation)",
+                m.name
+            ));
+        }
+        if causes.is_empty() && self.contact.is_enabled() {
+            causes.push("a load or a contact crushed it: a contact penalty too low for the impact (bodies pass through each other), a load concentrated on a few nodes, or a material far softer than intended (check the contact penalty, the loads and E)".into());
+        }
+        if causes.is_empty() {
+            causes.push("the loads crushed it: a force concentrated on a few nodes, prescribed motions that squeeze it, or a material far softer than intended (check the loads and E)".into());
+        }
+        causes.join("; or ")
+    }
+
+    /// Mass-proportional damping beyond the central difference's limit is an error. With
+    /// c = α·dt̄/2 the step multiplies the velocity of a free node by (1 − c)/(1 + c): for
+    /// α·dt̄ > 2 that factor is negative, so every velocity reverses each step (the scheme stays
+    /// bounded, since |(1 − c)/(1 + c)| < 1, and its critical step ω·dt ≤ 2 does not change
+    /// with α: for m·ẍ + α·m·ẋ + k·x = 0 the step's characteristic polynomial
+    /// (1 + c)λ² − (2 − ω²dt²)λ + (1 − c) has |λ| ≤ 1 for any c ≥ 0 when ω·dt ≤ 2). So the
+    /// limit is α·dt ≤ 2, where the velocity is reset to zero every step; physical damping
+    /// (critical damping of the lowest mode, 2ω₁) is usually orders of magnitude below it.
+    pub fn check_mass_damping(&self) -> Result<(), SimError> {
+        let alpha = self.settings.mass_damping;
+        let dt = self.dt.max(self.dt_prev);
+        if alpha * dt > 2.0 {
+            return Err(SimError::Invalid(format!(
+                "mass-proportional damping α = {alpha:.4e} 1/s with dt = {dt:.4e} s gives α·dt = {:.4e}, above the central difference's limit 2: each step would multiply velocities by (1 − α·dt/2)/(1 + α·dt/2) = {:.3}, reversing them; use α ≤ 2/dt = {:.4e} 1/s (critical damping of the lowest mode is 2ω₁, usually far less)",
+                alpha * dt,
+                (1.0 - 0.5 * alpha * dt) / (1.0 + 0.5 * alpha * dt),
+                2.0 / dt
+            )));
+        }
+        Ok(())
     }
 
     /// What a friction law returned, where, and what it was given.
@@ -996,7 +1080,13 @@ impl Simulation {
             .filter(|&e| self.tet_is_inverted(e))
             .count();
         if inverted > 0 {
-            return Err(SimError::Unstable(self.describe_instability(inverted)));
+            return Err(SimError::Unstable(self.describe_instability_found_by(
+                inverted,
+                &format!(
+                    "the check of the configuration after step {}",
+                    self.step.saturating_sub(1)
+                ),
+            )));
         }
         Ok(())
     }

@@ -41,7 +41,7 @@ pub const SECTIONS: &[(&str, &str)] = &[
     ("Materials", "Elastic laws of the tetrahedra (stage 1). Equations in docs/theory/elements.md."),
     ("Geometry and meshes", "Shapes (also used as selection regions), meshing, transformations."),
     ("Generators", "Meshes of solids with curved faces and of test specimens, and masonry assemblies (one mesh per block). Every generated mesh carries named face, node and element sets; measured quality and volume errors are in docs/generators.md."),
-    ("Bodies and selections", "Bodies are meshes placed in the simulation; selections are node, face and element sets."),
+    ("Bodies and selections", "Bodies are meshes placed in the simulation; selections are node, face and element sets. A body or a selection belongs to the simulation that made it: giving it to another simulation's function is an error naming both."),
     ("Joints and fracture", "Stages 2–3: cohesive joints between the tetrahedra of jointed bodies; joints break, bodies fragment. Equations in docs/theory/joints.md."),
     ("Contact", "Stages 4–5: surface elements (outer faces and broken joints) touch, slide and collide through Munjiza's potential contact force with Coulomb friction. Equations in docs/theory/contact.md."),
     ("Reinforcement", "Rebars: 2-node bar elements of elastic–plastic steel (stage 1) embedded in a host body through bond points with a bond–slip law (stage 2); they bridge the host's cracks. Equations in docs/theory/reinforcement.md."),
@@ -117,9 +117,9 @@ pub const STIRRUP_KEYS: &[Key] = &[
 ];
 
 pub const SIMULATION_KEYS: &[Key] = &[
-    key("name", "string", "", "script file stem", "Name used in output file names."),
-    key("out_dir", "string", "", "\"out/<name>\"", "Output directory (created when first written). `fdem run --out DIR` overrides it."),
-    key("energy_every", "int", "steps", "50", "Sample the energy account every this many steps, and on the last step of every run (written to energy.csv). Inverted elements are detected on samples and at the end of every run; non-finite values every step."),
+    key("name", "string", "", "script file stem", "Name used in output file names: letters, digits, `_`, `-` (no `/`, `\\`, leading `.`, at most 100 characters)."),
+    key("out_dir", "string", "", "\"out/<name>\"", "Output directory (created when first written). `fdem run --out DIR` overrides it. One directory per simulation: a second simulation of the script whose directory is taken writes to `<dir>/<name>/` (a line says so). Output of an earlier run there (frames, energy.csv, cracks.csv, monitor CSVs) is an error unless `fdem run --overwrite`, which removes it first."),
+    key("energy_every", "int", "steps", "50", "Sample the energy account every this many steps, and on the last step of every run (appended to energy.csv as sampled). Inverted elements and non-finite values are detected on every step, whatever this is."),
     key("stress_output", "string", "", "\"cauchy\"", "Extra stress field written to VTK besides the Cauchy stress: \"cauchy\", \"pk1\" or \"pk2\"."),
     key("vtk_encoding", "string", "", "\"raw\"", "Appended data of `.vtu` files: \"raw\" (fast; ParaView, VTK, meshio) or \"base64\" (for readers without raw support, e.g. vtkio)."),
 ];
@@ -405,11 +405,11 @@ pub const BOUNDARY_KEYS: &[Key] = &[
     ),
 ];
 pub const INTEGRATOR_KEYS: &[Key] = &[
-    key("safety", "float", "-", "0.8", "dt = safety × critical time step (exact element bound: never above the true critical step)."),
+    key("safety", "float", "-", "0.8", "dt = safety × critical time step (exact element bound: never above the true critical step); in [1e-6, 1]."),
     key("dt", "float", "s", "automatic", "Fixed time step; an error if larger than the critical step."),
 ];
 pub const DAMPING_KEYS: &[Key] = &[
-    key("mass_proportional", "float", "1/s", "0", "α in the damping force −α·m·(v − v_frame) (dynamic relaxation; critical for mode ω at α = 2ω)."),
+    key("mass_proportional", "float", "1/s", "0", "α in the damping force −α·m·(v − v_frame) (dynamic relaxation; critical for mode ω at α = 2ω). At most 2/dt: beyond it the central difference reverses every velocity each step, and the run stops with an error giving the limit."),
     key("frame", "string", "", "\"ground\"", "What velocities are damped relative to: \"ground\" (v_frame = 0, or the ground's velocity under `shake_base`): every motion is resisted, also a body's imposed or free translation; \"body\": each deformable body's centre-of-mass velocity (its translation is not damped, its deformation and rotation are; rigid bodies are not damped). Costs one pass over the nodes per step."),
 ];
 /// `at` of selections and bounds.
@@ -438,7 +438,7 @@ pub const EVERY_KEYS: &[Key] = &[
         "float",
         "s",
         "-",
-        "Call each time simulated time passes a multiple of this.",
+        "Call each time simulated time passes a multiple of this; at least the time step (shorter is an error at `run`: use `steps: 1`).",
     ),
 ];
 pub const MONITOR_KEYS: &[Key] = &[key(
@@ -541,7 +541,7 @@ pub const API: &[FnDoc] = &[
     FnDoc { section: "Geometry and meshes", name: "mesh.translate", signature: "mesh.translate([dx, dy, dz]) -> Mesh", summary: "Move the mesh (in place; also returns it) [m].", keys: &[], laws: &[] },
     FnDoc { section: "Geometry and meshes", name: "mesh.rotate", signature: "mesh.rotate(#{ … }) -> Mesh", summary: "Rotate the mesh (in place; also returns it).", keys: ROTATE_KEYS, laws: &[] },
     FnDoc { section: "Geometry and meshes", name: "gmsh", signature: "gmsh(path [, #{ … }]) -> Mesh",
-        summary: "Import a Gmsh mesh: a `.msh` file (MSH 4.1 ASCII or binary, 2.2 ASCII) or a `.geo` file meshed by the `gmsh` executable (`gmsh -3`; it must be installed). `path` is relative to the script's directory. 4-node tetrahedra become the mesh; physical groups become named sets (volumes → element sets; surfaces → face sets and node sets; curves and points → node sets; unnamed groups are `physical_<tag>`). Nodes used by no tetrahedron are dropped and left-handed tetrahedra reordered, each with a warning; other 3D element types, surface triangles that are not tetrahedron faces, and mesh problems (degenerate, duplicate or folded tetrahedra, non-manifold faces) are errors naming the element and its place. See docs/meshing.md.", keys: GMSH_KEYS, laws: &[] },
+        summary: "Import a Gmsh mesh: a `.msh` file (MSH 4.1 ASCII or binary, 2.2 ASCII) or a `.geo` file meshed by the `gmsh` executable (`gmsh -3`; it must be installed). `path` is relative to the script's directory. 4-node tetrahedra become the mesh; physical groups become named sets (volumes → element sets; surfaces → face sets and node sets; curves and points → node sets; unnamed groups are `physical_<tag>`). Nodes used by no tetrahedron are dropped and left-handed tetrahedra reordered, each with a warning; other 3D element types, surface triangles that are not tetrahedron faces, and mesh problems (degenerate, duplicate or folded tetrahedra, non-manifold faces) are errors naming the element and its place. A `.geo` file that runs programs (gmsh's `SystemCall`, `Shell`, `OnelabRun`, also in files it includes) is refused unless `fdem run --allow-geo-commands`; gmsh writes into a private temporary directory and is stopped after 600 s (`--gmsh-timeout SECONDS`); the mesh is kept in `.fdem-cache/` beside the `.geo` (keyed by its text, `size` and the gmsh version) and reused by later `fdem check` and `fdem run` calls, each saying which file it used. Files are read up to 8 GB (a device or pipe up to 256 MB). See docs/meshing.md.", keys: GMSH_KEYS, laws: &[] },
     FnDoc { section: "Geometry and meshes", name: "mesh.sets", signature: "mesh.sets() -> array", summary: "Names of the mesh's sets (sorted). `body.sets()` gives those of a body.", keys: &[], laws: &[] },
     FnDoc { section: "Geometry and meshes", name: "mesh.scale", signature: "mesh.scale(factor | [sx, sy, sz] [, center]) -> Mesh",
         summary: "Scale about `center` (default the origin), in place; also returns the mesh. Factors must be non-zero; a negative product mirrors the mesh, and node order is then reversed so volumes stay positive. Sets are kept.", keys: &[], laws: &[] },
@@ -645,7 +645,7 @@ pub const API: &[FnDoc] = &[
         summary: "Surface traction [Pa] on the reference area of faces (dead load), lumped as area/3 to each face node; optionally scaled by a table.", keys: &[], laws: &[] },
     FnDoc { section: "Loads and constraints", name: "sim.initial_velocity", signature: "sim.initial_velocity(nodes, [vx, vy, vz])", summary: "Set the velocity of nodes now [m/s] (before the first step: the initial condition).", keys: &[], laws: &[] },
     FnDoc { section: "Loads and constraints", name: "table", signature: "table([[t0, v0], [t1, v1], …]) -> Table", summary: "Piecewise-linear function of time, held constant beyond its ends. Times must increase. `table.eval(t)` is its value at time t.", keys: &[], laws: &[] },
-    FnDoc { section: "Loads and constraints", name: "read_table", signature: "read_table(path [, scale]) -> Table", summary: "A table from a text file of two columns (t, value), separated by commas or spaces; `#` lines and a non-numeric header are skipped. Values are multiplied by `scale`.", keys: &[], laws: &[] },
+    FnDoc { section: "Loads and constraints", name: "read_table", signature: "read_table(path [, scale]) -> Table", summary: "A table from a text file of two columns (t, value), separated by commas or spaces; `#` lines and a non-numeric header are skipped. Values are multiplied by `scale`. Files larger than 256 MB (or a device that never ends) are refused.", keys: &[], laws: &[] },
     // ── Earthquake records
     FnDoc { section: "Earthquake records", name: "ground_motion", signature: "ground_motion(path [, #{ … }]) -> GroundMotion",
         summary: "Read an acceleration record (path as given, or next to the script): PEER NGA `.AT2` (4 header lines, `NPTS=` and `DT=` on the 4th), two-column `t, a` (commas or spaces, uniform step) or one-column at a given `dt`. Processed in this order: units to m/s², time window, baseline correction, scaling. Bad files are refused with the file and line. Properties (SI units): `dt` [s], `duration` [s], `pga` [m/s², signed], `pga_time` [s], `pgv` [m/s, signed], `pgd` [m, signed], `arias` [m/s], `significant_duration` (D5-95) [s].", keys: GROUND_MOTION_KEYS, laws: &[] },
@@ -662,7 +662,7 @@ pub const API: &[FnDoc] = &[
     // ── Hooks and output
     FnDoc { section: "Hooks, monitors and output", name: "sim.every", signature: "sim.every(#{ … }, |s| …)", summary: "Call a closure periodically during runs (e.g. `|s| s.write_vtk()`).", keys: EVERY_KEYS, laws: &[] },
     FnDoc { section: "Hooks, monitors and output", name: "sim.monitor", signature: "sim.monitor(name, #{ … }, |s| value) -> Monitor",
-        summary: "Record a number during runs; written to `<out_dir>/<name>.csv` after every run. Monitor methods: `last()`, `len()`, `values()`, `times()`, `write_csv()`, and the post-processing below.", keys: MONITOR_KEYS, laws: &[] },
+        summary: "Record a number during runs; streamed to `<out_dir>/<name>.csv` (the header when the first value is recorded, then each value appended as it is recorded, so an interrupted or killed run keeps its history). `name` names a file (as the simulation's) and is not `energy` or `cracks`. Monitor methods: `last()`, `len()`, `values()`, `times()`, `write_csv()` (makes sure the file exists), and the post-processing below.", keys: MONITOR_KEYS, laws: &[] },
     FnDoc { section: "Hooks, monitors and output", name: "monitor.peak_abs", signature: "monitor.max(), min(), peak(), peak_abs(), argmax(), argmin(), argmax_abs(), at(t), first_crossing(level [, direction]), slope(t0, t1), fit(t0, t1)",
         summary: "A monitor's history, measured: `max()` (= `peak()`) and `min()` the largest and smallest recorded value (0 before anything is recorded), `peak_abs()` the largest |value| (use it for a load whose sign depends on the direction, e.g. a compressive reaction); `argmax()`, `argmin()`, `argmax_abs()` the time [s] of those values (the first on ties); `at(t)` the value at time t, linear between samples (an error outside the recorded times); `first_crossing(level)` the first time the value reaches `level`, linear between the two samples around it, `()` if it never does (`direction` \"up\", \"down\" or \"any\", the default); `slope(t0, t1)` the least-squares slope over the samples with t0 ≤ t ≤ t1 and `fit(t0, t1)` the whole line `#{ slope, intercept, r2, n }` (an error with fewer than 2 samples). Example: `let rate = load.slope(0.0, 0.002);` (the loading rate [N/s] over the first 2 ms), `let t_half = load.first_crossing(0.5 * load.max(), \"up\");`.", keys: &[], laws: &[] },
     FnDoc { section: "Hooks, monitors and output", name: "sim.write_vtk", signature: "sim.write_vtk()",

@@ -67,47 +67,47 @@ pub fn register(engine: &mut Engine) {
 /// Node, element and face selections, and their unions.
 fn register_selections(engine: &mut Engine) {
     engine.register_fn("nodes", |b: &mut BodyHandle| {
-        NodeSet(Rc::new(
-            b.sim.0.borrow().sim.bodies[b.id]
-                .nodes
-                .clone()
-                .map(|n| n as u32)
-                .collect(),
-        ))
+        let st = b.sim.0.borrow();
+        let ids = st.sim.bodies[b.id].nodes.clone().map(|n| n as u32);
+        NodeSet(Rc::new(ids.collect()), st.owner.clone())
     });
     engine.register_fn("nodes", |b: &mut BodyHandle, r: Shape| {
-        NodeSet(Rc::new(b.sim.0.borrow().sim.nodes_in(&r.0, Some(b.id))))
+        let st = b.sim.0.borrow();
+        NodeSet(Rc::new(st.sim.nodes_in(&r.0, Some(b.id))), st.owner.clone())
     });
     engine.register_fn("nodes", |s: &mut SimHandle, r: Shape| {
-        NodeSet(Rc::new(s.0.borrow().sim.nodes_in(&r.0, None)))
+        let st = s.0.borrow();
+        NodeSet(Rc::new(st.sim.nodes_in(&r.0, None)), st.owner.clone())
     });
     engine.register_fn("elements", |b: &mut BodyHandle| {
-        ElementSet(Rc::new(
-            b.sim.0.borrow().sim.bodies[b.id]
-                .tets
-                .clone()
-                .map(|e| e as u32)
-                .collect(),
-        ))
+        let st = b.sim.0.borrow();
+        let ids = st.sim.bodies[b.id].tets.clone().map(|e| e as u32);
+        ElementSet(Rc::new(ids.collect()), st.owner.clone())
     });
     engine.register_fn("elements", |b: &mut BodyHandle, r: Shape| {
-        ElementSet(Rc::new(b.sim.0.borrow().sim.tets_in(&r.0, Some(b.id))))
+        let st = b.sim.0.borrow();
+        ElementSet(Rc::new(st.sim.tets_in(&r.0, Some(b.id))), st.owner.clone())
     });
     engine.register_fn("boundary", |b: &mut BodyHandle| boundary(b, Map::new()));
     engine.register_fn("boundary", boundary);
     engine.register_fn("nodes", |f: &mut FaceSet| {
-        NodeSet(Rc::new(face_nodes(&f.faces)))
+        NodeSet(Rc::new(face_nodes(&f.faces)), f.owner.clone())
     });
     engine.register_get("area", |f: &mut FaceSet| f.area);
     engine.register_fn("len", |f: &mut FaceSet| f.faces.len() as i64);
     engine.register_fn("len", |n: &mut NodeSet| n.0.len() as i64);
     engine.register_fn("len", |n: &mut ElementSet| n.0.len() as i64);
-    engine.register_fn("+", |a: NodeSet, b: NodeSet| {
-        NodeSet(Rc::new(union(&a.0, &b.0)))
+    engine.register_fn("+", |a: NodeSet, b: NodeSet| -> RhaiResult<NodeSet> {
+        b.1.check(&a.1, "nodes + nodes", "the right-hand nodes")?;
+        Ok(NodeSet(Rc::new(union(&a.0, &b.0)), a.1))
     });
-    engine.register_fn("+", |a: ElementSet, b: ElementSet| {
-        ElementSet(Rc::new(union(&a.0, &b.0)))
-    });
+    engine.register_fn(
+        "+",
+        |a: ElementSet, b: ElementSet| -> RhaiResult<ElementSet> {
+            b.1.check(&a.1, "elements + elements", "the right-hand elements")?;
+            Ok(ElementSet(Rc::new(union(&a.0, &b.0)), a.1))
+        },
+    );
 }
 
 /// `sim.add_body(name, mesh, material [, #{ layout }])`; the material is added to the
@@ -135,6 +135,16 @@ fn add_body(
             }
         }
     };
+    let per_tet = match layout {
+        Layout::Jointed => crate::limits::JOINTED_BYTES_PER_TET,
+        _ => crate::limits::CONTINUOUS_BYTES_PER_TET,
+    };
+    let n = mesh.0.tets.len() as f64;
+    crate::limits::check_memory(
+        &format!("body '{name}' ({n} tets, {})", layout.name()),
+        n * per_tet,
+    )
+    .map_err(|e| format!("add_body(): {e}"))?;
     let mut st = s.0.borrow_mut();
     if st.sim.step > 0 {
         return err("add_body(): bodies must be added before the first step");
@@ -199,5 +209,6 @@ fn boundary(b: &mut BodyHandle, m: Map) -> RhaiResult<FaceSet> {
     Ok(FaceSet {
         faces: Rc::new(faces),
         area,
+        owner: st.owner.clone(),
     })
 }

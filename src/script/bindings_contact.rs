@@ -125,11 +125,12 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
     });
     engine.register_fn(
         "contact_force",
-        |s: &mut SimHandle, b: BodyHandle| -> Array {
+        |s: &mut SimHandle, b: BodyHandle| -> RhaiResult<Array> {
+            let id = s.body_of(&b, "contact_force()")?;
             let st = s.0.borrow();
             let sim = &st.sim;
-            let f: Vec3 = sim.contact.force_on(sim.bodies[b.id].nodes.clone());
-            vec3_to_array(f)
+            let f: Vec3 = sim.contact.force_on(sim.bodies[id].nodes.clone());
+            Ok(vec3_to_array(f))
         },
     );
 }

@@ -126,6 +126,11 @@ fn count(o: &Opts, k: &str, min: i64) -> RhaiResult<usize> {
     match o.int(k)? {
         None => err(format!("{}(): missing required key '{k}'", o.func)),
         Some(v) if v < min => err(format!("{}(): key '{k}' must be ≥ {min}, got {v}", o.func)),
+        Some(v) if v as u64 > masonry::MAX_COUNT as u64 => err(format!(
+            "{}(): key '{k}' must be ≤ {}, got {v}",
+            o.func,
+            masonry::MAX_COUNT
+        )),
         Some(v) => Ok(v as usize),
     }
 }

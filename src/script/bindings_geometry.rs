@@ -117,13 +117,15 @@ fn mesh_shape(s: &mut Shape, m: Map) -> RhaiResult<MeshValue> {
         }
         (None, None) => return err("mesh(): missing required key 'size' (or 'divisions')"),
     };
-    let cells = divisions.iter().product::<usize>();
-    if cells > 50_000_000 {
+    // In floating point: 4 194 304³ cells must not wrap around to a small number.
+    let cells: f64 = divisions.iter().map(|&n| n as f64).product();
+    if cells > 50.0e6 {
         return err(format!(
-            "mesh(): {cells} cells ({} tets) is too many; use a larger size",
-            6 * cells
+            "mesh(): {cells:.4e} cells ({:.4e} tets) is too many (the limit is 5e7 cells); use a larger size",
+            6.0 * cells
         ));
     }
+    crate::limits::check_tets(6.0 * cells).map_err(|e| format!("mesh(): {e}"))?;
     Ok(MeshValue(Rc::new(box_mesh(min, max, divisions))))
 }
 

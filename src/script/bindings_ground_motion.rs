@@ -58,7 +58,8 @@ pub fn register(engine: &mut Engine) {
     engine.register_fn(
         "shake_base",
         |s: &mut SimHandle, n: NodeSet, m: Map| -> RhaiResult<()> {
-            shake(s, m, "sim.shake_base", ShakingKind::Base(n.0.to_vec()))
+            let ids = s.nodes_of(&n, "shake_base()")?.to_vec();
+            shake(s, m, "sim.shake_base", ShakingKind::Base(ids))
         },
     );
     engine.register_fn(

@@ -22,6 +22,15 @@ pub fn register(engine: &mut Engine) {
                 return err("every(): give exactly one of 'steps' or 'time'");
             }
             let mut st = s.0.borrow_mut();
+            // Refused here when the step is known (else at run()): a period shorter than dt.
+            if let (Some(t), true) = (time, st.sim.step > 0) {
+                if t < st.sim.dt * (1.0 - 1e-9) {
+                    return err(format!(
+                        "every(): time {t:e} s is shorter than the time step dt = {:e} s: the hook would run on every step; use #{{ steps: 1 }} for that, or a longer time",
+                        st.sim.dt
+                    ));
+                }
+            }
             let next_time = time
                 .map(|t| ((st.sim.time / t).floor() + 1.0) * t)
                 .unwrap_or(0.0);
@@ -39,9 +48,10 @@ pub fn register(engine: &mut Engine) {
         |s: &mut SimHandle, name: &str, m: Map, f: FnPtr| -> RhaiResult<MonitorHandle> {
             let o = Opts::new("monitor", m, keys_of("sim.monitor"))?;
             let every = o.positive_int("every")?.unwrap_or(1);
-            if name.is_empty() || name.contains(['/', '\\']) {
+            super::types::check_file_name("monitor()", "name", name)?;
+            if ["energy", "cracks"].contains(&name) {
                 return err(format!(
-                    "monitor(): name '{name}' must be non-empty and contain no path separators"
+                    "monitor(): the name '{name}' is taken by the simulation's own {name}.csv; choose another"
                 ));
             }
             let mut st = s.0.borrow_mut();
@@ -51,6 +61,12 @@ pub fn register(engine: &mut Engine) {
                 ));
             }
             let path = st.out_dir.join(format!("{name}.csv"));
+            if !st.dry && !st.overwrite && path.exists() {
+                return err(format!(
+                    "monitor(): {} is already there (an earlier run?); nothing is overwritten: run with --overwrite to replace it, or give another --out (or out_dir)",
+                    path.display()
+                ));
+            }
             let h = MonitorHandle(Rc::new(RefCell::new(MonitorData {
                 name: name.to_string(),
                 every,
@@ -59,6 +75,8 @@ pub fn register(engine: &mut Engine) {
                 steps: Vec::new(),
                 values: Vec::new(),
                 path,
+                csv: None,
+                dry: st.dry,
             })));
             st.monitors.push(h.clone());
             Ok(h)

@@ -32,6 +32,9 @@ pub fn register(engine: &mut Engine) {
                 .map(Some)
         };
         let (within, between) = (bodies_of("within")?, bodies_of("between")?);
+        for b in within.iter().chain(&between).flatten() {
+            s.body_of(b, "insert_joints()")?;
+        }
         if within.is_some() == between.is_some() {
             return err("insert_joints(): give exactly one of 'within' (internal faces of jointed bodies) or 'between' (coincident faces of different bodies)");
         }

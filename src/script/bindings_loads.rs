@@ -44,14 +44,17 @@ pub fn register(engine: &mut Engine) {
             Ok(())
         },
     );
-    engine.register_fn("fix", |s: &mut SimHandle, n: NodeSet| {
-        s.0.borrow_mut().sim.fix(&n.0, [true; 3])
+    engine.register_fn("fix", |s: &mut SimHandle, n: NodeSet| -> RhaiResult<()> {
+        let ids = s.nodes_of(&n, "fix()")?;
+        s.0.borrow_mut().sim.fix(ids, [true; 3]);
+        Ok(())
     });
     engine.register_fn(
         "fix",
         |s: &mut SimHandle, n: NodeSet, c: &str| -> RhaiResult<()> {
             let components = parse_components(c).map_err(|e| format!("fix(): {e}"))?;
-            s.0.borrow_mut().sim.fix(&n.0, components);
+            let ids = s.nodes_of(&n, "fix()")?;
+            s.0.borrow_mut().sim.fix(ids, components);
             Ok(())
         },
     );
@@ -75,9 +78,10 @@ pub fn register(engine: &mut Engine) {
         "initial_velocity",
         |s: &mut SimHandle, n: NodeSet, v: Array| -> RhaiResult<()> {
             let v = vec3_arg(&v, "initial_velocity()")?;
+            let ids = s.nodes_of(&n, "initial_velocity()")?;
             s.0.borrow_mut()
                 .sim
-                .set_velocity(&n.0, v)
+                .set_velocity(ids, v)
                 .map_err(|e| format!("initial_velocity(): {e}").into())
         },
     );
@@ -91,11 +95,16 @@ fn register_tables(engine: &mut Engine) {
         for (i, p) in points.iter().enumerate() {
             let pair: Option<(Real, Real)> =
                 p.read_lock::<Array>().and_then(|a| match a.as_slice() {
-                    [t, v] => Some((to_float(t)?, to_float(v)?)),
+                    [t, v] => Some((to_float(t)?, to_float(v)?))
+                        .filter(|(t, v)| t.is_finite() && v.is_finite()),
                     _ => None,
                 });
             pts.push(pair.map_or_else(
-                || err(format!("table(): point {i} must be [t, value], got {p}")),
+                || {
+                    err(format!(
+                        "table(): point {i} must be [t, value] with finite numbers, got {p}"
+                    ))
+                },
                 Ok,
             )?);
         }
@@ -122,15 +131,16 @@ pub(super) fn time_fn(d: &Dynamic, what: &str) -> RhaiResult<TimeFunction> {
     if let Some(t) = d.clone().try_cast::<Table>() {
         return Ok(t.0);
     }
-    to_float(d).map(TimeFunction::Constant).map_or_else(
-        || {
-            err(format!(
-                "{what}: expected a number or a table, got {} ({d})",
-                d.type_name()
-            ))
-        },
-        Ok,
-    )
+    match to_float(d) {
+        Some(x) if x.is_finite() => Ok(TimeFunction::Constant(x)),
+        Some(x) => err(format!(
+            "{what}: expected a finite number or a table, got {x}"
+        )),
+        None => err(format!(
+            "{what}: expected a number or a table, got {} ({d})",
+            d.type_name()
+        )),
+    }
 }
 
 /// `sim.prescribe_velocity(nodes, [vx, vy, vz])`.
@@ -142,7 +152,8 @@ fn prescribe_array(s: &mut SimHandle, n: NodeSet, v: Array) -> RhaiResult<()> {
     for k in 0..3 {
         c[k] = Some(time_fn(&v[k], "prescribe_velocity()")?);
     }
-    s.0.borrow_mut().sim.prescribe_velocity(&n.0, c);
+    let ids = s.nodes_of(&n, "prescribe_velocity()")?;
+    s.0.borrow_mut().sim.prescribe_velocity(ids, c);
     Ok(())
 }
 
@@ -158,19 +169,22 @@ fn prescribe_map(s: &mut SimHandle, n: NodeSet, m: Map) -> RhaiResult<()> {
     if c.iter().all(|c| c.is_none()) {
         return err("prescribe_velocity(): give at least one of x, y, z");
     }
-    s.0.borrow_mut().sim.prescribe_velocity(&n.0, c);
+    let ids = s.nodes_of(&n, "prescribe_velocity()")?;
+    s.0.borrow_mut().sim.prescribe_velocity(ids, c);
     Ok(())
 }
 
 fn nodal_force(s: &mut SimHandle, n: NodeSet, f: Array, scale: TimeFunction) -> RhaiResult<()> {
     let f = vec3_arg(&f, "nodal_force()")?;
-    s.0.borrow_mut().sim.add_nodal_force(&n.0, f, scale);
+    let ids = s.nodes_of(&n, "nodal_force()")?;
+    s.0.borrow_mut().sim.add_nodal_force(ids, f, scale);
     Ok(())
 }
 
 fn traction(s: &mut SimHandle, faces: FaceSet, t: Array, scale: TimeFunction) -> RhaiResult<()> {
     let t = vec3_arg(&t, "traction()")?;
-    s.0.borrow_mut().sim.add_traction(&faces.faces, t, scale);
+    let faces = s.faces_of(&faces, "traction()")?;
+    s.0.borrow_mut().sim.add_traction(faces, t, scale);
     Ok(())
 }
 

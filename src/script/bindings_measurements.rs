@@ -113,9 +113,8 @@ fn place(a: &mut BodyHandle, b: BodyHandle, axis: &str, gap: f64) -> RhaiResult<
             "place_against(): axis \"{axis}\" is not one of \"x\", \"y\", \"z\", \"+x\", \"-x\", \"+y\", \"-y\", \"+z\", \"-z\""
         ));
     };
-    if !Rc::ptr_eq(&a.sim.0, &b.sim.0) {
-        return err("place_against(): the two bodies belong to different simulations");
-    }
+    // A body of another simulation is an error naming both simulations.
+    a.sim.body_of(&b, "place_against()")?;
     let d: Vec3 = a
         .sim
         .0
@@ -132,9 +131,11 @@ fn mass_mean(
     what: &str,
     f: impl Fn(&crate::pipeline::Simulation, &[u32]) -> Option<Vec3>,
 ) -> RhaiResult<Array> {
+    // A set selected in another simulation is an error naming both (ids into other arrays).
+    let ids = s.nodes_of(n, &format!("{what}()"))?;
     let mut st = s.0.borrow_mut();
     st.sim.prepare().map_err(|e| format!("{what}(): {e}"))?;
-    match f(&st.sim, &n.0) {
+    match f(&st.sim, ids) {
         Some(v) => Ok(vec3_to_array(v)),
         None => err(format!("{what}(): the node set is empty")),
     }
@@ -146,24 +147,27 @@ fn register_selections(engine: &mut Engine) {
         "nodes",
         |b: &mut BodyHandle, r: Shape, m: Map| -> RhaiResult<NodeSet> {
             let at = configuration("nodes", "body.nodes", m, Configuration::Reference)?;
-            let ids = b.sim.0.borrow().sim.nodes_in_at(&r.0, Some(b.id), at);
-            Ok(NodeSet(Rc::new(ids)))
+            let st = b.sim.0.borrow();
+            let ids = st.sim.nodes_in_at(&r.0, Some(b.id), at);
+            Ok(NodeSet(Rc::new(ids), st.owner.clone()))
         },
     );
     engine.register_fn(
         "nodes",
         |s: &mut SimHandle, r: Shape, m: Map| -> RhaiResult<NodeSet> {
             let at = configuration("nodes", "sim.nodes", m, Configuration::Reference)?;
-            let ids = s.0.borrow().sim.nodes_in_at(&r.0, None, at);
-            Ok(NodeSet(Rc::new(ids)))
+            let st = s.0.borrow();
+            let ids = st.sim.nodes_in_at(&r.0, None, at);
+            Ok(NodeSet(Rc::new(ids), st.owner.clone()))
         },
     );
     engine.register_fn(
         "elements",
         |b: &mut BodyHandle, r: Shape, m: Map| -> RhaiResult<ElementSet> {
             let at = configuration("elements", "body.elements", m, Configuration::Reference)?;
-            let ids = b.sim.0.borrow().sim.tets_in_at(&r.0, Some(b.id), at);
-            Ok(ElementSet(Rc::new(ids)))
+            let st = b.sim.0.borrow();
+            let ids = st.sim.tets_in_at(&r.0, Some(b.id), at);
+            Ok(ElementSet(Rc::new(ids), st.owner.clone()))
         },
     );
 }

@@ -110,7 +110,8 @@ fn load(nc: &NativeCallContext, ctx: &ScriptContext, path: &str, m: Map) -> Rhai
             gmsh::read_msh(&file).map_err(|e| format!("gmsh(): {e}"))?
         }
         "geo" => {
-            let c = gmsh::mesh_geo_cached(&file, size).map_err(|e| format!("gmsh(): {e}"))?;
+            let c = gmsh::mesh_geo_cached(&file, size, &ctx.options.geo)
+                .map_err(|e| format!("gmsh(): {e}"))?;
             // Said under `fdem check` too: which mesh the model is built on.
             println!(
                 "gmsh(\"{path}\"): {} {} ({} tets, {} nodes){}",
@@ -197,10 +198,16 @@ fn array(m: MeshValue, o: Map) -> RhaiResult<Array> {
             )?,
     };
     let spacing = o.req_vec3("spacing")?;
-    let total = count.iter().product::<i64>();
-    if total > 100_000 {
-        return err(format!("array(): {total} copies is too many"));
+    // In floating point: counts of 2³¹ each must not wrap around to a small product.
+    let total_f: f64 = count.iter().map(|&n| n as f64).product();
+    if total_f > 100_000.0 {
+        return err(format!(
+            "array(): {total_f:.4e} copies is too many (the limit is 100 000)"
+        ));
     }
+    let total = total_f as i64;
+    crate::limits::check_tets(total_f * m.0.tets.len() as f64)
+        .map_err(|e| format!("array(): {e}"))?;
     let mut out = Array::with_capacity(total as usize);
     for k in 0..count[2] {
         for j in 0..count[1] {
@@ -319,12 +326,15 @@ fn body_set(b: &mut BodyHandle, name: &str, kind: Option<Kind>) -> RhaiResult<Dy
     };
     let t0 = body.tets.start;
     Ok(match kind {
-        Kind::Elements => Dynamic::from(ElementSet(Rc::new(
-            sets.elements[name]
-                .iter()
-                .map(|&e| (t0 + e as usize) as u32)
-                .collect(),
-        ))),
+        Kind::Elements => Dynamic::from(ElementSet(
+            Rc::new(
+                sets.elements[name]
+                    .iter()
+                    .map(|&e| (t0 + e as usize) as u32)
+                    .collect(),
+            ),
+            st.owner.clone(),
+        )),
         Kind::Nodes => {
             // Every simulation node that is a copy of a mesh node of the set (one per mesh node
             // in continuous bodies, one per tet corner in jointed ones).
@@ -342,7 +352,7 @@ fn body_set(b: &mut BodyHandle, name: &str, kind: Option<Kind>) -> RhaiResult<Dy
             }
             ids.sort_unstable();
             ids.dedup();
-            Dynamic::from(NodeSet(Rc::new(ids)))
+            Dynamic::from(NodeSet(Rc::new(ids), st.owner.clone()))
         }
         Kind::Faces => {
             let x0 = &sim.nodes.x0;
@@ -363,6 +373,7 @@ fn body_set(b: &mut BodyHandle, name: &str, kind: Option<Kind>) -> RhaiResult<Dy
             Dynamic::from(FaceSet {
                 faces: Rc::new(faces),
                 area,
+                owner: st.owner.clone(),
             })
         }
     })

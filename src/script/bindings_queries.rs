@@ -32,21 +32,29 @@ pub fn register(engine: &mut Engine) {
     });
     engine.register_fn("energy", energy);
     engine.register_fn("displacement", |s: &mut SimHandle, n: NodeSet| {
-        node_mean(s.0.borrow().sim.mean_displacement(&n.0), "displacement")
+        let ids = s.nodes_of(&n, "displacement()")?;
+        node_mean(s.0.borrow().sim.mean_displacement(ids), "displacement")
     });
     engine.register_fn("position", |s: &mut SimHandle, n: NodeSet| {
-        node_mean(s.0.borrow().sim.mean_position(&n.0), "position")
+        let ids = s.nodes_of(&n, "position()")?;
+        node_mean(s.0.borrow().sim.mean_position(ids), "position")
     });
     engine.register_fn("velocity", |s: &mut SimHandle, n: NodeSet| {
-        node_mean(s.0.borrow().sim.mean_velocity(&n.0), "velocity")
+        let ids = s.nodes_of(&n, "velocity()")?;
+        node_mean(s.0.borrow().sim.mean_velocity(ids), "velocity")
     });
-    engine.register_fn("reaction", |s: &mut SimHandle, n: NodeSet| {
-        vec3_to_array(s.0.borrow().sim.reaction_sum(&n.0))
-    });
+    engine.register_fn(
+        "reaction",
+        |s: &mut SimHandle, n: NodeSet| -> RhaiResult<Array> {
+            let ids = s.nodes_of(&n, "reaction()")?;
+            Ok(vec3_to_array(s.0.borrow().sim.reaction_sum(ids)))
+        },
+    );
     engine.register_fn(
         "mean_stress",
         |s: &mut SimHandle, el: ElementSet| -> RhaiResult<Array> {
-            let Some(m) = s.0.borrow().sim.mean_stress(&el.0) else {
+            let ids = s.elements_of(&el, "mean_stress()")?;
+            let Some(m) = s.0.borrow().sim.mean_stress(ids) else {
                 return err("mean_stress(): the element set is empty");
             };
             Ok((0..3)
@@ -56,9 +64,13 @@ pub fn register(engine: &mut Engine) {
                 .collect())
         },
     );
-    engine.register_fn("max_von_mises", |s: &mut SimHandle, el: ElementSet| {
-        s.0.borrow().sim.max_von_mises(&el.0)
-    });
+    engine.register_fn(
+        "max_von_mises",
+        |s: &mut SimHandle, el: ElementSet| -> RhaiResult<Real> {
+            let ids = s.elements_of(&el, "max_von_mises()")?;
+            Ok(s.0.borrow().sim.max_von_mises(ids))
+        },
+    );
 }
 
 /// A mean over a node set as `[x, y, z]`; None (an empty set) is an error of `what()`.

@@ -148,6 +148,7 @@ fn fib2010(o: &Opts, d: Real) -> RhaiResult<BondLaw> {
 /// `sim.rebar(host, #{ points, diameter, area, steel, bond, segment, name })`.
 fn rebar(s: &mut SimHandle, host: BodyHandle, m: Map) -> RhaiResult<RebarHandle> {
     let o = Opts::new("rebar", m, keys_of("sim.rebar"))?;
+    s.body_of(&host, "rebar()")?;
     let diameter = o.req_float("diameter")?;
     let steel = o
         .typed::<SteelValue>("steel", "a steel(..)")?
@@ -277,19 +278,23 @@ fn register_queries(engine: &mut Engine) {
     });
     engine.register_get("bars", move |r: &mut RebarHandle| bars_of(r).len() as i64);
     engine.register_fn("nodes", |r: &mut RebarHandle| {
-        let nodes = r.sim.0.borrow().sim.rebars[r.id].nodes.clone();
-        NodeSet(Rc::new(nodes.map(|n| n as u32).collect()))
+        let st = r.sim.0.borrow();
+        let nodes = st.sim.rebars[r.id].nodes.clone();
+        NodeSet(Rc::new(nodes.map(|n| n as u32).collect()), st.owner.clone())
     });
     engine.register_fn("nodes", |r: &mut RebarHandle, shape: Shape| {
         let st = r.sim.0.borrow();
         let tol = st.sim.length_tolerance();
         let nodes = st.sim.rebars[r.id].nodes.clone();
-        NodeSet(Rc::new(
-            nodes
-                .filter(|&n| shape.0.contains(&st.sim.nodes.x[n], tol))
-                .map(|n| n as u32)
-                .collect(),
-        ))
+        NodeSet(
+            Rc::new(
+                nodes
+                    .filter(|&n| shape.0.contains(&st.sim.nodes.x[n], tol))
+                    .map(|n| n as u32)
+                    .collect(),
+            ),
+            st.owner.clone(),
+        )
     });
     engine.register_fn("axial_forces", move |r: &mut RebarHandle| -> Array {
         let st = r.sim.0.borrow();

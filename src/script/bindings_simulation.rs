@@ -12,6 +12,7 @@ use crate::pipeline::Simulation;
 use rhai::{Engine, Map, NativeCallContext};
 use std::cell::RefCell;
 use std::collections::HashMap;
+use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
 pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
@@ -28,9 +29,9 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
             let o = Opts::new("integrator", m, keys_of("sim.integrator"))?;
             let mut st = s.0.borrow_mut();
             if let Some(safety) = o.float("safety")? {
-                if !(safety > 0.0 && safety <= 1.0) {
+                if !(1e-6..=1.0).contains(&safety) {
                     return err(format!(
-                        "integrator(): safety must lie in (0, 1], got {safety}"
+                        "integrator(): safety must lie in [1e-6, 1], got {safety} (below 1e-6 the time step would be a millionth of the stable one and the run would not finish)"
                     ));
                 }
                 st.sim.settings.safety = safety;
@@ -77,16 +78,16 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
 fn simulation(c: &ScriptContext, m: Map) -> RhaiResult<SimHandle> {
     let o = Opts::new("simulation", m, keys_of("simulation"))?;
     let name = o.string("name")?.unwrap_or_else(|| c.script_stem());
-    if name.is_empty() || name.contains(['/', '\\']) {
-        return err(format!(
-            "simulation(): name '{name}' must be non-empty and contain no path separators"
-        ));
-    }
+    super::types::check_file_name("simulation()", "name", &name)?;
     let out_dir = match (&c.options.out_dir, o.string("out_dir")?) {
         (Some(cli), _) => cli.clone(),
         (None, Some(d)) => d.into(),
         (None, None) => std::path::PathBuf::from("out").join(&name),
     };
+    let out_dir = claim_out_dir(c, &name, out_dir)?;
+    if !c.options.check_only {
+        clear_earlier_output(&out_dir, &name, c.options.overwrite)?;
+    }
     let mut sim = Simulation::new();
     if let Some(n) = o.positive_int("energy_every")? {
         sim.settings.energy_every = n;
@@ -113,6 +114,7 @@ fn simulation(c: &ScriptContext, m: Map) -> RhaiResult<SimHandle> {
     };
     let handle = SimHandle(Rc::new(RefCell::new(SimState {
         sim,
+        owner: super::types::Owner::new(&name),
         vtk_encoding,
         vtk: VtkSeries::new(out_dir.clone(), name.clone()),
         cracks_vtk: VtkSeries::new(out_dir.clone(), format!("{name}_cracks")),
@@ -131,7 +133,109 @@ fn simulation(c: &ScriptContext, m: Map) -> RhaiResult<SimHandle> {
         events_dispatched: 0,
         on_new_contact_pair: None,
         balance_warned: false,
+        energy_csv: None,
+        energy_rows: 0,
+        cracks_csv: None,
+        crack_rows: 0,
+        dry: c.options.check_only,
+        overwrite: c.options.overwrite,
     })));
     c.sims.borrow_mut().push(handle.clone());
     Ok(handle)
+}
+
+/// `dir` without `.` components, for comparing directories as given.
+fn lexical(dir: &Path) -> PathBuf {
+    dir.components()
+        .filter(|c| !matches!(c, std::path::Component::CurDir))
+        .collect()
+}
+
+/// One output directory per simulation: `dir`, or `dir/<name>` when another simulation of
+/// the script already writes to `dir` (two simulations under one `--out DIR`). A note says
+/// where the output goes; a second simulation of the same name there is an error.
+fn claim_out_dir(c: &ScriptContext, name: &str, dir: PathBuf) -> RhaiResult<PathBuf> {
+    let mut claimed = c.out_dirs.borrow_mut();
+    let owner_of = |d: &Path| {
+        claimed
+            .iter()
+            .find(|(p, _)| lexical(p) == lexical(d))
+            .map(|(_, n)| n.clone())
+    };
+    let dir = match owner_of(&dir) {
+        None => dir,
+        Some(other) => {
+            let sub = dir.join(name);
+            if let Some(o) = owner_of(&sub) {
+                return err(format!(
+                    "simulation(): '{name}' would write to {}, where simulation '{o}' writes; give each simulation its own name or out_dir",
+                    sub.display()
+                ));
+            }
+            c.say(&format!(
+                "[{name}] output in {} ({} holds the output of simulation '{other}')",
+                sub.display(),
+                dir.display()
+            ));
+            sub
+        }
+    };
+    claimed.push((dir.clone(), name.to_string()));
+    Ok(dir)
+}
+
+/// Whether `file` is output of the simulation `name` (its frames, crack and bar series, the
+/// energy and crack histories).
+fn is_output_of(file: &str, name: &str) -> bool {
+    if file == "energy.csv" || file == "cracks.csv" {
+        return true;
+    }
+    let Some(rest) = file.strip_prefix(name) else {
+        return false;
+    };
+    let rest = rest
+        .strip_prefix("_cracks")
+        .or_else(|| rest.strip_prefix("_bars"))
+        .unwrap_or(rest);
+    let frame = rest
+        .strip_prefix('_')
+        .and_then(|r| r.strip_suffix(".vtu"))
+        .is_some_and(|n| n.len() == 6 && n.bytes().all(|b| b.is_ascii_digit()));
+    rest == ".pvd" || frame
+}
+
+/// Earlier output of simulation `name` in `dir`: an error listing it, or removed with
+/// `--overwrite` (so no stale frame of a longer earlier run is left beside the new ones).
+fn clear_earlier_output(dir: &Path, name: &str, overwrite: bool) -> RhaiResult<()> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(());
+    };
+    let mut found: Vec<String> = entries
+        .filter_map(|e| e.ok())
+        .filter_map(|e| e.file_name().into_string().ok())
+        .filter(|f| is_output_of(f, name))
+        .collect();
+    if found.is_empty() {
+        return Ok(());
+    }
+    found.sort();
+    if !overwrite {
+        let shown: Vec<&str> = found.iter().take(4).map(String::as_str).collect();
+        return err(format!(
+            "simulation(): {} already holds output of simulation '{name}' ({}{}); nothing is overwritten: run with --overwrite to replace it, or give another --out (or out_dir)",
+            dir.display(),
+            shown.join(", "),
+            if found.len() > 4 {
+                format!(" and {} more", found.len() - 4)
+            } else {
+                String::new()
+            }
+        ));
+    }
+    for f in &found {
+        let p = dir.join(f);
+        std::fs::remove_file(&p)
+            .map_err(|e| format!("simulation(): removing {} (--overwrite): {e}", p.display()))?;
+    }
+    Ok(())
 }

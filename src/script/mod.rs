@@ -46,7 +46,19 @@ pub struct RunOptions {
     pub check_only: bool,
     /// Show a progress bar on a terminal.
     pub progress: bool,
+    /// `--overwrite`: replace the output of an earlier run in the same directory (without
+    /// it, a simulation whose files are already there is an error naming them).
+    pub overwrite: bool,
+    /// `--max-operations N`: stop a script that runs more than N Rhai operations without a
+    /// time step (a runaway loop); None: [`DEFAULT_MAX_OPERATIONS`]; Some(0): no limit.
+    pub max_operations: Option<u64>,
+    /// How `.geo` files are run through gmsh (commands refused unless allowed, time limit).
+    pub geo: crate::mesh::gmsh::GeoPolicy,
 }
+
+/// Rhai operations a script may run between two time steps (about 10 s on one core of the
+/// reference machine) before it is stopped as a runaway loop; `--max-operations` changes it.
+pub const DEFAULT_MAX_OPERATIONS: u64 = 200_000_000;
 
 /// State shared by the bindings of one script run.
 pub struct ScriptContext {
@@ -56,9 +68,34 @@ pub struct ScriptContext {
     pub sims: RefCell<Vec<SimHandle>>,
     /// The running script's AST (joint laws written in it are compiled from here).
     pub ast: RefCell<Option<rhai::AST>>,
+    /// Output directories claimed by the simulations of this script (directory, name).
+    pub out_dirs: RefCell<Vec<(PathBuf, String)>>,
+    /// Rhai's operation count when the last time step was taken (the runaway-loop limit
+    /// counts from there).
+    pub ops_at_step: Cell<u64>,
+    /// A time step was taken since the progress callback last looked.
+    pub stepped: Cell<bool>,
+    /// Inside a run's time loop: an interrupt is handled by the runner at the end of the
+    /// step, not by the progress callback.
+    pub in_run: Cell<bool>,
 }
 
 impl ScriptContext {
+    /// The context of a script at `script_path` run with `options`, before it runs.
+    pub fn new(options: RunOptions, script_path: PathBuf) -> Self {
+        ScriptContext {
+            options,
+            script_path,
+            params_called: Cell::new(false),
+            sims: RefCell::new(Vec::new()),
+            ast: RefCell::new(None),
+            out_dirs: RefCell::new(Vec::new()),
+            ops_at_step: Cell::new(0),
+            stepped: Cell::new(false),
+            in_run: Cell::new(false),
+        }
+    }
+
     /// Print a line of script output (silent under `fdem check`).
     pub fn say(&self, msg: &str) {
         if !self.options.check_only {
@@ -94,11 +131,15 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
         .set_fail_on_invalid_map_property(true)
         .set_max_expr_depths(128, 64)
         .set_max_call_levels(64)
-        .set_max_operations(20_000_000_000)
+        // Unlimited in total (a long run's hooks add up); the progress callback below stops a
+        // script that runs too long between two time steps.
+        .set_max_operations(0)
         .set_max_modules(64)
         .set_max_string_size(16 << 20)
         .set_max_array_size(50_000_000)
         .set_max_map_size(100_000);
+    let c = ctx.clone();
+    engine.on_progress(move |ops| progress(&c, ops));
     // The script's own output shows under `fdem check` too (up to its first run).
     engine.on_print(|s| println!("{s}"));
     engine.on_debug(|s, src, pos| eprintln!("{}:{}: {s}", src.unwrap_or("script"), pos));
@@ -149,6 +190,39 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     engine
 }
 
+/// The progress callback: stop a runaway script (too many operations since the last time
+/// step) and a script interrupted by SIGINT/SIGTERM outside a run's time loop.
+fn progress(c: &ScriptContext, ops: u64) -> Option<rhai::Dynamic> {
+    if c.stepped.get() {
+        c.stepped.set(false);
+        c.ops_at_step.set(ops);
+    }
+    if ops < c.ops_at_step.get() {
+        c.ops_at_step.set(0);
+    }
+    let limit = c.options.max_operations.unwrap_or(DEFAULT_MAX_OPERATIONS);
+    if limit > 0 && ops - c.ops_at_step.get() > limit {
+        return Some(
+            format!(
+                "the script ran {limit} operations without a time step (a runaway loop?); if it really needs more, raise the limit with fdem run --max-operations N (0: no limit)"
+            )
+            .into(),
+        );
+    }
+    if !c.in_run.get() {
+        if let Some(sig) = crate::limits::interrupt::requested() {
+            return Some(
+                format!(
+                    "interrupted by {}",
+                    crate::limits::interrupt::signal_name(sig)
+                )
+                .into(),
+            );
+        }
+    }
+    None
+}
+
 /// What a finished script leaves behind (used by tests and the CLI summary).
 pub struct ScriptReport {
     pub sims: Vec<SimHandle>,
@@ -195,7 +269,7 @@ pub fn run_file_with_report(
     path: &Path,
     options: RunOptions,
 ) -> (ScriptReport, Result<(), ScriptError>) {
-    match std::fs::read_to_string(path) {
+    match crate::limits::read_text_bounded(path, crate::limits::MAX_TEXT_INPUT) {
         Ok(source) => run_source_with_report(path, &source, options),
         Err(e) => (
             ScriptReport { sims: Vec::new() },
@@ -223,13 +297,7 @@ pub fn run_source_with_report(
     source: &str,
     options: RunOptions,
 ) -> (ScriptReport, Result<(), ScriptError>) {
-    let ctx = Rc::new(ScriptContext {
-        options,
-        script_path: path.to_path_buf(),
-        params_called: Cell::new(false),
-        sims: RefCell::new(Vec::new()),
-        ast: RefCell::new(None),
-    });
+    let ctx = Rc::new(ScriptContext::new(options, path.to_path_buf()));
     let result = run_in(&ctx, path, source);
     let sims = ctx.sims.borrow().clone();
     (ScriptReport { sims }, result)
@@ -243,6 +311,13 @@ fn run_in(ctx: &Rc<ScriptContext>, path: &Path, source: &str) -> Result<(), Scri
         .compile(source)
         .map_err(|e| ScriptError(format_parse_error(&label, source, &e)))?;
     ast.set_source(label.clone());
+    if !ctx.options.overrides.is_empty() && !may_call_params(&ast) {
+        return Err(set_without_params(
+            &label,
+            &ctx.options.overrides,
+            " (nothing was run)",
+        ));
+    }
     *ctx.ast.borrow_mut() = Some(ast.clone());
     let result = engine.run_ast(&ast);
     // Finish output of every simulation, even after an error.
@@ -258,18 +333,34 @@ fn run_in(ctx: &Rc<ScriptContext>, path: &Path, source: &str) -> Result<(), Scri
         r => r.map_err(|e| ScriptError(format_eval_error(&label, source, &e)))?,
     }
     if !ctx.options.overrides.is_empty() && !ctx.params_called.get() {
-        let keys: Vec<&str> = ctx
-            .options
-            .overrides
-            .iter()
-            .map(|(k, _)| k.as_str())
-            .collect();
-        return Err(ScriptError(format!(
-            "{label}: error: --set {} given, but the script declares no params(#{{..}})",
-            keys.join(", ")
-        )));
+        return Err(set_without_params(&label, &ctx.options.overrides, ""));
     }
     Ok(())
+}
+
+/// Whether the script calls `params(..)` anywhere or imports a module (which might): a
+/// `--set` on a script that cannot declare parameters is refused before it runs.
+fn may_call_params(ast: &rhai::AST) -> bool {
+    use rhai::{ASTNode, Expr, Stmt};
+    let mut found = false;
+    ast.walk(&mut |path: &[ASTNode]| {
+        found = match path.last() {
+            Some(ASTNode::Expr(Expr::FnCall(f, _))) => f.name == "params",
+            Some(ASTNode::Stmt(Stmt::Import(..))) => true,
+            _ => false,
+        };
+        !found
+    });
+    found
+}
+
+/// `--set` given to a script without `params(..)`.
+fn set_without_params(label: &str, overrides: &[(String, String)], note: &str) -> ScriptError {
+    let keys: Vec<&str> = overrides.iter().map(|(k, _)| k.as_str()).collect();
+    ScriptError(format!(
+        "{label}: error: --set {} given, but the script declares no params(#{{..}}) to override{note}",
+        keys.join(", ")
+    ))
 }
 
 impl ScriptReport {
@@ -327,6 +418,28 @@ fn format_parse_error(label: &str, source: &str, e: &ParseError) -> String {
     )
 }
 
+/// The file of an imported module named `src` in Rhai's errors (`helpers` for `import
+/// "helpers"`): `<script dir>/helpers.rhai` when that file exists, else `src` as it is (the
+/// embedded stdlib modules are named `stdlib/….rhai` already).
+fn module_file(label: &str, src: &str) -> String {
+    let p = Path::new(src);
+    if p.is_file() || src.starts_with("stdlib/") {
+        return src.to_string();
+    }
+    let dir = Path::new(label).parent().unwrap_or(Path::new(""));
+    let with_ext = if p.extension().is_some() {
+        p.to_path_buf()
+    } else {
+        p.with_extension("rhai")
+    };
+    let q = dir.join(with_ext);
+    if q.is_file() {
+        q.display().to_string()
+    } else {
+        src.to_string()
+    }
+}
+
 /// Unwrap nested function-call errors down to the innermost one, keeping the call chain.
 fn format_eval_error(label: &str, source: &str, e: &EvalAltResult) -> String {
     let mut chain = Vec::new();
@@ -341,8 +454,11 @@ fn format_eval_error(label: &str, source: &str, e: &EvalAltResult) -> String {
                     format!("function '{name}'")
                 };
                 chain.push(format!("  in {shown} called at {}", loc(&src_label, *pos)));
-                if !src.is_empty() {
-                    src_label = src.clone();
+                if name == "eval" {
+                    // Positions inside are lines of the evaluated string, not of the file.
+                    src_label = "eval string".to_string();
+                } else if !src.is_empty() {
+                    src_label = module_file(label, src);
                 }
                 cur = inner;
             }
@@ -359,6 +475,7 @@ fn format_eval_error(label: &str, source: &str, e: &EvalAltResult) -> String {
     let pos = cur.position();
     let msg = match cur {
         EvalAltResult::ErrorRuntime(d, _) => d.to_string(),
+        EvalAltResult::ErrorTerminated(d, _) => d.to_string(),
         other => {
             let s = other.to_string();
             // Rhai appends " (line l, position c)"; the location is printed in front already.
@@ -371,7 +488,10 @@ fn format_eval_error(label: &str, source: &str, e: &EvalAltResult) -> String {
     let snip = if src_label == label {
         snippet(source, pos)
     } else {
-        String::new()
+        // An imported module's own file, when it can be read.
+        crate::limits::read_text_bounded(Path::new(&src_label), 1 << 20)
+            .map(|text| snippet(&text, pos))
+            .unwrap_or_default()
     };
     let mut out = format!("{}: error: {msg}{snip}", loc(&src_label, pos));
     for c in chain.iter().rev() {

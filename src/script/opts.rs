@@ -20,36 +20,49 @@ pub fn to_float(d: &Dynamic) -> Option<Real> {
         .or_else(|| d.as_int().ok().map(|i| i as Real))
 }
 
-/// A number (int or float) argument; the error names it by `what`.
+/// A finite number (int or float) argument; the error names it by `what`. NaN and ±∞ are
+/// refused here, at the call that takes them, not found later as a blown-up run.
 pub fn num(d: &Dynamic, what: &str) -> RhaiResult<Real> {
-    to_float(d).map_or_else(
-        || {
-            err(format!(
-                "{what}: expected a number, got {} ({d})",
-                d.type_name()
-            ))
-        },
-        Ok,
-    )
+    match to_float(d) {
+        Some(x) if x.is_finite() => Ok(x),
+        Some(x) => err(format!("{what}: expected a finite number, got {x}")),
+        None => err(format!(
+            "{what}: expected a number, got {} ({d})",
+            d.type_name()
+        )),
+    }
 }
 
+/// Three finite numbers `[x, y, z]` (None for anything else, NaN and ±∞ included).
 pub fn to_vec3(d: &Dynamic) -> Option<Vec3> {
     let a = d.read_lock::<Array>()?;
     if a.len() != 3 {
         return None;
     }
-    Some(Vec3::new(
-        to_float(&a[0])?,
-        to_float(&a[1])?,
-        to_float(&a[2])?,
-    ))
+    let v = Vec3::new(to_float(&a[0])?, to_float(&a[1])?, to_float(&a[2])?);
+    v.iter().all(|c| c.is_finite()).then_some(v)
+}
+
+/// What a value that is not a finite vector should have been, for messages.
+fn vec3_expected(d: &Dynamic) -> &'static str {
+    let non_finite = d.read_lock::<Array>().is_some_and(|a| {
+        a.iter()
+            .any(|c| to_float(c).is_some_and(|x| !x.is_finite()))
+    });
+    if non_finite {
+        "an array of 3 finite numbers [x, y, z] (NaN and infinity are not allowed)"
+    } else {
+        "an array of 3 numbers [x, y, z]"
+    }
 }
 
 pub fn vec3_arg(d: &Array, what: &str) -> RhaiResult<Vec3> {
-    to_vec3(&Dynamic::from_array(d.clone())).map_or_else(
+    let dy = Dynamic::from_array(d.clone());
+    to_vec3(&dy).map_or_else(
         || {
             err(format!(
-                "{what}: expected an array of 3 numbers [x, y, z], got {d:?}"
+                "{what}: expected {}, got {d:?}",
+                vec3_expected(&dy)
             ))
         },
         Ok,
@@ -217,10 +230,9 @@ impl Opts {
     pub fn vec3(&self, k: &str) -> RhaiResult<Option<Vec3>> {
         match self.map.get(k) {
             None => Ok(None),
-            Some(v) => to_vec3(v).map(Some).map_or_else(
-                || self.type_err(k, "an array of 3 numbers [x, y, z]", v),
-                Ok,
-            ),
+            Some(v) => to_vec3(v)
+                .map(Some)
+                .map_or_else(|| self.type_err(k, vec3_expected(v), v), Ok),
         }
     }
     pub fn req_vec3(&self, k: &str) -> RhaiResult<Vec3> {

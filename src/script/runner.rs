@@ -1,11 +1,13 @@
 //! `sim.run(..)`: the time loop as seen from a script — steps, periodic hooks, monitors,
-//! `stop_when`, progress on a terminal, and the output written after every run.
+//! `stop_when`, progress on a terminal, histories streamed as they are sampled, and a stop
+//! at the end of a step on SIGINT/SIGTERM.
 
 use super::numbers::sig;
 use super::opts::{Opts, RhaiResult};
 use super::types::{MonitorHandle, SimHandle, SimState};
 use super::ScriptContext;
-use crate::io::{frame::encode_frame, write_csv};
+use crate::io::{frame::encode_frame, CsvStream};
+use crate::limits::interrupt;
 use crate::pipeline::{Energy, SimError, Simulation, Stage};
 use rhai::{Dynamic, FnPtr, NativeCallContext};
 use std::cell::Cell;
@@ -78,6 +80,9 @@ fn run_within(
     s: &SimHandle,
     mut limits: Limits,
 ) -> RhaiResult<()> {
+    limits.check_length(s)?;
+    check_hook_periods(s)?;
+    open_histories(s)?;
     let mut progress = Progress::new(ctx.options.progress && std::io::stderr().is_terminal());
     // Monitors get a first value when the model has not moved yet.
     let monitors: Vec<MonitorHandle> = s.0.borrow().monitors.clone();
@@ -87,7 +92,9 @@ fn run_within(
         }
     }
     let wall = Instant::now();
+    ctx.in_run.set(true);
     let result = step_until_done(nc, ctx, s, &mut limits, &monitors, &mut progress);
+    ctx.in_run.set(false);
     progress.finish();
     {
         let mut st = s.0.borrow_mut();
@@ -96,10 +103,120 @@ fn run_within(
         st.steps_in_runs += done;
         st.runs += 1;
     }
-    // Output is written whether the run ended normally or not.
-    let written = write_run_output(s);
+    // Output is finished whether the run ended normally or not.
+    let written = finish_run_output(s);
     result?;
-    written.map_err(|e| e.into())
+    written.map_err(|e| format!("run(): {e}").into())
+}
+
+/// Open `energy.csv` (and `cracks.csv` with joints) at the first run, header first.
+fn open_histories(s: &SimHandle) -> RhaiResult<()> {
+    let mut st = s.0.borrow_mut();
+    if st.dry {
+        return Ok(());
+    }
+    if st.energy_csv.is_none() {
+        let path = st.out_dir.join("energy.csv");
+        st.energy_csv =
+            Some(CsvStream::create(&path, &ENERGY_HEADER).map_err(|e| format!("run(): {e}"))?);
+    }
+    if st.cracks_csv.is_none() && !st.sim.joints.is_empty() {
+        let path = st.out_dir.join("cracks.csv");
+        st.cracks_csv =
+            Some(CsvStream::create(&path, &CRACKS_HEADER).map_err(|e| format!("run(): {e}"))?);
+    }
+    append_histories(&mut st).map_err(|e| format!("run(): {e}").into())
+}
+
+/// Columns of `energy.csv`.
+const ENERGY_HEADER: [&str; 18] = [
+    "step",
+    "time",
+    "kinetic",
+    "strain",
+    "gravity_work",
+    "force_work",
+    "reaction_work",
+    "ground_work",
+    "mass_damping",
+    "viscous_damping",
+    "joint",
+    "fracture",
+    "contact",
+    "friction",
+    "plastic",
+    "bond",
+    "bond_slip",
+    "balance_error",
+];
+
+/// Columns of `cracks.csv` (mode: 1 = I, 2 = II, 3 = mixed; body: body id).
+const CRACKS_HEADER: [&str; 7] = ["joint", "time", "x", "y", "z", "mode", "body"];
+
+/// Append the energy samples and break events not yet in their files (every step; no
+/// allocation: rows are arrays, the line buffer is reused).
+fn append_histories(st: &mut SimState) -> Result<(), String> {
+    let st = &mut *st;
+    if let Some(csv) = st.energy_csv.as_mut() {
+        for e in &st.sim.energy_history[st.energy_rows..] {
+            let en = &e.energy;
+            csv.row(&[
+                e.step as f64,
+                e.time,
+                en.kinetic,
+                en.strain,
+                en.gravity_work,
+                en.force_work,
+                en.reaction_work,
+                en.ground_work,
+                en.mass_damping,
+                en.viscous_damping,
+                en.joint,
+                en.fracture,
+                en.contact,
+                en.friction,
+                en.plastic,
+                en.bond,
+                en.bond_slip,
+                en.balance_error(),
+            ])?;
+        }
+        st.energy_rows = st.sim.energy_history.len();
+    }
+    if let Some(csv) = st.cracks_csv.as_mut() {
+        for e in &st.sim.break_events[st.crack_rows..] {
+            csv.row(&[
+                e.joint as f64,
+                e.time,
+                e.centroid.x,
+                e.centroid.y,
+                e.centroid.z,
+                e.mode.code() as f64,
+                e.body as f64,
+            ])?;
+        }
+        st.crack_rows = st.sim.break_events.len();
+    }
+    Ok(())
+}
+
+/// A periodic hook by time shorter than the time step would run every step: refused, saying
+/// so (a period of 1e-300 s also could not advance the hook's clock).
+fn check_hook_periods(s: &SimHandle) -> RhaiResult<()> {
+    let st = s.0.borrow();
+    let dt = st.sim.dt;
+    for h in &st.hooks {
+        if let Some(t) = h.every_time {
+            if t < dt * (1.0 - 1e-9) {
+                return super::opts::err(format!(
+                    "run(): every(#{{ time: {} }}) is shorter than the time step dt = {} s: the hook would run on every step; use every(#{{ steps: 1 }}) for that, or a longer time",
+                    sig(t, 6),
+                    sig(dt, 6)
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Prepare the model (first run: overlaps, unjointed bodies) and print a changed dt line.
@@ -197,6 +314,28 @@ impl Limits {
         }
     }
 
+    /// The most steps one run may take: more is a time step or a duration out of scale
+    /// (`dt: 1e-300`), which would never finish.
+    const MAX_STEPS: f64 = 1.0e10;
+
+    /// Error when the run would take more than [`Self::MAX_STEPS`] steps.
+    fn check_length(&self, s: &SimHandle) -> RhaiResult<()> {
+        let by_time = (self.t_end - self.t_start) / self.dt;
+        let by_steps = (self.step_end - self.step_start) as f64;
+        let steps = by_time.min(by_steps);
+        if steps > Self::MAX_STEPS {
+            let st = s.0.borrow();
+            return super::opts::err(format!(
+                "run(): reaching t = {} s with dt = {} s takes {:.3e} steps (more than {:.0e}): the run would not finish; check the time step (integrator dt, safety) and the run's length",
+                sig(self.t_end, 6),
+                sig(st.sim.dt, 6),
+                steps,
+                Self::MAX_STEPS
+            ));
+        }
+        Ok(())
+    }
+
     /// Fraction of the run done at `time` [s] and `step` (the larger of the two fractions).
     fn fraction_done(&self, time: f64, step: u64) -> f64 {
         let frac_t = if self.t_end.is_finite() {
@@ -230,6 +369,9 @@ fn step_until_done(
         if step >= lim.step_end || time >= lim.t_end - 1e-9 * lim.dt {
             return check_configuration(s);
         }
+        if let Some(sig) = interrupt::requested() {
+            return Err(interrupted(s, sig));
+        }
         {
             let mut st = s.0.borrow_mut();
             // The last step of a run with a known end is an energy sample.
@@ -237,10 +379,18 @@ fn step_until_done(
                 st.sim.sample_next = true;
             }
             let samples = st.sim.energy_history.len();
-            st.sim.step().map_err(|e| sim_error(&e))?;
+            let stepped = st.sim.step();
+            ctx.stepped.set(true);
+            // The samples up to a failed step are written before its error is returned.
+            append_histories(&mut st).map_err(|e| format!("run(): {e}"))?;
+            stepped.map_err(|e| sim_error(&e))?;
             if st.sim.energy_history.len() > samples {
                 warn_balance(ctx, &mut st);
             }
+            // A frame that failed to write (on the background thread) stops the run now.
+            st.vtk.check().map_err(|e| format!("run(): {e}"))?;
+            st.cracks_vtk.check().map_err(|e| format!("run(): {e}"))?;
+            st.bars_vtk.check().map_err(|e| format!("run(): {e}"))?;
         }
         call_hooks(nc, s)?;
         dispatch_break_events(nc, s)?;
@@ -329,8 +479,16 @@ fn call_hooks(nc: &NativeCallContext, s: &SimHandle) -> RhaiResult<()> {
             let due = match (h.every_steps, h.every_time) {
                 (Some(k), _) => step % k == 0,
                 (None, Some(t)) if time >= h.next_time * (1.0 - 1e-12) => {
+                    // Bounded: a period far below dt (a hook added inside a run, which
+                    // `check_hook_periods` has not seen) jumps instead of looping.
+                    let mut n = 0;
                     while h.next_time <= time * (1.0 + 1e-12) {
                         h.next_time += t;
+                        n += 1;
+                        if n > 1000 {
+                            h.next_time = time + t.max(time * 1e-12);
+                            break;
+                        }
                     }
                     true
                 }
@@ -401,91 +559,62 @@ fn record(nc: &NativeCallContext, s: &SimHandle, m: &MonitorHandle) -> RhaiResul
     d.times.push(t);
     d.steps.push(step);
     d.values.push(value);
+    open_monitor(&mut d).map_err(|e| format!("monitor '{}': {e}", d.name))?;
+    if let Some(csv) = d.csv.as_mut() {
+        csv.row(&[step as f64, t, value])
+            .map_err(|e| format!("monitor '{}': {e}", d.name))?;
+    }
     Ok(())
 }
 
-/// Write a monitor's history as CSV (step, time, value).
-pub fn write_monitor(m: &MonitorHandle) -> Result<(), String> {
-    let d = m.0.borrow();
-    let rows = (0..d.values.len()).map(|i| vec![d.steps[i] as f64, d.times[i], d.values[i]]);
-    write_csv(&d.path, &["step", "time", &d.name], rows)
-        .map_err(|e| format!("writing {}: {e}", d.path.display()))
+/// Create a monitor's CSV file (header `step,time,<name>`) unless it is open (or under
+/// `fdem check`, which writes nothing).
+fn open_monitor(d: &mut super::types::MonitorData) -> Result<(), String> {
+    if d.csv.is_none() && !d.dry {
+        d.csv = Some(CsvStream::create(&d.path, &["step", "time", &d.name])?);
+    }
+    Ok(())
 }
 
-fn write_run_output(s: &SimHandle) -> Result<(), String> {
+/// `monitor.write_csv()`: the file is streamed as values are recorded; this makes sure it
+/// exists (a header alone when nothing was recorded yet).
+pub fn write_monitor(m: &MonitorHandle) -> Result<(), String> {
+    let mut d = m.0.borrow_mut();
+    open_monitor(&mut d).map_err(|e| format!("write_csv(): {e}"))
+}
+
+/// Stop a run on SIGINT/SIGTERM at the end of a step: a final frame is written (the
+/// histories are up to date), and the error says where the output is.
+fn interrupted(s: &SimHandle, sig: i32) -> Box<rhai::EvalAltResult> {
+    let frame = write_vtk(s)
+        .err()
+        .map(|e| format!(" (the final frame failed: {e})"));
+    let st = s.0.borrow();
+    format!(
+        "run(): interrupted by {} at step {}, t = {} s; the histories and a final frame are in {}{}",
+        interrupt::signal_name(sig),
+        st.sim.step,
+        sig_fmt(st.sim.time),
+        st.out_dir.display(),
+        frame.unwrap_or_default()
+    )
+    .into()
+}
+
+fn sig_fmt(x: f64) -> String {
+    sig(x, 6)
+}
+
+/// At the end of every run: histories up to date (they are streamed; this catches the last
+/// samples) and every queued frame on disk. Errors name the file.
+fn finish_run_output(s: &SimHandle) -> Result<(), String> {
     let monitors = s.0.borrow().monitors.clone();
     for m in &monitors {
-        write_monitor(m)?;
+        let mut d = m.0.borrow_mut();
+        open_monitor(&mut d)?;
     }
     let mut st = s.0.borrow_mut();
-    let path = st.out_dir.join("energy.csv");
-    let rows = st.sim.energy_history.iter().map(|e| {
-        let en = &e.energy;
-        vec![
-            e.step as f64,
-            e.time,
-            en.kinetic,
-            en.strain,
-            en.gravity_work,
-            en.force_work,
-            en.reaction_work,
-            en.ground_work,
-            en.mass_damping,
-            en.viscous_damping,
-            en.joint,
-            en.fracture,
-            en.contact,
-            en.friction,
-            en.plastic,
-            en.bond,
-            en.bond_slip,
-            en.balance_error(),
-        ]
-    });
-    let header = [
-        "step",
-        "time",
-        "kinetic",
-        "strain",
-        "gravity_work",
-        "force_work",
-        "reaction_work",
-        "ground_work",
-        "mass_damping",
-        "viscous_damping",
-        "joint",
-        "fracture",
-        "contact",
-        "friction",
-        "plastic",
-        "bond",
-        "bond_slip",
-        "balance_error",
-    ];
-    write_csv(&path, &header, rows).map_err(|e| format!("writing {}: {e}", path.display()))?;
-    if !st.sim.joints.is_empty() {
-        let path = st.out_dir.join("cracks.csv");
-        let sim = &st.sim;
-        // mode: 1 = I, 2 = II, 3 = mixed; body: body id.
-        let rows = sim.break_events.iter().map(|e| {
-            let mode = e.mode.code() as f64;
-            vec![
-                e.joint as f64,
-                e.time,
-                e.centroid.x,
-                e.centroid.y,
-                e.centroid.z,
-                mode,
-                e.body as f64,
-            ]
-        });
-        write_csv(
-            &path,
-            &["joint", "time", "x", "y", "z", "mode", "body"],
-            rows,
-        )
-        .map_err(|e| format!("writing {}: {e}", path.display()))?;
-    }
+    append_histories(&mut st)?;
     st.vtk.flush()?;
     st.cracks_vtk.flush()?;
     st.bars_vtk.flush()
@@ -495,6 +624,17 @@ fn write_run_output(s: &SimHandle) -> Result<(), String> {
 pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
     let mut st = s.0.borrow_mut();
     st.sim.prepare().map_err(|e| format!("write_vtk(): {e}"))?;
+    if st.dry {
+        // `fdem check` writes nothing.
+        return Ok(());
+    }
+    // No frame shows inverted elements: the last step's motion is checked before it is
+    // written (stage 1 of the next step would find them, but a frame may come first).
+    if st.sim.step > 0 {
+        st.sim
+            .check_configuration()
+            .map_err(|e| format!("write_vtk(): {e}"))?;
+    }
     let bytes = encode_frame(&st.sim, st.stress_output, st.vtk_encoding)
         .map_err(|e| format!("write_vtk(): {e}"))?;
     let t = st.sim.time;

@@ -19,6 +19,8 @@ pub struct SimHandle(pub Rc<RefCell<SimState>>);
 
 pub struct SimState {
     pub sim: Simulation,
+    /// Identity of this simulation, carried by every selection made from it.
+    pub owner: Owner,
     pub name: String,
     pub out_dir: PathBuf,
     pub stress_output: StressMeasure,
@@ -47,6 +49,37 @@ pub struct SimState {
     pub on_new_contact_pair: Option<FnPtr>,
     /// The balance-error warning was printed (once per simulation).
     pub balance_warned: bool,
+    /// `energy.csv`, streamed from the first run on.
+    pub energy_csv: Option<crate::io::CsvStream>,
+    /// Energy samples already in `energy.csv`.
+    pub energy_rows: usize,
+    /// `cracks.csv` (models with joints), streamed from the first run on.
+    pub cracks_csv: Option<crate::io::CsvStream>,
+    /// Break events already in `cracks.csv`.
+    pub crack_rows: usize,
+    /// `fdem check`: nothing is written.
+    pub dry: bool,
+    /// `--overwrite`: earlier output of this simulation may be replaced.
+    pub overwrite: bool,
+}
+
+/// Error unless `name` can name a file: not empty, not `.` or `..`, no path separator,
+/// no leading dot, no control character, at most 100 characters.
+pub fn check_file_name(func: &str, what: &str, name: &str) -> Result<(), Box<rhai::EvalAltResult>> {
+    let bad = name.is_empty()
+        || name.starts_with('.')
+        || name.chars().count() > 100
+        || name
+            .chars()
+            .any(|c| c == '/' || c == '\\' || c.is_control());
+    if bad {
+        return Err(format!(
+            "{func}: {what} '{}' cannot name a file: use letters, digits, '_' or '-' (not empty, no leading '.', no '/' or '\\', at most 100 characters)",
+            name.escape_debug()
+        )
+        .into());
+    }
+    Ok(())
 }
 
 /// A joint law from `joint_law(..)`; penalties default to 10 × the Young's modulus of the
@@ -81,6 +114,10 @@ pub struct MonitorData {
     pub steps: Vec<u64>,
     pub values: Vec<f64>,
     pub path: PathBuf,
+    /// The CSV file, created with the first sample (none under `fdem check`).
+    pub csv: Option<crate::io::CsvStream>,
+    /// `fdem check`: nothing is written.
+    pub dry: bool,
 }
 
 #[derive(Clone)]
@@ -89,17 +126,117 @@ pub struct BodyHandle {
     pub id: usize,
 }
 
+/// The simulation a selection was made from: selections hold ids into that simulation's
+/// arrays, so using one with another simulation is an error naming both (never a panic, or
+/// a silent selection of other nodes).
 #[derive(Clone, Debug)]
-pub struct NodeSet(pub Rc<Vec<u32>>);
+pub struct Owner {
+    /// Unique in the process (simulations of one script, and of every script a test runs).
+    pub uid: u64,
+    pub name: Rc<str>,
+}
+
+impl Owner {
+    /// A new identity for a simulation named `name`.
+    pub fn new(name: &str) -> Self {
+        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+        Owner {
+            uid: NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+            name: name.into(),
+        }
+    }
+
+    /// An error of `func` when a selection (`what`: "these nodes", "body 'b'") made in this
+    /// simulation is used with simulation `user`.
+    pub fn check(
+        &self,
+        user: &Owner,
+        func: &str,
+        what: &str,
+    ) -> Result<(), Box<rhai::EvalAltResult>> {
+        if self.uid == user.uid {
+            return Ok(());
+        }
+        let (a, b) = if self.name == user.name {
+            (
+                format!("another simulation named '{}'", self.name),
+                format!("'{}'", user.name),
+            )
+        } else {
+            (
+                format!("simulation '{}'", self.name),
+                format!("'{}'", user.name),
+            )
+        };
+        Err(format!(
+            "{func}: {what} from {a} cannot be used with {b}: bodies and selections hold ids into the simulation that made them; select again from a body of {b}"
+        )
+        .into())
+    }
+}
 
 #[derive(Clone, Debug)]
-pub struct ElementSet(pub Rc<Vec<u32>>);
+pub struct NodeSet(pub Rc<Vec<u32>>, pub Owner);
+
+#[derive(Clone, Debug)]
+pub struct ElementSet(pub Rc<Vec<u32>>, pub Owner);
 
 #[derive(Clone, Debug)]
 pub struct FaceSet {
     pub faces: Rc<Vec<BoundaryFace>>,
     /// Reference area [m²].
     pub area: f64,
+    pub owner: Owner,
+}
+
+impl SimHandle {
+    /// This simulation's identity.
+    pub fn owner(&self) -> Owner {
+        self.0.borrow().owner.clone()
+    }
+
+    /// The node ids of `n` when it was selected in this simulation; else an error of `func`.
+    pub fn nodes_of<'a>(
+        &self,
+        n: &'a NodeSet,
+        func: &str,
+    ) -> Result<&'a [u32], Box<rhai::EvalAltResult>> {
+        n.1.check(&self.0.borrow().owner, func, "these nodes")?;
+        Ok(&n.0)
+    }
+
+    /// The element ids of `e` when it was selected in this simulation; else an error.
+    pub fn elements_of<'a>(
+        &self,
+        e: &'a ElementSet,
+        func: &str,
+    ) -> Result<&'a [u32], Box<rhai::EvalAltResult>> {
+        e.1.check(&self.0.borrow().owner, func, "these elements")?;
+        Ok(&e.0)
+    }
+
+    /// The faces of `f` when they were selected in this simulation; else an error.
+    pub fn faces_of<'a>(
+        &self,
+        f: &'a FaceSet,
+        func: &str,
+    ) -> Result<&'a [BoundaryFace], Box<rhai::EvalAltResult>> {
+        f.owner.check(&self.0.borrow().owner, func, "these faces")?;
+        Ok(&f.faces)
+    }
+
+    /// The id of body `b` when it belongs to this simulation; else an error of `func`.
+    pub fn body_of(&self, b: &BodyHandle, func: &str) -> Result<usize, Box<rhai::EvalAltResult>> {
+        if Rc::ptr_eq(&self.0, &b.sim.0) {
+            return Ok(b.id);
+        }
+        let (theirs, name) = {
+            let st = b.sim.0.borrow();
+            (st.owner.clone(), st.sim.bodies[b.id].name.clone())
+        };
+        theirs.check(&self.0.borrow().owner, func, &format!("body '{name}'"))?;
+        Ok(b.id)
+    }
 }
 
 #[derive(Clone, Debug)]

@@ -61,7 +61,8 @@ pub fn run_script(
 }
 
 /// [`run_script`] with exactly the arguments `args` (without `--quiet`, the end-of-run
-/// summaries are printed).
+/// summaries are printed), and `--overwrite`: tests run several scripts into one `dir/out`
+/// (tests/robustness.rs checks the refusal without it).
 pub fn run_script_with(
     dir: &std::path::Path,
     name: &str,
@@ -75,6 +76,7 @@ pub fn run_script_with(
         .arg(&path)
         .arg("--out")
         .arg(dir.join("out"))
+        .arg("--overwrite")
         .args(args)
         .output()
         .unwrap();

@@ -45,7 +45,9 @@ pub struct TetResult {
     pub strain_energy: Real,
     /// Viscous power V₀·P_v:Ḟ [W] (≥ 0; always computed when the material is viscous).
     pub viscous_power: Real,
-    /// det F ≤ 0: the element is inverted.
+    /// det F ≤ 0 (or NaN): the element is inverted. Checked on every step (one 3×3
+    /// determinant beside the stress), so a run stops in the step after the one that inverted
+    /// an element, before a frame or a callback sees it.
     pub inverted: bool,
 }
 
@@ -61,11 +63,12 @@ pub fn internal_force_tet4(
 ) -> TetResult {
     let ds = Mat3::from_columns(&[xs[1] - xs[0], xs[2] - xs[0], xs[3] - xs[0]]);
     let f = ds * dm_inv;
+    let j = f.determinant();
     let mut viscous_power = 0.0;
     let mut h = if mat.formulation == Formulation::Munjiza {
         // Cauchy-stress law: V₀·P·D_m⁻ᵀ = V₀·J·σ·D_s⁻ᵀ = σ·cof(D_s)/6, since
         // cof(D_s) = det(D_s)·D_s⁻ᵀ and det(D_s) = 6·V₀·J. No inverse, no division.
-        let sigma = munjiza_cauchy(&f, f.determinant(), mat.mu, mat.bulk());
+        let sigma = munjiza_cauchy(&f, j, mat.mu, mat.bulk());
         -(sigma * cofactor(&ds)) / 6.0
     } else {
         -vol0 * mat.pk1(&f) * dm_inv.transpose()
@@ -84,12 +87,11 @@ pub fn internal_force_tet4(
         forces: [-(f1 + f2 + f3), f1, f2, f3],
         viscous_power,
         strain_energy: 0.0,
-        inverted: false,
+        // NaN counts as inverted.
+        inverted: j.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater),
     };
     if want_energy {
         r.strain_energy = vol0 * mat.energy_density(&f);
-        // NaN counts as inverted.
-        r.inverted = f.determinant().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater);
     }
     r
 }
