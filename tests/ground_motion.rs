@@ -3,6 +3,8 @@
 //! SDOF responses, and exact properties of the integration and baseline schemes.
 //! Theory: docs/theory/ground_motion.md.
 
+mod common;
+
 use fdem::loads::ground_motion::*;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -509,9 +511,9 @@ expect_within("no drift", bc.displacement_at(60.0), -1e-12, 1e-12);
 expect_within("at rest", bc.velocity_at(60.0), -1e-12, 1e-12);
 expect_within("pgd", bc.pgd, -1.0, 1.0);
 "#;
-    fdem::script::run_source(&script, text, Default::default()).unwrap();
+    fdem::script::run_source(&script, text, script_options()).unwrap();
     let bad = r#"let eq = ground_motion("IELC180.AT2", #{ unit: "g" });"#;
-    let e = fdem::script::run_source(&script, bad, Default::default())
+    let e = fdem::script::run_source(&script, bad, script_options())
         .err()
         .unwrap()
         .to_string();
@@ -520,9 +522,23 @@ expect_within("pgd", bc.pgd, -1.0, 1.0);
         "{e}"
     );
     let missing = r#"let eq = ground_motion("nope.AT2");"#;
-    let e = fdem::script::run_source(&script, missing, Default::default())
+    let e = fdem::script::run_source(&script, missing, script_options())
         .err()
         .unwrap()
         .to_string();
     assert!(e.contains("nope.AT2"), "{e}");
+}
+
+/// Options for the scripts this file runs: output in a fresh temporary directory (not the
+/// working directory's out/, which the no-overwrite policy would refuse on a second run).
+fn script_options() -> fdem::script::RunOptions {
+    // A directory per call: tests of one binary run in parallel in one process.
+    static RUN: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    fdem::script::RunOptions {
+        out_dir: Some(common::temp_dir(&format!(
+            "ground_motion_script{}",
+            RUN.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+        ))),
+        ..Default::default()
+    }
 }
