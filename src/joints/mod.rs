@@ -557,14 +557,8 @@ impl Joints {
             std::array::from_fn(|p| PointState::from_parts(self.state[j][p], self.anchor[j][p]));
         pts.iter()
             .enumerate()
-            .map(|(p, (dn, ds, dir))| {
-                let k = PointKinematics {
-                    opening: *dn,
-                    slip: *ds,
-                    slip_vector: dir * *ds,
-                    normal: n,
-                    size: self.size[j],
-                };
+            .map(|(p, pt)| {
+                let k = point_kinematics(n, self.size[j], pt);
                 law.evaluate(&consts, &k, 1.0 / self.size[j], &mut st[p], true)
                     .energy
                     * area
@@ -659,6 +653,84 @@ fn joint_jumps(faces: &[[u32; 3]; 2], x: &[Vec3]) -> (Vec3, Real, [Real; 3], [Ve
     (n, 0.5 * len, dn, st)
 }
 
+/// Kinematics of one integration point from [`joint_kinematics`]' (opening, slip, direction).
+#[inline(always)]
+fn point_kinematics(n: Vec3, size: Real, (dn, ds, dir): &(Real, Real, Vec3)) -> PointKinematics {
+    PointKinematics {
+        opening: *dn,
+        slip: *ds,
+        slip_vector: dir * *ds,
+        normal: n,
+        size,
+    }
+}
+
+/// Update the loading rates and dynamic increase factors of an undamaged rate-dependent joint
+/// (law `c`, state `r`, kinematics `pose` = (n, area, points), size h, the body's Young's
+/// modulus, the step's time; see [`RateState`]). Returns the change of stored energy the new
+/// factors make at the current kinematics, ΔΨ [J], which the caller books as −ΔΨ of
+/// dissipation.
+fn update_rate_factors(
+    c: &Cohesive,
+    r: &mut RateState,
+    pose: &(Vec3, Real, [(Real, Real, Vec3); 3]),
+    size: Real,
+    young: Real,
+    time: Real,
+) -> Real {
+    let (n, area, pts) = pose;
+    let inv_h = 1.0 / size;
+    let (kn, kt) = (c.normal_penalty * inv_h, c.tangential_penalty * inv_h);
+    // The tractions at the factors in use (E × strain), and the factors that keep them at
+    // HOLD of the strengths.
+    let (ft, coh) = (c.tensile_strength * r.dif_t, c.cohesion * r.dif_c);
+    let (mut sig_n, mut sig_c) = (0.0 as Real, 0.0 as Real);
+    let (mut hold_t, mut hold_c) = (0.0 as Real, 0.0 as Real);
+    for (dn, ds, _) in pts {
+        let compression = -kn * dn.min(0.0);
+        let fs = coh + compression * c.tan_friction;
+        let tau = fs * law::prepeak(0.5 * kt * ds / fs);
+        let sigma = ft * law::prepeak(0.5 * kn * dn.max(0.0) / ft);
+        sig_n = sig_n.max(sigma);
+        sig_c = sig_c.max(compression.hypot(tau));
+        hold_t = hold_t.max(sigma / (HOLD * c.tensile_strength));
+        hold_c = hold_c.max((tau / HOLD - compression * c.tan_friction) / c.cohesion);
+    }
+    if sig_n <= 0.01 * c.tensile_strength {
+        r.tension_start = time;
+    }
+    if sig_c <= 0.01 * c.cohesion {
+        r.shear_start = time;
+    }
+    let secant = |sig: Real, start: Real| {
+        if time > start {
+            sig / young / (time - start)
+        } else {
+            0.0
+        }
+    };
+    // The factors follow the rates, but a falling rate lowers them only as far as keeps the
+    // current tractions at HOLD of the strengths: a joint loaded fast and then held does not
+    // break because its loading slowed (concrete's delayed fracture takes far longer).
+    let dif = (
+        law::dif_tension_fib2010(secant(sig_n, r.tension_start)).max(r.dif_t.min(hold_t)),
+        law::dif_compression_fib2010(secant(sig_c, r.shear_start)).max(r.dif_c.min(hold_c)),
+    );
+    if dif == (r.dif_t, r.dif_c) {
+        return 0.0;
+    }
+    let (old, new) = (c.scaled(r.dif_t, r.dif_c), c.scaled(dif.0, dif.1));
+    (r.dif_t, r.dif_c) = dif;
+    pts.iter()
+        .map(|p| {
+            let k = point_kinematics(*n, size, p);
+            new.intact_energy(&k, inv_h) - old.intact_energy(&k, inv_h)
+        })
+        .sum::<Real>()
+        * area
+        / 3.0
+}
+
 /// Stage 2: add the joint forces of every intact or broken joint to `nodes.f`.
 ///
 /// Colour by colour (see [`Joints::prepare`]), blocks of joints add their nodal forces
@@ -723,65 +795,8 @@ pub fn add_joint_forces(
                     // SAFETY: as for the state.
                     let r = unsafe { &mut *rp.get().add(j) };
                     if st.iter().all(|p| p.damage == 0.0) {
-                        let (n, area, pts) = joint_kinematics(&faces[j], x);
-                        let (kn, kt) = (c.normal_penalty * inv_h, c.tangential_penalty * inv_h);
-                        // The tractions at the factors in use (E × strain), and the factors
-                        // the current state needs to stay before the peak.
-                        let (ft, coh) = (c.tensile_strength * r.dif_t, c.cohesion * r.dif_c);
-                        let (mut sig_n, mut sig_c) = (0.0 as Real, 0.0 as Real);
-                        let (mut hold_t, mut hold_c) = (0.0 as Real, 0.0 as Real);
-                        for (dn, ds, _) in &pts {
-                            let compression = -kn * dn.min(0.0);
-                            let fs = coh + compression * c.tan_friction;
-                            let tau = fs * law::prepeak(0.5 * kt * ds / fs);
-                            let sigma = ft * law::prepeak(0.5 * kn * dn.max(0.0) / ft);
-                            sig_n = sig_n.max(sigma);
-                            sig_c = sig_c.max(compression.hypot(tau));
-                            hold_t = hold_t.max(sigma / (HOLD * c.tensile_strength));
-                            let friction = compression * c.tan_friction;
-                            hold_c = hold_c.max((tau / HOLD - friction) / c.cohesion);
-                        }
-                        if sig_n <= 0.01 * c.tensile_strength {
-                            r.tension_start = time;
-                        }
-                        if sig_c <= 0.01 * c.cohesion {
-                            r.shear_start = time;
-                        }
-                        let secant = |sig: Real, start: Real| {
-                            if time > start {
-                                sig / young / (time - start)
-                            } else {
-                                0.0
-                            }
-                        };
-                        // The factors follow the rates, but a falling rate lowers them only
-                        // as far as keeps the current tractions at HOLD of the strengths: a
-                        // joint loaded fast and then held does not break because its loading
-                        // slowed (concrete's delayed fracture takes far longer).
-                        let dif = (
-                            law::dif_tension_fib2010(secant(sig_n, r.tension_start))
-                                .max(r.dif_t.min(hold_t)),
-                            law::dif_compression_fib2010(secant(sig_c, r.shear_start))
-                                .max(r.dif_c.min(hold_c)),
-                        );
-                        if dif != (r.dif_t, r.dif_c) {
-                            let (old, new) = (c.scaled(r.dif_t, r.dif_c), c.scaled(dif.0, dif.1));
-                            let d_psi: Real = pts
-                                .iter()
-                                .map(|(dn, ds, dir)| {
-                                    let k = PointKinematics {
-                                        opening: *dn,
-                                        slip: *ds,
-                                        slip_vector: dir * *ds,
-                                        normal: n,
-                                        size: size[j],
-                                    };
-                                    new.intact_energy(&k, inv_h) - old.intact_energy(&k, inv_h)
-                                })
-                                .sum();
-                            s.dissipated -= d_psi * area / 3.0;
-                            (r.dif_t, r.dif_c) = dif;
-                        }
+                        let pose = joint_kinematics(&faces[j], x);
+                        s.dissipated -= update_rate_factors(c, r, &pose, size[j], young, time);
                     }
                     let c = c.scaled(r.dif_t, r.dif_c);
                     scaled = (JointLaw::Cohesive(c.clone()), c.consts());
@@ -810,14 +825,9 @@ pub fn add_joint_forces(
             let uses_anchor = matches!(lw, JointLaw::Cohesive(_));
             // SAFETY: as for the state.
             let anchors = unsafe { &mut *ap.get().add(j) };
-            for (p, (dn, ds, dir)) in pts.iter().enumerate() {
-                let k = PointKinematics {
-                    opening: *dn,
-                    slip: *ds,
-                    slip_vector: dir * *ds,
-                    normal: n,
-                    size: size[j],
-                };
+            for (p, pt) in pts.iter().enumerate() {
+                let k = point_kinematics(n, size[j], pt);
+                let dir = pt.2;
                 let anchor = if uses_anchor {
                     anchors[p]
                 } else {
