@@ -533,14 +533,18 @@ fn wait_for_lines(path: &Path, lines: usize) {
     }
 }
 
-/// Send `sig` to a child process.
+/// Send `sig` ("-INT", "-TERM" or "-KILL") to a child process, by the system call (a fresh
+/// machine with only the Rust toolchain may have no `kill` program).
 fn signal(child: &std::process::Child, sig: &str) {
-    let ok = std::process::Command::new("kill")
-        .args([sig, &child.id().to_string()])
-        .status()
-        .unwrap()
-        .success();
-    assert!(ok);
+    let number = match sig {
+        "-INT" => libc::SIGINT,
+        "-TERM" => libc::SIGTERM,
+        "-KILL" => libc::SIGKILL,
+        _ => panic!("unknown signal {sig}"),
+    };
+    // SAFETY: kill(2) with the pid of a child this test spawned and has not reaped.
+    let r = unsafe { libc::kill(child.id() as libc::pid_t, number) };
+    assert_eq!(r, 0, "kill {sig} {}", child.id());
 }
 
 /// A long run in a child `fdem`, with a monitor `ke` and frames every 50 steps.
