@@ -311,12 +311,19 @@ struct BarResult {
     balance: Real,
 }
 
-/// A fully jointed bar (1 × 0.1 × 0.1 m, 20 × 2 × 2 Kuhn cells, ν = 0) pulled slowly (over
-/// 40 wave transits) at x = L, held along x at x = 0, until it separates.
-fn jointed_bar(p_over_e: Real) -> BarResult {
-    let (l, a, e, ft) = (1.0, 0.1, 1e10, 1e6);
+/// A fully jointed bar L × L/10 × L/10 (20 × 2 × 2 Kuhn cells, `elastic/munjiza`, ν = 0) with
+/// the test law at f_t = `ft`, c = 3f_t, G_I = 50 J/m² and p = `p_over_e`·E on every internal
+/// face, held along x at x = 0 and pulled at x = L with a velocity ramped from 0 to `v` over
+/// five wave transits. Returns the simulation and the nodes of the pulled end.
+fn pulled_bar(
+    l: Real,
+    (e, rho, ft, p_over_e): (Real, Real, Real, Real),
+    rate: fdem::joints::law::RateEffects,
+    v: Real,
+) -> (Simulation, Vec<u32>) {
+    let a = l / 10.0;
     let mut sim = Simulation::new();
-    let m = sim.add_material(Material::new(Formulation::Munjiza, 2500.0, e, 0.0, 0.0).unwrap());
+    let m = sim.add_material(Material::new(Formulation::Munjiza, rho, e, 0.0, 0.0).unwrap());
     sim.add_body(
         "bar",
         &fdem::mesh::box_mesh(Vec3::zeros(), Vec3::new(l, a, a), [20, 2, 2]),
@@ -330,6 +337,7 @@ fn jointed_bar(p_over_e: Real) -> BarResult {
     coh.g_i = 50.0;
     coh.normal_penalty = p_over_e * e;
     coh.tangential_penalty = p_over_e * e;
+    coh.rate = rate;
     let l_id = sim.joints.add_law(JointLaw::Cohesive(coh));
     let (body, tets, x0) = (
         sim.bodies[0].clone(),
@@ -349,9 +357,7 @@ fn jointed_bar(p_over_e: Real) -> BarResult {
         )
     };
     let (left, right) = (plane(0.0, -1.0), plane(l, 1.0));
-    let c = (e / 2500.0 as Real).sqrt();
-    let t_load = 40.0 * l / c;
-    let v = 2.0 * ft / e * l / t_load;
+    let c = (e / rho).sqrt();
     sim.loads.prescribed.push(PrescribedVelocity {
         nodes: left,
         components: [Some(TimeFunction::Constant(0.0)), None, None],
@@ -364,6 +370,22 @@ fn jointed_bar(p_over_e: Real) -> BarResult {
             None,
         ],
     });
+    (sim, right)
+}
+
+/// A fully jointed bar (1 × 0.1 × 0.1 m, 20 × 2 × 2 Kuhn cells, ν = 0) pulled slowly (over
+/// 40 wave transits) at x = L, held along x at x = 0, until it separates.
+fn jointed_bar(p_over_e: Real) -> BarResult {
+    let (l, a, e, ft) = (1.0, 0.1, 1e10, 1e6);
+    let c = (e / 2500.0 as Real).sqrt();
+    let t_load = 40.0 * l / c;
+    let v = 2.0 * ft / e * l / t_load;
+    let (mut sim, right) = pulled_bar(
+        l,
+        (e, 2500.0, ft, p_over_e),
+        fdem::joints::law::RateEffects::None,
+        v,
+    );
     let (mut peak, mut e_eff, mut fragments) = (0.0 as Real, 0.0, 1);
     while sim.time < 1.5 * t_load {
         sim.step().unwrap();
@@ -911,59 +933,15 @@ fn rate_bar(rate: Real, rate_effects: bool) -> RateBar {
 fn rate_bar_held(rate: Real, rate_effects: bool, hold_at: Option<Real>) -> RateBar {
     let (e, ft, rho) = (1e10, 1e7, 25.0);
     let t_peak = 1.3 * fdem::joints::law::dif_tension_fib2010(rate) * ft / e / rate;
-    let l = (e / rho).sqrt() * t_peak / 40.0;
-    let a = l / 10.0;
-    let mut sim = Simulation::new();
-    let m = sim.add_material(Material::new(Formulation::Munjiza, rho, e, 0.0, 0.0).unwrap());
-    sim.add_body(
-        "bar",
-        &fdem::mesh::box_mesh(Vec3::zeros(), Vec3::new(l, a, a), [20, 2, 2]),
-        m,
-        Layout::Jointed,
-    )
-    .unwrap();
-    let mut coh = law(Calibration::Exact);
-    coh.tensile_strength = ft;
-    coh.cohesion = 3.0 * ft;
-    coh.g_i = 50.0;
-    coh.normal_penalty = 10.0 * e;
-    coh.tangential_penalty = 10.0 * e;
-    if rate_effects {
-        coh.rate = fdem::joints::law::RateEffects::Fib2010 { young: e };
-    }
-    let l_id = sim.joints.add_law(JointLaw::Cohesive(coh));
-    let (body, tets, x0) = (
-        sim.bodies[0].clone(),
-        sim.tets.nodes.clone(),
-        sim.nodes.x0.clone(),
-    );
-    sim.joints
-        .insert_in_body(&body, &tets, &x0, l_id, |_| true)
-        .unwrap();
-    let plane = |x: Real, out: Real| {
-        sim.nodes_in(
-            &fdem::mesh::Region::HalfSpace {
-                point: Vec3::new(x, 0.0, 0.0),
-                normal: Vec3::new(out, 0.0, 0.0),
-            },
-            None,
-        )
-    };
-    let (left, right) = (plane(0.0, -1.0), plane(l, 1.0));
     let c = (e / rho).sqrt();
-    let v = rate * l;
-    sim.loads.prescribed.push(PrescribedVelocity {
-        nodes: left,
-        components: [Some(TimeFunction::Constant(0.0)), None, None],
-    });
-    sim.loads.prescribed.push(PrescribedVelocity {
-        nodes: right.clone(),
-        components: [
-            Some(TimeFunction::table(vec![(0.0, 0.0), (5.0 * l / c, v)]).unwrap()),
-            None,
-            None,
-        ],
-    });
+    let l = c * t_peak / 40.0;
+    let a = l / 10.0;
+    let law_rate = if rate_effects {
+        fdem::joints::law::RateEffects::Fib2010 { young: e }
+    } else {
+        fdem::joints::law::RateEffects::None
+    };
+    let (mut sim, right) = pulled_bar(l, (e, rho, ft, 10.0), law_rate, rate * l);
     sim.settings.energy_every = 50;
     let (mut peak, mut fragments) = (0.0 as Real, 1);
     let (mut t_start, mut t_at_peak) = (Real::NAN, 0.0);
