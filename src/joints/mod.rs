@@ -799,7 +799,8 @@ pub fn add_joint_forces(
                         s.dissipated -= update_rate_factors(c, r, &pose, size[j], young, time);
                     }
                     let c = c.scaled(r.dif_t, r.dif_c);
-                    scaled = (JointLaw::Cohesive(c.clone()), c.consts());
+                    let consts = c.consts();
+                    scaled = (JointLaw::Cohesive(c), consts);
                     (lw, cs) = (&scaled.0, &scaled.1);
                 }
             }
