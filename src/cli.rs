@@ -46,6 +46,11 @@ enum Command {
         /// 0: no limit. Default 200000000 (about 10 s).
         #[arg(long, value_name = "N")]
         max_operations: Option<u64>,
+        /// Continue from a checkpoint (`sim.checkpoint()`, or the one Ctrl-C writes): the
+        /// script runs again with the same --set values and its simulation goes on from the
+        /// checkpoint, bit for bit, writing on in the same output directory.
+        #[arg(long, value_name = "FILE")]
+        restart: Option<PathBuf>,
         #[command(flatten)]
         geo: GeoArgs,
     },
@@ -143,6 +148,7 @@ pub fn main() {
             quiet,
             overwrite,
             max_operations,
+            restart,
             geo,
         } => {
             if let Err(e) = set_threads(threads) {
@@ -160,6 +166,7 @@ pub fn main() {
                 overwrite,
                 max_operations,
                 geo,
+                restart,
                 ..Default::default()
             };
             run_script(&script, &set, options)

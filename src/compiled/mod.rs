@@ -186,11 +186,49 @@ fn truth(b: bool) -> f64 {
 /// Returns true when the law has returned (the outputs are set).
 type StmtFn = Box<dyn Fn(&mut Frame) -> bool + Send + Sync>;
 
-/// A compiled joint law or fracture criterion.
+/// A compiled joint law or fracture criterion. Clones share the compiled body.
+///
+/// In a checkpoint a law is written as its key (kind, name and the parameters folded into it);
+/// reading a checkpoint finds the law the restarted script compiled under that key (see
+/// [`registry_key`]): compiled code cannot be stored, but the script that made it is run again.
+#[derive(Clone)]
 pub struct CompiledLaw {
     pub name: String,
     pub signature: Signature,
-    body: Vec<StmtFn>,
+    body: std::sync::Arc<Vec<StmtFn>>,
+    /// Kind, name and parameters: what makes two compilations the same law.
+    key: String,
+}
+
+thread_local! {
+    /// Every law compiled on this thread, by key: checkpoints name laws by key, and a restarted
+    /// script compiles them again before the checkpoint is read.
+    static REGISTRY: std::cell::RefCell<std::collections::HashMap<String, CompiledLaw>> =
+        Default::default();
+}
+
+/// The key under which a law of `kind` compiled from function `name` with `params` is known.
+fn registry_key(kind: &str, name: &str, params: &Map) -> String {
+    format!("{kind} '{name}' {params:?}")
+}
+
+impl serde::Serialize for CompiledLaw {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&self.key)
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for CompiledLaw {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let key = String::deserialize(d)?;
+        REGISTRY
+            .with(|r| r.borrow().get(&key).cloned())
+            .ok_or_else(|| {
+                serde::de::Error::custom(format!(
+                    "the model used the compiled {key}, which the script has not compiled this time (was the script changed?)"
+                ))
+            })
+    }
 }
 
 impl std::fmt::Debug for CompiledLaw {
@@ -215,7 +253,7 @@ impl CompiledLaw {
     pub fn evaluate_in<const N: usize>(&self, f: &mut Frame, inputs: &[f64]) -> [f64; N] {
         f.v[..inputs.len()].copy_from_slice(inputs);
         f.out = [f64::NAN; MAX_OUTPUTS];
-        for s in &self.body {
+        for s in self.body.iter() {
             if s(f) {
                 break;
             }
@@ -293,11 +331,14 @@ pub fn compile_with(
         sig,
     };
     let body = c.statements(&stmts, true)?;
-    Ok(CompiledLaw {
+    let law = CompiledLaw {
         name: name.to_string(),
         signature: sig,
-        body,
-    })
+        body: std::sync::Arc::new(body),
+        key: registry_key(kind, name, params),
+    };
+    REGISTRY.with(|r| r.borrow_mut().insert(law.key.clone(), law.clone()));
+    Ok(law)
 }
 
 struct Compiler<'a> {

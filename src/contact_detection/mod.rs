@@ -32,7 +32,7 @@ use crate::state::{Body, Layout, Nodes, Tets};
 use rayon::prelude::*;
 
 /// Detection state between steps: positions at the last detection, skin.
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct Detector {
     /// Skin [m]: boxes are inflated by skin/2.
     pub skin: Real,
@@ -42,6 +42,7 @@ pub struct Detector {
     pub detections: u64,
     /// Force a detection at the next step (topology changed, first step, …).
     pub stale: bool,
+    #[serde(skip)]
     pub workspace: NbsWorkspace,
 }
 
@@ -63,7 +64,7 @@ impl Detector {
 }
 
 /// Where a pair of the new candidate list comes from (the remap stage 4 hands stage 5).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PairOrigin {
     /// The pair was a candidate before, at this index of the previous list: its history
     /// carries over.
@@ -75,7 +76,7 @@ pub enum PairOrigin {
 }
 
 /// Stage 4 state: surface, candidate pairs and the remap of the last detection.
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct ContactDetection {
     pub detector: Detector,
     /// Skin given by the script [m] (None: a quarter of the mean surface element size).

@@ -15,7 +15,7 @@ use crate::math::{Real, Vec3};
 use rayon::prelude::*;
 
 /// Axis-aligned box.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
     pub lo: Vec3,
     pub hi: Vec3,
@@ -62,7 +62,7 @@ const CHUNK: usize = 2048;
 
 /// One slot of the cell hash table: a cell's integer coordinates and its run of elements in
 /// the cell-sorted arrays (`count == 0`: free slot). One cache line answers a lookup.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, Default)]
 struct Slot {
     c: [i64; 3],
     start: u32,
@@ -70,7 +70,7 @@ struct Slot {
 }
 
 /// Reusable NBS buffers (no allocation per detection once warmed up).
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct NbsWorkspace {
     /// Integer cell of each element.
     cell_xyz: Vec<[i64; 3]>,

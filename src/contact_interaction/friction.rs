@@ -17,6 +17,7 @@ crate::compiled::law_signature! {
     /// speed at the contact point [m/s], slip path accumulated while touching [m], mean
     /// normal pressure |F_n|/A [Pa], normal force |F_n| [N], contact area A [m²], time [s],
     /// and the rule's static `friction` value [-].
+    #[derive(serde::Serialize, serde::Deserialize)]
     pub struct FrictionInputs { slip_rate, slip, pressure, normal_force, area, time, mu }
     /// A contact friction law: `fn law(c, p)` returning `#{ friction: μ }` (or μ alone).
     pub const FRICTION_LAW = "friction law" -> ["friction"];
@@ -30,7 +31,7 @@ pub const FRICTION_LAW_PARAMS: &[crate::params::Param] = &[
 ];
 
 /// A friction law that returned an invalid μ, with what it was given.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct FrictionLawFailure {
     /// Index into [`super::ContactLaws::friction_laws`].
     pub law: u32,

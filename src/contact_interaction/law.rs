@@ -65,7 +65,7 @@ pub const CONTACT_LAWS: &[LawParams] = &[LawParams {
 }];
 
 /// A contact law with its parameters.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub enum ContactLaw {
     /// `"potential"`: potential contact force with Coulomb friction.
     Potential(PotentialContact),
@@ -86,7 +86,7 @@ impl Default for ContactLaw {
 }
 
 /// Parameters of the `"potential"` contact law as the script gave them.
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct PotentialContact {
     /// Normal penalty p [Pa]; None: [`DEFAULT_PENALTY_FACTOR`] × the larger Young's modulus
     /// of the pair.
@@ -125,7 +125,7 @@ impl PotentialContact {
 
 /// A contact rule from the script: rules without `materials` apply to every pair of
 /// materials, rules with `materials` to one pair (later rules override earlier ones).
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct ContactRule {
     pub materials: Option<(u32, u32)>,
     pub law: ContactLaw,
@@ -145,7 +145,7 @@ impl From<PotentialContact> for ContactRule {
 pub const NO_FRICTION_LAW: u32 = u32::MAX;
 
 /// Resolved contact parameters of one pair of materials.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct ContactProps {
     /// Normal penalty p [Pa] (energy per overlap volume at φ = 1).
     pub penalty: Real,
@@ -169,7 +169,7 @@ impl ContactProps {
 
 /// The rules of a simulation and what they resolve to (filled by [`ContactLaws::resolve`]
 /// when the model is prepared).
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct ContactLaws {
     /// Rules as given by the script.
     pub rules: Vec<ContactRule>,

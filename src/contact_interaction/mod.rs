@@ -55,7 +55,7 @@ use potential::{overlapping_tet_tet, separating_axis, TetGeom, OVERLAPPED};
 use rayon::prelude::*;
 
 /// A pair that came into contact (for `on_new_contact_pair`).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct ContactEvent {
     pub time: Real,
     /// Simulation tet ids (contactor, target).
@@ -64,7 +64,7 @@ pub struct ContactEvent {
 }
 
 /// History of one candidate pair.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct PairState {
     /// Tangential friction force on the contactor [N].
     pub spring: Vec3,
@@ -148,7 +148,7 @@ impl Default for PairState {
 }
 
 /// Per-step totals of stage 5.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, Default, PartialEq)]
 pub struct ContactSums {
     /// Recoverable contact energy: penalty energy + friction springs [J].
     pub energy: Real,
@@ -193,7 +193,7 @@ impl ContactSums {
 }
 
 /// Output of one touching pair.
-#[derive(Clone, Copy, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug)]
 struct PairOut {
     pair: u32,
     /// Simulation ids of the contactor and the target.
@@ -214,7 +214,7 @@ const CHUNK: usize = 1024;
 
 /// Stage 5 state: the laws, the pair history (aligned with stage 4's pair list) and the
 /// outputs of the last step.
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct ContactInteraction {
     pub laws: ContactLaws,
     /// History of every candidate pair, `state[k]` for stage 4's `pairs[k]`.

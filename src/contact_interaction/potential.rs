@@ -65,7 +65,7 @@ const MAX_POLY: usize = 10;
 
 /// Geometry of one tetrahedron prepared for contact: barycentric gradients, centroid and
 /// outward face normals.
-#[derive(Clone, Copy, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug)]
 pub struct TetGeom {
     pub x: [Vec3; 4],
     /// ∇λ_i [1/m].

@@ -31,7 +31,7 @@ use tet4::accumulate;
 pub const CHUNK: usize = 512;
 
 /// Per-step sums over all elements.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, Default, PartialEq)]
 pub struct ElementSums {
     pub strain_energy: Real,
     pub viscous_power: Real,
@@ -39,7 +39,7 @@ pub struct ElementSums {
 }
 
 /// Scratch owned by the elements stage, sized once at setup (no allocation per step).
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct ElementsWorkspace {
     /// Per-body gather data for bodies that share nodes.
     pub shared: Vec<Option<SharedGather>>,
@@ -57,7 +57,7 @@ const BIG_BODY: usize = 8 * CHUNK;
 const GROUP_TETS: usize = 2 * CHUNK;
 
 /// Slot buffer and CSR node→slots map of a body that shares nodes.
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct SharedGather {
     pub slots: Vec<[Vec3; 4]>,
     /// For body-local node i, slots `slot_ids[offsets[i]..offsets[i+1]]` (slot = 4·local_tet + corner).

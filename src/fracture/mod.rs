@@ -9,7 +9,7 @@ use crate::joints::{joint_kinematics, Joints};
 use crate::math::{Real, Vec3};
 
 /// How a joint broke, from the direction of its total opening and slip at failure.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BreakMode {
     /// Opening dominated (slip share below tan 15°).
     I,
@@ -38,7 +38,7 @@ impl BreakMode {
 }
 
 /// A joint that broke.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct BreakEvent {
     pub joint: usize,
     pub time: Real,
@@ -49,7 +49,7 @@ pub struct BreakEvent {
 }
 
 /// When a user fracture criterion is consulted.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CriterionWhen {
     /// For fully damaged joints (all points at D = 1): the joint breaks only when the
     /// criterion also says so; until then it stays pending and is asked again every step.
@@ -79,7 +79,7 @@ pub const CRITERION_PARAMS: &[crate::params::Param] = &[
 ];
 
 /// A fracture criterion written in Rhai and compiled ([`CRITERION`]).
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct FractureCriterion {
     pub function: std::sync::Arc<crate::compiled::CompiledLaw>,
     pub when: CriterionWhen,

@@ -37,7 +37,7 @@ pub const CHUNK: usize = 2048;
 /// (½·F(t)·(x(t+dt) − x(t))). With the kinetic energy measured as ½m·v(t−dt/2)·v(t+dt/2),
 /// the energy the central difference conserves exactly for linear systems, the account at t
 /// is then exact up to the integrator's own O(dt²) error.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, Default, PartialEq)]
 pub struct IntegrationSums {
     /// Σ ½m·v(t−dt/2)·v(t+dt/2) [J] (when sampled). On the first step v(−dt/2) is the
     /// virtual 2v(0) − v(dt/2) for free components and v(0) for constrained ones.

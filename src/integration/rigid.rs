@@ -104,7 +104,7 @@ pub fn mass_properties(
 
 /// One rigid body: reference data, the state on the staggered grid, its constraint and the
 /// results of the last step.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct RigidBody {
     /// Body id.
     pub body: usize,
@@ -252,7 +252,7 @@ impl RigidBody {
 
 /// The rigid bodies of a model (in body order) and the masses the contact time-step bound
 /// uses for their nodes.
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct RigidBodies {
     pub bodies: Vec<RigidBody>,
     contact_mass: Vec<Real>,

@@ -4,6 +4,7 @@
 //! are streamed ([`CsvStream`]: the header when the file is opened, each row appended and
 //! flushed to the OS as it is sampled), so a killed run keeps every sample but the last.
 
+pub mod checkpoint;
 pub mod frame;
 pub mod vtu;
 
@@ -105,6 +106,39 @@ impl CsvStream {
 
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// Bytes written so far (every row is written through; nothing is held back).
+    pub fn bytes(&self) -> Result<u64, String> {
+        self.file
+            .metadata()
+            .map(|m| m.len())
+            .map_err(|e| format!("reading the length of {}: {e}", self.path.display()))
+    }
+
+    /// Continue the history at `path` after its first `bytes` bytes (a restart: rows the
+    /// interrupted run wrote after its checkpoint are cut off, to be written again).
+    pub fn resume(path: &Path, bytes: u64) -> Result<Self, String> {
+        use std::io::{Seek, SeekFrom};
+        let fail = |e: std::io::Error| format!("resuming {}: {e}", path.display());
+        let mut file = std::fs::OpenOptions::new()
+            .write(true)
+            .open(path)
+            .map_err(fail)?;
+        let len = file.metadata().map_err(fail)?.len();
+        if len < bytes {
+            return Err(format!(
+                "resuming {}: it holds {len} bytes, fewer than the {bytes} it had at the checkpoint (was it changed?)",
+                path.display()
+            ));
+        }
+        file.set_len(bytes).map_err(fail)?;
+        file.seek(SeekFrom::Start(bytes)).map_err(fail)?;
+        Ok(CsvStream {
+            path: path.to_path_buf(),
+            file,
+            line: String::new(),
+        })
     }
 }
 

@@ -112,7 +112,7 @@ pub const BOND_LAWS: &[crate::params::LawParams] = &[
 
 /// The monotone bond stress–slip envelope of fib Model Code 2010, eq. 6.1-1:
 /// τ = τ_max (s/s₁)^α for s ≤ s₁; τ_max to s₂; linear to τ_bf at s₃; τ_bf beyond.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct Fib2010 {
     pub tau_max: Real,
     pub s1: Real,
@@ -178,14 +178,14 @@ impl Fib2010 {
 }
 
 /// The envelope of a bond law.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub enum Envelope {
     Fib2010(Fib2010),
     Script(std::sync::Arc<compiled::CompiledLaw>),
 }
 
 /// A bond law: envelope, unloading stiffness k and transverse stiffness k⊥ [Pa/m].
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct BondLaw {
     pub envelope: Envelope,
     pub stiffness: Real,
@@ -272,7 +272,7 @@ impl BondLaw {
 }
 
 /// Bond points (one per embedded bar node), structure of arrays indexed by point id.
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct Bonds {
     pub laws: Vec<BondLaw>,
     /// The bar node.

@@ -67,7 +67,7 @@ pub fn prepeak_integral(x: Real) -> Real {
 }
 
 /// Which softening curve a cohesive law uses.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Softening {
     /// Munjiza's z(D).
     Munjiza,
@@ -93,7 +93,7 @@ impl Softening {
 }
 
 /// How the softening length is calibrated from the fracture energy G.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Calibration {
     /// δt = G/(f·∫z): the softening branch dissipates exactly G (default).
     Exact,
@@ -105,7 +105,7 @@ pub enum Calibration {
 pub const DEFAULT_PENALTY_FACTOR: Real = 10.0;
 
 /// How a cohesive law's strengths depend on the strain rate.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq)]
 pub enum RateEffects {
     /// Rate-independent (the default).
     None,
@@ -215,7 +215,7 @@ pub fn penalties_or_default(given: (Option<Real>, Option<Real>), young: Real) ->
 }
 
 /// Parameters of a cohesive joint law (SI units).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Cohesive {
     pub softening: Softening,
     pub calibration: Calibration,
@@ -242,7 +242,7 @@ pub struct Cohesive {
 /// The part of a point's history that every step reads: damage and the maxima. Joints store
 /// it apart from the friction anchor of broken joints, so the many undamaged joints stream
 /// 72 bytes of history per joint instead of 144.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, Default, PartialEq)]
 pub struct PointHistory {
     /// Damage D ∈ [0, 1] (never decreases).
     pub damage: Real,
@@ -317,7 +317,7 @@ pub struct PointTraction {
 
 /// Reciprocals of a cohesive law's constants, computed once per law so that the per-point
 /// evaluation has no division in the common (undamaged, pre-peak) case.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, Default, PartialEq)]
 pub struct CohesiveConsts {
     /// 0.5/f_t, 0.5/c [1/Pa]
     half_inv_ft: Real,

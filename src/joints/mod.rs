@@ -45,7 +45,7 @@ compiled::law_signature! {
 }
 
 /// A joint constitutive law (registry name ↔ type).
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub enum JointLaw {
     /// `"cohesive/munjiza"` and `"cohesive/linear"`: softening, breaking cohesion.
     Cohesive(Cohesive),
@@ -172,7 +172,7 @@ impl JointLaw {
 }
 
 /// All joints of a simulation (structure of arrays).
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct Joints {
     /// Face A and face B node ids, paired by index.
     pub faces: Vec<[[u32; 3]; 2]>,
@@ -204,6 +204,7 @@ pub struct Joints {
     color_blocks: Vec<Vec<std::ops::Range<usize>>>,
     /// Number of joints coloured and ordered (insertion after that re-colours).
     colored: usize,
+    #[serde(skip)]
     partials: Vec<JointSums>,
 }
 
@@ -227,7 +228,7 @@ pub struct Joints {
 /// scale of the time step swung it by more than its mean, and near the peak the strength
 /// followed the swings: a bar pulled at 30 /s broke at 1.1 or 2.5 f_t against the factor's
 /// 1.8.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct RateState {
     /// t₀ of the tensile and of the compressive–shear loading [s].
     pub tension_start: Real,
@@ -254,7 +255,7 @@ impl RateState {
 const HOLD: Real = 0.9;
 
 /// Per-step sums over joints.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, Default, PartialEq)]
 pub struct JointSums {
     /// Recoverable joint energy [J] (when requested).
     pub energy: Real,
@@ -265,6 +266,11 @@ pub struct JointSums {
 }
 
 impl Joints {
+    /// Move the per-step scratch buffers (not part of a checkpoint) from `from` into `self`.
+    pub(crate) fn take_scratch(&mut self, from: &mut Self) {
+        std::mem::swap(&mut self.partials, &mut from.partials);
+    }
+
     pub fn len(&self) -> usize {
         self.faces.len()
     }

@@ -85,7 +85,7 @@ impl Default for ReadOptions {
 }
 
 /// An acceleration record.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct GroundMotion {
     /// Name (file name).
     pub name: String,

@@ -21,7 +21,7 @@ use crate::math::{Real, Vec3};
 use crate::state::Nodes;
 
 /// A set of nodal forces: node i gets `force[i]·scale(t)` [N].
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct NodalForces {
     pub nodes: Vec<u32>,
     pub force: Vec<Vec3>,
@@ -69,7 +69,7 @@ impl NodalForces {
 }
 
 /// Velocity prescribed on components of a node set; each component an optional function of time.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct PrescribedVelocity {
     pub nodes: Vec<u32>,
     pub components: [Option<TimeFunction>; 3],
@@ -106,7 +106,7 @@ pub fn parse_components(spec: &str) -> Result<[bool; 3], String> {
 }
 
 /// Everything stage 6 applies.
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct Loads {
     /// Gravitational acceleration g [m/s²], applied to every node by stage 7.
     pub gravity: Vec3,

@@ -33,7 +33,7 @@ use crate::math::{Real, Vec3};
 use std::sync::Arc;
 
 /// How a record drives the model.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub enum ShakingKind {
     /// These nodes follow the ground in all three components.
     Base(Vec<u32>),
@@ -43,7 +43,7 @@ pub enum ShakingKind {
 
 /// A record with its velocity at the samples, V(k·dt) (trapezoidal from rest, k = 0..N; the
 /// record closes with a_N = 0 at N·dt).
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct GroundRecord {
     pub record: GroundMotion,
     velocity: Vec<Real>,
@@ -74,7 +74,7 @@ impl GroundRecord {
 }
 
 /// One ground motion applied to the model, with the ground's state.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct Shaking {
     /// Records of the x, y and z ground acceleration (None: no motion in that direction).
     pub records: [Option<Arc<GroundRecord>>; 3],

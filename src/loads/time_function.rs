@@ -4,7 +4,7 @@ use crate::math::Real;
 
 /// A scalar function of time: a constant or a piecewise-linear table (held constant beyond
 /// its ends).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub enum TimeFunction {
     Constant(Real),
     Table { t: Vec<Real>, value: Vec<Real> },

@@ -57,7 +57,7 @@ pub const MATERIAL_PARAMS: &[Param] = &[
 ];
 
 /// The strain/stress formulation of an elastic material.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Formulation {
     SmallStrain,
     StVenantKirchhoff,
@@ -123,7 +123,7 @@ impl StressMeasure {
 }
 
 /// An isotropic elastic material with viscous damping.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
     pub formulation: Formulation,

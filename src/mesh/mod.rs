@@ -28,7 +28,7 @@ use std::collections::BTreeMap;
 
 /// A tetrahedral mesh with shared nodes. Tet node order is right-handed: the signed volume
 /// `(p1−p0)·((p2−p0)×(p3−p0))/6` is positive.
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct Mesh {
     pub nodes: Vec<Vec3>,
     pub tets: Vec<[u32; 4]>,
@@ -38,7 +38,7 @@ pub struct Mesh {
 
 /// Named subsets of a mesh, by index into the mesh's own nodes and tets. They move with the
 /// mesh (translate, rotate, copy) and follow it into a body.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default, PartialEq)]
 pub struct MeshSets {
     /// Element sets: sorted, unique tet indices.
     pub elements: BTreeMap<String, Vec<u32>>,

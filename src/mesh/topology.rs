@@ -12,7 +12,7 @@ pub const TET_FACES: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 
 
 /// A face on the boundary of a mesh: the tet it belongs to, which local face, and its
 /// global nodes ordered with an outward normal.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BoundaryFace {
     pub tet: u32,
     pub local: u8,

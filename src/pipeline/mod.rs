@@ -63,7 +63,7 @@ impl Stage {
 }
 
 /// Accumulated wall time per stage.
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct StageTimers {
     pub seconds: [f64; 7],
 }
@@ -78,7 +78,7 @@ impl StageTimers {
 }
 
 /// Running energy account [J]. Balance: kinetic + strain + dissipated = initial + external work.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, Default, PartialEq)]
 pub struct Energy {
     pub kinetic: Real,
     pub strain: Real,
@@ -167,7 +167,7 @@ impl Energy {
 }
 
 /// One row of the energy history.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct EnergySample {
     pub step: u64,
     pub time: Real,
@@ -175,7 +175,7 @@ pub struct EnergySample {
 }
 
 /// How the time step was chosen.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct TimeStepInfo {
     pub dt: Real,
     pub critical: Real,
@@ -250,7 +250,7 @@ impl std::fmt::Display for SimError {
 impl std::error::Error for SimError {}
 
 /// Time-integration settings.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct Settings {
     /// dt = safety × critical step.
     pub safety: Real,
@@ -278,7 +278,7 @@ impl Default for Settings {
 }
 
 /// The whole state of a FEM/DEM model.
-#[derive(Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Debug, Default)]
 pub struct Simulation {
     pub nodes: Nodes,
     pub tets: Tets,
@@ -319,7 +319,10 @@ pub struct Simulation {
     /// Sample energies on the next step regardless of `energy_every`.
     pub sample_next: bool,
     ready: bool,
+    /// Scratch (not in checkpoints; see [`Simulation::restore`]).
+    #[serde(skip)]
     elements_ws: ElementsWorkspace,
+    #[serde(skip)]
     integration_partials: Vec<IntegrationSums>,
     /// Each body's mass-weighted velocity, for damping relative to bodies [m/s].
     body_frame: Vec<Vec3>,
@@ -334,6 +337,23 @@ pub struct Simulation {
 }
 
 impl Simulation {
+    /// Continue from `saved`, a checkpoint of this model (the caller has compared their
+    /// [`crate::io::checkpoint::Fingerprint`]s): every state variable is taken from `saved`;
+    /// only the per-step scratch buffers, which checkpoints leave out, are kept from `self`.
+    pub fn restore(&mut self, mut saved: Simulation) {
+        std::mem::swap(&mut saved.elements_ws, &mut self.elements_ws);
+        std::mem::swap(
+            &mut saved.integration_partials,
+            &mut self.integration_partials,
+        );
+        std::mem::swap(
+            &mut saved.contact_detection.detector.workspace,
+            &mut self.contact_detection.detector.workspace,
+        );
+        saved.joints.take_scratch(&mut self.joints);
+        *self = saved;
+    }
+
     pub fn new() -> Self {
         Self::default()
     }

@@ -76,7 +76,8 @@ pub fn register(engine: &mut Engine) {
                 values: Vec::new(),
                 path,
                 csv: None,
-                dry: st.dry,
+                // Replaying up to a restart's checkpoint: nothing written.
+                dry: st.dry || st.restore_pending,
             })));
             st.monitors.push(h.clone());
             Ok(h)

@@ -63,6 +63,10 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
         }
         Ok(())
     });
+    let c = ctx.clone();
+    engine.register_fn("checkpoint", move |s: &mut SimHandle| -> RhaiResult<()> {
+        runner::checkpoint(&c, s)
+    });
     let c = ctx;
     engine.register_fn(
         "run",
@@ -85,7 +89,9 @@ fn simulation(c: &ScriptContext, m: Map) -> RhaiResult<SimHandle> {
         (None, None) => std::path::PathBuf::from("out").join(&name),
     };
     let out_dir = claim_out_dir(c, &name, out_dir)?;
-    if !c.options.check_only {
+    // A restart continues the output of the simulation it restores.
+    let continues = super::checkpoint::continues(c, &name);
+    if !c.options.check_only && !continues {
         clear_earlier_output(&out_dir, &name, c.options.overwrite)?;
     }
     let mut sim = Simulation::new();
@@ -138,7 +144,12 @@ fn simulation(c: &ScriptContext, m: Map) -> RhaiResult<SimHandle> {
         cracks_csv: None,
         crack_rows: 0,
         dry: c.options.check_only,
-        overwrite: c.options.overwrite,
+        // A restart rewrites its own output from the checkpoint on.
+        overwrite: c.options.overwrite || continues,
+        restore_pending: continues && !c.options.check_only,
+        checkpoint_requested: false,
+        run_start: None,
+        native_run: false,
     })));
     c.sims.borrow_mut().push(handle.clone());
     Ok(handle)

@@ -19,6 +19,7 @@ mod bindings_queries;
 mod bindings_reinforcement;
 mod bindings_rigid;
 mod bindings_simulation;
+pub mod checkpoint;
 pub mod numbers;
 pub mod opts;
 pub mod postprocess;
@@ -54,6 +55,8 @@ pub struct RunOptions {
     pub max_operations: Option<u64>,
     /// How `.geo` files are run through gmsh (commands refused unless allowed, time limit).
     pub geo: crate::mesh::gmsh::GeoPolicy,
+    /// `--restart FILE`: continue the simulation of this checkpoint.
+    pub restart: Option<PathBuf>,
 }
 
 /// Rhai operations a script may run between two time steps (about 10 s on one core of the
@@ -78,6 +81,8 @@ pub struct ScriptContext {
     /// Inside a run's time loop: an interrupt is handled by the runner at the end of the
     /// step, not by the progress callback.
     pub in_run: Cell<bool>,
+    /// `--restart`: the checkpoint, until its simulation's run restores it.
+    pub restart: RefCell<Option<checkpoint::PendingRestart>>,
 }
 
 impl ScriptContext {
@@ -93,6 +98,7 @@ impl ScriptContext {
             ops_at_step: Cell::new(0),
             stepped: Cell::new(false),
             in_run: Cell::new(false),
+            restart: RefCell::new(None),
         }
     }
 
@@ -318,6 +324,10 @@ fn run_in(ctx: &Rc<ScriptContext>, path: &Path, source: &str) -> Result<(), Scri
             " (nothing was run)",
         ));
     }
+    if let Some(p) = &ctx.options.restart {
+        let pending = checkpoint::load(p, path, &ctx.options.overrides).map_err(ScriptError)?;
+        *ctx.restart.borrow_mut() = Some(pending);
+    }
     *ctx.ast.borrow_mut() = Some(ast.clone());
     let result = engine.run_ast(&ast);
     // Finish output of every simulation, even after an error.
@@ -334,6 +344,9 @@ fn run_in(ctx: &Rc<ScriptContext>, path: &Path, source: &str) -> Result<(), Scri
     }
     if !ctx.options.overrides.is_empty() && !ctx.params_called.get() {
         return Err(set_without_params(&label, &ctx.options.overrides, ""));
+    }
+    if !ctx.options.check_only {
+        checkpoint::check_used(ctx).map_err(ScriptError)?;
     }
     Ok(())
 }

@@ -2,6 +2,7 @@
 //! `stop_when`, progress on a terminal, histories streamed as they are sampled, and a stop
 //! at the end of a step on SIGINT/SIGTERM.
 
+use super::checkpoint::{self, RunAction};
 use super::numbers::sig;
 use super::opts::{Opts, RhaiResult};
 use super::types::{MonitorHandle, SimHandle, SimState};
@@ -37,7 +38,12 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
             rhai::EvalAltResult::ErrorTerminated(CHECK_DONE.into(), rhai::Position::NONE).into(),
         );
     }
-    let limits = Limits::new(s, max_time, duration, steps, stop_when, check_every);
+    let start = match checkpoint::at_run(ctx, s).map_err(|e| format!("run(): {e}"))? {
+        RunAction::Skip => return Ok(()),
+        RunAction::Resumed(start) => start,
+        RunAction::Step => None,
+    };
+    let limits = Limits::new(s, start, max_time, duration, steps, stop_when, check_every);
     run_within(nc, ctx, s, limits)
 }
 
@@ -60,7 +66,12 @@ pub fn run_native(
             rhai::EvalAltResult::ErrorTerminated(CHECK_DONE.into(), rhai::Position::NONE).into(),
         );
     }
-    let mut limits = Limits::new(s, None, None, Some(steps), None, check_every);
+    // Checkpoints are never taken inside a native run, so a restore is never into one.
+    if let RunAction::Skip = checkpoint::at_run(ctx, s).map_err(|e| format!("run(): {e}"))? {
+        return Ok(true);
+    }
+    s.0.borrow_mut().native_run = true;
+    let mut limits = Limits::new(s, None, None, None, Some(steps), None, check_every);
     let stopped = Rc::new(Cell::new(false));
     let flag = stopped.clone();
     let mut stop = stop;
@@ -69,7 +80,9 @@ pub fn run_native(
         flag.set(done);
         done
     }));
-    run_within(nc, ctx, s, limits)?;
+    let r = run_within(nc, ctx, s, limits);
+    s.0.borrow_mut().native_run = false;
+    r?;
     Ok(stopped.get())
 }
 
@@ -93,6 +106,7 @@ fn run_within(
     }
     let wall = Instant::now();
     ctx.in_run.set(true);
+    s.0.borrow_mut().run_start = Some((limits.t_start, limits.step_start));
     let result = step_until_done(nc, ctx, s, &mut limits, &monitors, &mut progress);
     ctx.in_run.set(false);
     progress.finish();
@@ -102,11 +116,42 @@ fn run_within(
         let done = st.sim.step - limits.step_start;
         st.steps_in_runs += done;
         st.runs += 1;
+        st.run_start = None;
     }
     // Output is finished whether the run ended normally or not.
     let written = finish_run_output(s);
     result?;
-    written.map_err(|e| format!("run(): {e}").into())
+    written.map_err(|e| format!("run(): {e}"))?;
+    // A checkpoint asked for in the run's last step (or in a native run) is taken now,
+    // between runs.
+    if std::mem::take(&mut s.0.borrow_mut().checkpoint_requested) {
+        write_checkpoint(ctx, s, "run()")?;
+    }
+    Ok(())
+}
+
+/// `sim.checkpoint()`: written now between runs; inside a run, at the end of the step.
+pub fn checkpoint(ctx: &ScriptContext, s: &SimHandle) -> RhaiResult<()> {
+    {
+        let mut st = s.0.borrow_mut();
+        if st.dry || st.restore_pending {
+            // `fdem check` writes nothing; a restart replaying up to its checkpoint has it.
+            return Ok(());
+        }
+        if ctx.in_run.get() {
+            st.checkpoint_requested = true;
+            return Ok(());
+        }
+    }
+    write_checkpoint(ctx, s, "checkpoint()")
+}
+
+/// Write the checkpoint of `s` now (at the end of a step, or between runs).
+fn write_checkpoint(ctx: &ScriptContext, s: &SimHandle, func: &str) -> RhaiResult<()> {
+    let mut st = s.0.borrow_mut();
+    let start = st.run_start;
+    checkpoint::write(ctx, &mut st, start).map_err(|e| format!("{func}: {e}"))?;
+    Ok(())
 }
 
 /// Open `energy.csv` (and `cracks.csv` with joints) at the first run, header first.
@@ -283,8 +328,11 @@ struct Limits {
 
 impl Limits {
     /// Limits of a run starting now: `max_time` [s], `duration` [s], `steps`, first reached.
+    /// `start`: where the run started when it is resumed from a checkpoint (time [s], step);
+    /// None: now.
     fn new(
         s: &SimHandle,
+        start: Option<(f64, u64)>,
         max_time: Option<f64>,
         duration: Option<f64>,
         steps: Option<u64>,
@@ -293,7 +341,8 @@ impl Limits {
     ) -> Self {
         let (t_start, step_start, dt) = {
             let st = s.0.borrow();
-            (st.sim.time, st.sim.step, st.sim.dt)
+            let (t, n) = start.unwrap_or((st.sim.time, st.sim.step));
+            (t, n, st.sim.dt)
         };
         let t_end = match (max_time, duration) {
             (Some(a), Some(b)) => a.min(t_start + b),
@@ -370,7 +419,7 @@ fn step_until_done(
             return check_configuration(s);
         }
         if let Some(sig) = interrupt::requested() {
-            return Err(interrupted(s, sig));
+            return Err(interrupted(ctx, s, sig));
         }
         {
             let mut st = s.0.borrow_mut();
@@ -404,6 +453,16 @@ fn step_until_done(
         }
         if stop_requested(nc, s, lim, step)? {
             return check_configuration(s);
+        }
+        // A checkpoint asked for during this step, now that the step is complete (its
+        // hooks, events and monitors done) and the run goes on.
+        let due = {
+            let st = s.0.borrow();
+            st.checkpoint_requested && !st.native_run
+        };
+        if due {
+            s.0.borrow_mut().checkpoint_requested = false;
+            write_checkpoint(ctx, s, "checkpoint()")?;
         }
         if progress.enabled {
             progress.update(lim.fraction_done(time, step), step - lim.step_start, time);
@@ -585,13 +644,16 @@ pub fn write_monitor(m: &MonitorHandle) -> Result<(), String> {
 
 /// Stop a run on SIGINT/SIGTERM at the end of a step: a final frame is written (the
 /// histories are up to date), and the error says where the output is.
-fn interrupted(s: &SimHandle, sig: i32) -> Box<rhai::EvalAltResult> {
+fn interrupted(ctx: &ScriptContext, s: &SimHandle, sig: i32) -> Box<rhai::EvalAltResult> {
+    // The checkpoint first: a restarted run numbers its frames as the uninterrupted run
+    // would (the final frame's number is the next periodic frame's).
+    let restart = interrupt_checkpoint(ctx, s);
     let frame = write_vtk(s)
         .err()
         .map(|e| format!(" (the final frame failed: {e})"));
     let st = s.0.borrow();
     format!(
-        "run(): interrupted by {} at step {}, t = {} s; the histories and a final frame are in {}{}",
+        "run(): interrupted by {} at step {}, t = {} s; the histories and a final frame are in {}{}; {restart}",
         interrupt::signal_name(sig),
         st.sim.step,
         sig_fmt(st.sim.time),
@@ -599,6 +661,32 @@ fn interrupted(s: &SimHandle, sig: i32) -> Box<rhai::EvalAltResult> {
         frame.unwrap_or_default()
     )
     .into()
+}
+
+/// The checkpoint of an interrupted run, and how to continue from it (or why not).
+fn interrupt_checkpoint(ctx: &ScriptContext, s: &SimHandle) -> String {
+    let mut st = s.0.borrow_mut();
+    if st.dry || st.restore_pending {
+        return "no checkpoint was written".into();
+    }
+    if st.native_run {
+        return "no checkpoint was written (a bring_to_rest stage cannot be resumed in its middle)"
+            .into();
+    }
+    let start = st.run_start;
+    match checkpoint::write(ctx, &mut st, start) {
+        Ok(p) => {
+            let mut cmd = format!("fdem run {}", ctx.script_path.display());
+            for (k, v) in &ctx.options.overrides {
+                cmd.push_str(&format!(" --set {k}={v}"));
+            }
+            if let Some(d) = &ctx.options.out_dir {
+                cmd.push_str(&format!(" --out {}", d.display()));
+            }
+            format!("continue with: {cmd} --restart {}", p.display())
+        }
+        Err(e) => format!("the checkpoint failed: {e}"),
+    }
 }
 
 fn sig_fmt(x: f64) -> String {
@@ -624,8 +712,9 @@ fn finish_run_output(s: &SimHandle) -> Result<(), String> {
 pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
     let mut st = s.0.borrow_mut();
     st.sim.prepare().map_err(|e| format!("write_vtk(): {e}"))?;
-    if st.dry {
-        // `fdem check` writes nothing.
+    if st.dry || st.restore_pending {
+        // `fdem check` writes nothing; a restart replaying up to its checkpoint has these
+        // frames on disk already.
         return Ok(());
     }
     // No frame shows inverted elements: the last step's motion is checked before it is

@@ -61,6 +61,16 @@ pub struct SimState {
     pub dry: bool,
     /// `--overwrite`: earlier output of this simulation may be replaced.
     pub overwrite: bool,
+    /// `--restart` continues this simulation and its checkpoint is not restored yet: runs
+    /// before the checkpoint's are skipped, and frames and histories are not written.
+    pub restore_pending: bool,
+    /// `sim.checkpoint()` was called inside a run: written at the end of the step.
+    pub checkpoint_requested: bool,
+    /// The run in progress started at this (time [s], step); None between runs.
+    pub run_start: Option<(f64, u64)>,
+    /// The run in progress is ended by a rule in Rust (`bring_to_rest`), whose own state a
+    /// checkpoint cannot hold: checkpoints wait for its end.
+    pub native_run: bool,
 }
 
 /// Error unless `name` can name a file: not empty, not `.` or `..`, no path separator,

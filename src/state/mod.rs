@@ -5,7 +5,7 @@ use crate::mesh::BoundaryFace;
 use std::ops::Range;
 
 /// Nodal arrays (contiguous, indexed by node id).
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct Nodes {
     /// Reference position X [m].
     pub x0: Vec<Vec3>,
@@ -53,7 +53,7 @@ impl Nodes {
 pub const RIGID_NODE: u8 = 0b1000;
 
 /// Tetrahedron arrays (contiguous, indexed by element id).
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct Tets {
     pub nodes: Vec<[u32; 4]>,
     /// Inverse of the reference edge matrix [X1−X0, X2−X0, X3−X0]⁻¹ [1/m].
@@ -77,7 +77,7 @@ impl Tets {
 }
 
 /// How a body's tetrahedra share nodes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Layout {
     /// Every tetrahedron owns its 4 nodes (node multiplicity): tets are held together only by
     /// joint elements, so the body can crack along any face between them.
@@ -102,7 +102,7 @@ impl Layout {
 }
 
 /// A body: a contiguous range of tets and of nodes, one material.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct Body {
     pub name: String,
     pub layout: Layout,
@@ -122,7 +122,7 @@ pub type MaterialId = u32;
 /// Two-node bar elements (reinforcing bars): axial force only, lumped mass (stage 1,
 /// [`crate::elements::bar2`]). Reference data, then the steel history and the results of the
 /// last step, all indexed by bar id.
-#[derive(Clone, Debug, Default)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct Bars {
     pub nodes: Vec<[u32; 2]>,
     /// Reference length L₀ [m].
@@ -182,7 +182,7 @@ impl Bars {
 
 /// A reinforcing bar laid along a polyline and embedded in a host body: a contiguous range of
 /// bar nodes and of bars.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct Rebar {
     pub name: String,
     /// Bar diameter d [m].

@@ -108,7 +108,7 @@ compiled::law_signature! {
 }
 
 /// How the stress follows from the strain.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub enum SteelLaw {
     /// Built-in linear isotropic hardening (module docs).
     Bilinear,
@@ -117,7 +117,7 @@ pub enum SteelLaw {
 }
 
 /// A uniaxial steel.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct Steel {
     /// ρ [kg/m³]
     pub density: Real,

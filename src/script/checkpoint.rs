@@ -1,0 +1,294 @@
+//! `sim.checkpoint()` and `fdem run SCRIPT --restart FILE`: the script side of checkpoints
+//! (the file itself: [`crate::io::checkpoint`]).
+//!
+//! A restarted script runs again from its first line and builds the same model (materials,
+//! compiled laws, hooks and monitors are code, not data: they come from the script). The
+//! simulation the checkpoint names then fast-forwards: its `run` calls before the one the
+//! checkpoint was taken in return at once, and its frames and histories are not rewritten;
+//! at that run the state is restored — the simulation, monitors, hook clocks, output series
+//! and history files (cut back to their length at the checkpoint) — and the run goes on to the
+//! end it had. From there the script runs as it did the first time.
+//!
+//! What is not restored: values the script itself computed from the model before the
+//! restored run (they see the model as built, not as stepped), and variables a closure
+//! changes. Keep such values in monitors, or compute them after the last run.
+
+use super::types::{MonitorHandle, SimHandle, SimState};
+use super::ScriptContext;
+use crate::io::checkpoint::{self, Fingerprint, Head, Loaded, RunPoint};
+use crate::io::CsvStream;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// The file name of a simulation's checkpoint in its output directory.
+pub const FILE_NAME: &str = "checkpoint.fdemck";
+
+/// A monitor's recorded values and the length of its CSV file.
+#[derive(Serialize, Deserialize, Clone, Debug)]
+pub struct MonitorState {
+    pub name: String,
+    pub times: Vec<f64>,
+    pub steps: Vec<u64>,
+    pub values: Vec<f64>,
+    pub csv_bytes: Option<u64>,
+}
+
+/// The script layer's part of a checkpoint.
+#[derive(Serialize, Deserialize, Clone, Debug)]
+pub struct ScriptState {
+    pub runs: usize,
+    pub wall: f64,
+    pub steps_in_runs: u64,
+    pub events_dispatched: usize,
+    pub balance_warned: bool,
+    pub printed_dt: Option<String>,
+    pub energy_rows: usize,
+    pub crack_rows: usize,
+    pub energy_csv_bytes: Option<u64>,
+    pub cracks_csv_bytes: Option<u64>,
+    pub monitors: Vec<MonitorState>,
+    /// Each periodic hook's next firing time [s], in registration order.
+    pub hook_times: Vec<f64>,
+    /// Frames of the body, crack and bar series: (time, file name).
+    pub frames: [Vec<(f64, String)>; 3],
+}
+
+/// A checkpoint given with `--restart`, waiting for its simulation's run.
+pub struct PendingRestart {
+    pub path: PathBuf,
+    pub loaded: Loaded<ScriptState>,
+}
+
+/// Read `path` for `--restart` and compare what can be compared before the script runs.
+pub fn load(
+    path: &Path,
+    script: &Path,
+    overrides: &[(String, String)],
+) -> Result<PendingRestart, String> {
+    let loaded: Loaded<ScriptState> = checkpoint::read(path)?;
+    let head = &loaded.head;
+    if head.overrides != overrides {
+        let show = |o: &[(String, String)]| {
+            if o.is_empty() {
+                "no --set".to_string()
+            } else {
+                o.iter()
+                    .map(|(k, v)| format!("--set {k}={v}"))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            }
+        };
+        return Err(format!(
+            "--restart {}: the checkpoint was made with {}, this run has {}: a restart continues the same model, so give the same --set values",
+            path.display(),
+            show(&head.overrides),
+            show(overrides)
+        ));
+    }
+    let name = script.file_name().map(|n| n.to_string_lossy().into_owned());
+    if name.as_deref() != Some(head.script.as_str()) {
+        return Err(format!(
+            "--restart {}: the checkpoint was made by script '{}', not '{}'",
+            path.display(),
+            head.script,
+            name.unwrap_or_default()
+        ));
+    }
+    Ok(PendingRestart {
+        path: path.to_path_buf(),
+        loaded,
+    })
+}
+
+/// Write the checkpoint of `st` (taken between runs, or inside a run started at
+/// `run_start`), replacing the previous one; returns its path.
+pub fn write(
+    ctx: &ScriptContext,
+    st: &mut SimState,
+    run_start: Option<(f64, u64)>,
+) -> Result<PathBuf, String> {
+    // The frames a checkpoint lists must be on disk when it is.
+    st.vtk.flush()?;
+    st.cracks_vtk.flush()?;
+    st.bars_vtk.flush()?;
+    let monitors = st
+        .monitors
+        .iter()
+        .map(monitor_state)
+        .collect::<Result<Vec<_>, String>>()?;
+    let script_state = ScriptState {
+        runs: st.runs,
+        wall: st.wall,
+        steps_in_runs: st.steps_in_runs,
+        events_dispatched: st.events_dispatched,
+        balance_warned: st.balance_warned,
+        printed_dt: st.printed_dt.clone(),
+        energy_rows: st.energy_rows,
+        crack_rows: st.crack_rows,
+        energy_csv_bytes: st.energy_csv.as_ref().map(|c| c.bytes()).transpose()?,
+        cracks_csv_bytes: st.cracks_csv.as_ref().map(|c| c.bytes()).transpose()?,
+        monitors,
+        hook_times: st.hooks.iter().map(|h| h.next_time).collect(),
+        frames: [
+            st.vtk.entries.clone(),
+            st.cracks_vtk.entries.clone(),
+            st.bars_vtk.entries.clone(),
+        ],
+    };
+    let head = Head {
+        fdem_version: env!("CARGO_PKG_VERSION").to_string(),
+        simulation: st.name.clone(),
+        script: ctx
+            .script_path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        overrides: ctx.options.overrides.clone(),
+        point: RunPoint {
+            runs_completed: st.runs,
+            run_start,
+        },
+        time: st.sim.time,
+        step: st.sim.step,
+        fingerprint: Fingerprint::of(&st.sim),
+        script_state,
+    };
+    let path = st.out_dir.join(FILE_NAME);
+    checkpoint::write(&path, &head, &st.sim)?;
+    Ok(path)
+}
+
+fn monitor_state(m: &MonitorHandle) -> Result<MonitorState, String> {
+    let d = m.0.borrow();
+    Ok(MonitorState {
+        name: d.name.clone(),
+        times: d.times.clone(),
+        steps: d.steps.clone(),
+        values: d.values.clone(),
+        csv_bytes: d.csv.as_ref().map(|c| c.bytes()).transpose()?,
+    })
+}
+
+/// Whether the simulation named `name` is the one `--restart` continues (it then does not
+/// clear its earlier output: the restart continues it).
+pub fn continues(ctx: &ScriptContext, name: &str) -> bool {
+    ctx.restart
+        .borrow()
+        .as_ref()
+        .is_some_and(|r| r.loaded.head.simulation == name)
+}
+
+/// What a `run` call of a simulation does under `--restart`.
+pub enum RunAction {
+    /// Step as usual.
+    Step,
+    /// A run the checkpoint is past: return at once.
+    Skip,
+    /// The state was restored; the run goes on, started at this (time, step) when the
+    /// checkpoint was taken inside it.
+    Resumed(Option<(f64, u64)>),
+}
+
+/// Decide what this `run` does, restoring the checkpoint when this is its run.
+pub fn at_run(ctx: &ScriptContext, s: &SimHandle) -> Result<RunAction, String> {
+    let mut st = s.0.borrow_mut();
+    if !st.restore_pending {
+        return Ok(RunAction::Step);
+    }
+    let pending = ctx
+        .restart
+        .borrow_mut()
+        .take()
+        .ok_or("--restart: the checkpoint was already used")?;
+    let head = &pending.loaded.head;
+    if st.runs < head.point.runs_completed {
+        st.runs += 1;
+        *ctx.restart.borrow_mut() = Some(pending);
+        return Ok(RunAction::Skip);
+    }
+    let where_ = format!("--restart {}", pending.path.display());
+    if let Some(d) = head.fingerprint.difference(&Fingerprint::of(&st.sim)) {
+        return Err(format!(
+            "{where_}: the script built another model than the checkpoint's ({d}); was the script or a mesh changed?"
+        ));
+    }
+    let saved = pending
+        .loaded
+        .simulation()
+        .map_err(|e| format!("{where_}: {e}"))?;
+    st.sim.restore(saved);
+    apply_script_state(&mut st, &head.script_state).map_err(|e| format!("{where_}: {e}"))?;
+    st.restore_pending = false;
+    Ok(RunAction::Resumed(head.point.run_start))
+}
+
+/// Put the script layer back as it was at the checkpoint; history files continue from
+/// their length then.
+fn apply_script_state(st: &mut SimState, ss: &ScriptState) -> Result<(), String> {
+    if st.monitors.len() != ss.monitors.len() || st.hooks.len() != ss.hook_times.len() {
+        return Err(format!(
+            "the checkpoint has {} monitors and {} periodic hooks, the script made {} and {} by this run",
+            ss.monitors.len(),
+            ss.hook_times.len(),
+            st.monitors.len(),
+            st.hooks.len()
+        ));
+    }
+    for (m, saved) in st.monitors.iter().zip(&ss.monitors) {
+        let mut d = m.0.borrow_mut();
+        if d.name != saved.name {
+            return Err(format!(
+                "the checkpoint's monitor '{}' is '{}' in the script",
+                saved.name, d.name
+            ));
+        }
+        d.times = saved.times.clone();
+        d.steps = saved.steps.clone();
+        d.values = saved.values.clone();
+        d.dry = st.dry;
+        d.csv = match saved.csv_bytes {
+            Some(n) if !st.dry => Some(CsvStream::resume(&d.path, n)?),
+            _ => None,
+        };
+    }
+    for (h, &t) in st.hooks.iter_mut().zip(&ss.hook_times) {
+        h.next_time = t;
+    }
+    st.runs = ss.runs;
+    st.wall = ss.wall;
+    st.steps_in_runs = ss.steps_in_runs;
+    st.events_dispatched = ss.events_dispatched;
+    st.balance_warned = ss.balance_warned;
+    st.printed_dt = ss.printed_dt.clone();
+    st.energy_rows = ss.energy_rows;
+    st.crack_rows = ss.crack_rows;
+    if !st.dry {
+        st.energy_csv = ss
+            .energy_csv_bytes
+            .map(|n| CsvStream::resume(&st.out_dir.join("energy.csv"), n))
+            .transpose()?;
+        st.cracks_csv = ss
+            .cracks_csv_bytes
+            .map(|n| CsvStream::resume(&st.out_dir.join("cracks.csv"), n))
+            .transpose()?;
+    }
+    st.vtk.entries = ss.frames[0].clone();
+    st.cracks_vtk.entries = ss.frames[1].clone();
+    st.bars_vtk.entries = ss.frames[2].clone();
+    Ok(())
+}
+
+/// After the script: a checkpoint whose run was never reached is an error.
+pub fn check_used(ctx: &ScriptContext) -> Result<(), String> {
+    let Some(p) = ctx.restart.borrow_mut().take() else {
+        return Ok(());
+    };
+    let h = &p.loaded.head;
+    Err(format!(
+        "--restart {}: the script ended without reaching the checkpoint (simulation '{}', taken after {} completed run(s) at step {}); did the script change?",
+        p.path.display(),
+        h.simulation,
+        h.point.runs_completed,
+        h.step
+    ))
+}
