@@ -225,9 +225,11 @@ pub fn at_run(ctx: &ScriptContext, s: &SimHandle) -> Result<RunAction, String> {
 /// Put the script layer back as it was at the checkpoint; history files continue from
 /// their length then.
 fn apply_script_state(st: &mut SimState, ss: &ScriptState) -> Result<(), String> {
-    if st.monitors.len() != ss.monitors.len() || st.hooks.len() != ss.hook_times.len() {
+    // The script may have added monitors and hooks after a checkpoint taken between runs:
+    // the checkpoint's are the first ones.
+    if st.monitors.len() < ss.monitors.len() || st.hooks.len() < ss.hook_times.len() {
         return Err(format!(
-            "the checkpoint has {} monitors and {} periodic hooks, the script made {} and {} by this run",
+            "the checkpoint has {} monitors and {} periodic hooks, the script made only {} and {} by this run",
             ss.monitors.len(),
             ss.hook_times.len(),
             st.monitors.len(),
@@ -251,8 +253,18 @@ fn apply_script_state(st: &mut SimState, ss: &ScriptState) -> Result<(), String>
             _ => None,
         };
     }
-    for (h, &t) in st.hooks.iter_mut().zip(&ss.hook_times) {
-        h.next_time = t;
+    for m in &st.monitors[ss.monitors.len()..] {
+        m.0.borrow_mut().dry = st.dry;
+    }
+    let time = st.sim.time;
+    for (i, h) in st.hooks.iter_mut().enumerate() {
+        h.next_time = match (ss.hook_times.get(i), h.every_time) {
+            (Some(&t), _) => t,
+            // Added after the checkpoint: its clock starts at the restored time, as `every`
+            // starts it.
+            (None, Some(period)) => ((time / period).floor() + 1.0) * period,
+            (None, None) => h.next_time,
+        };
     }
     st.runs = ss.runs;
     st.wall = ss.wall;
