@@ -139,6 +139,7 @@ fn simulation(c: &ScriptContext, m: Map) -> RhaiResult<SimHandle> {
         events_dispatched: 0,
         on_new_contact_pair: None,
         balance_warned: false,
+        penetration_warned: false,
         energy_csv: None,
         energy_rows: 0,
         cracks_csv: None,

@@ -7,6 +7,7 @@ use super::numbers::sig;
 use super::opts::{Opts, RhaiResult};
 use super::types::{MonitorHandle, SimHandle, SimState};
 use super::ScriptContext;
+use crate::contact_interaction::{DeepestOverlap, PENETRATION_WARNING};
 use crate::io::{frame::encode_frame, CsvStream};
 use crate::limits::interrupt;
 use crate::pipeline::{Energy, SimError, Simulation, Stage};
@@ -299,7 +300,7 @@ fn warn_jointless_bodies(ctx: &ScriptContext, st: &SimState) {
     for (id, b) in sim.bodies.iter().enumerate() {
         if b.layout == crate::state::Layout::Jointed && !with_joints.contains(&(id as u32)) {
             ctx.say(&format!(
-                "[{}] warning: body '{}' is jointed but has no joints: its tetrahedra are not connected and will move independently (sim.insert_joints(..) adds them)",
+                "[{}] WARNING: body '{}' is jointed but has no joints: its tetrahedra are not connected and will move independently (sim.insert_joints(..) adds them)",
                 st.name, b.name
             ));
         }
@@ -436,6 +437,7 @@ fn step_until_done(
             if st.sim.energy_history.len() > samples {
                 warn_balance(ctx, &mut st);
             }
+            warn_penetration(ctx, &mut st);
             // A frame that failed to write (on the background thread) stops the run now.
             st.vtk.check().map_err(|e| format!("run(): {e}"))?;
             st.cracks_vtk.check().map_err(|e| format!("run(): {e}"))?;
@@ -479,12 +481,30 @@ fn warn_balance(ctx: &ScriptContext, st: &mut SimState) {
     }
     st.balance_warned = true;
     ctx.say(&format!(
-        "[{}] warning: energy balance error {} J at t = {} s is {} of the largest term (over {} %): energy is created or lost that no term books. Check it before trusting the results: a time step near its limit (lower the integrator's safety), a friction or joint law out of its range, or a known limit (docs/theory/contact.md, Energy account)",
+        "[{}] WARNING: energy balance error {} J at t = {} s is {} of the largest term (over {} %): energy is created or lost that no term books. Check it before trusting the results: a time step near its limit (lower the integrator's safety), a friction or joint law out of its range, or a known limit (docs/theory/contact.md, Energy account)",
         st.name,
         sig(e.balance_error(), 4),
         sig(st.sim.time, 6),
         sig(e.relative_balance_error(), 3),
         sig(100.0 * Energy::WARNING_THRESHOLD, 2)
+    ));
+}
+
+/// Print once per simulation when a contact overlap first passes
+/// [`PENETRATION_WARNING`] of the smaller element height of its pair.
+fn warn_penetration(ctx: &ScriptContext, st: &mut SimState) {
+    let d = st.sim.contact.deepest;
+    if st.penetration_warned || d.ratio <= PENETRATION_WARNING {
+        return;
+    }
+    st.penetration_warned = true;
+    ctx.say(&format!(
+        "[{}] WARNING: contact penetration {} m at t = {} s is {} % of the element height (limit {} %): the contact potential is meant for overlaps much thinner than the elements, and a pair that keeps approaching can pass through. Raise the contact `penalty` (default 10·E), lower the impact speed, or use larger elements at the contact (docs/theory/contact.md, Overlap)",
+        st.name,
+        sig(d.depth, 3),
+        sig(d.time, 6),
+        sig(100.0 * d.ratio, 3),
+        sig(100.0 * PENETRATION_WARNING, 2)
     ));
 }
 
@@ -844,6 +864,7 @@ pub fn summary(
             c.last.active,
             cd.detector.detections
         ));
+        s.push_str(&penetration_lines(&c.deepest));
     }
     if !sim.joints.is_empty() {
         s.push_str(&format!(
@@ -878,6 +899,27 @@ pub fn summary(
             ", cracks.csv"
         }
     ));
+    s
+}
+
+/// The deepest contact penetration of the simulation, with a warning above
+/// [`PENETRATION_WARNING`] of the element height; nothing before any contact.
+fn penetration_lines(d: &DeepestOverlap) -> String {
+    if d.ratio == 0.0 {
+        return String::new();
+    }
+    let mut s = format!(
+        "   deepest penetration  {} m at t = {} s ({} % of the element height)\n",
+        sig(d.depth, 3),
+        sig(d.time, 6),
+        sig(100.0 * d.ratio, 3)
+    );
+    if d.ratio > PENETRATION_WARNING {
+        s.push_str(&format!(
+            "   WARNING: contact penetration passed {} % of the element height; contact forces there are not to be trusted (raise the contact penalty)\n",
+            sig(100.0 * PENETRATION_WARNING, 2)
+        ));
+    }
     s
 }
 

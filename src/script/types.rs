@@ -49,6 +49,8 @@ pub struct SimState {
     pub on_new_contact_pair: Option<FnPtr>,
     /// The balance-error warning was printed (once per simulation).
     pub balance_warned: bool,
+    /// The contact-penetration warning was printed (once per simulation).
+    pub penetration_warned: bool,
     /// `energy.csv`, streamed from the first run on.
     pub energy_csv: Option<crate::io::CsvStream>,
     /// Energy samples already in `energy.csv`.
