@@ -200,7 +200,7 @@ pub const PENETRATION_WARNING: Real = 0.1;
 
 /// The step with the deepest penetration so far (largest [`ContactSums::max_overlap_ratio`]
 /// since the model was built).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, Default, PartialEq)]
 pub struct DeepestOverlap {
     /// Largest d/h of a touching pair [-] (h the smaller height of its two elements).
     pub ratio: Real,

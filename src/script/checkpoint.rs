@@ -41,6 +41,7 @@ pub struct ScriptState {
     pub steps_in_runs: u64,
     pub events_dispatched: usize,
     pub balance_warned: bool,
+    pub penetration_warned: bool,
     pub printed_dt: Option<String>,
     pub energy_rows: usize,
     pub crack_rows: usize,
@@ -122,6 +123,7 @@ pub fn write(
         steps_in_runs: st.steps_in_runs,
         events_dispatched: st.events_dispatched,
         balance_warned: st.balance_warned,
+        penetration_warned: st.penetration_warned,
         printed_dt: st.printed_dt.clone(),
         energy_rows: st.energy_rows,
         crack_rows: st.crack_rows,
@@ -271,6 +273,7 @@ fn apply_script_state(st: &mut SimState, ss: &ScriptState) -> Result<(), String>
     st.steps_in_runs = ss.steps_in_runs;
     st.events_dispatched = ss.events_dispatched;
     st.balance_warned = ss.balance_warned;
+    st.penetration_warned = ss.penetration_warned;
     st.printed_dt = ss.printed_dt.clone();
     st.energy_rows = ss.energy_rows;
     st.crack_rows = ss.crack_rows;
