@@ -235,6 +235,21 @@ fn a_checkpoint(dir: &Path) -> (PathBuf, PathBuf) {
     (dir.join("model.rhai"), out.join("checkpoint.fdemck"))
 }
 
+/// `bytes` with the build id in its head replaced by zeros and the checksum made right: a
+/// whole, valid file of another build.
+fn other_build(bytes: &[u8]) -> Vec<u8> {
+    let id = fdem::io::checkpoint::BUILD_ID.as_bytes();
+    let mut b = bytes.to_vec();
+    let at = b
+        .windows(id.len())
+        .position(|w| w == id)
+        .expect("the build id is in the head");
+    b[at..at + id.len()].fill(b'0');
+    let crc = crc32fast::hash(&b[24..]);
+    b[20..24].copy_from_slice(&crc.to_le_bytes());
+    b
+}
+
 /// `fdem run script --restart ck extra…` into `out`; its error text (it must fail).
 fn refused(script: &Path, ck: &Path, extra: &[&str]) -> String {
     let out = ck.parent().unwrap();
@@ -294,6 +309,11 @@ fn checkpoints_of_other_models_or_damaged_files_are_refused_with_the_reason() {
             }),
             &["--set", "steps=60"],
             "format version 99",
+        ),
+        (
+            variant("other_build.fdemck", other_build(&good)),
+            &["--set", "steps=60"],
+            "another build of fdem",
         ),
         (ck.clone(), &["--set", "steps=61"], "--set steps=60"),
         (ck.clone(), &[], "no --set"),

@@ -29,6 +29,10 @@ use std::path::Path;
 /// Version of the layout and of the serialized state; a file of another version is refused.
 pub const FORMAT_VERSION: u32 = 1;
 
+/// Hash of this build's sources (build.rs). The state is serialized without field names, as
+/// this build's types lay it out; a checkpoint of another build is refused, not misread.
+pub const BUILD_ID: &str = env!("FDEM_BUILD_ID");
+
 const MAGIC: &[u8; 8] = b"FDEMCKPT";
 const HEADER_BYTES: usize = 8 + 4 + 8 + 4;
 
@@ -141,6 +145,8 @@ pub struct RunPoint {
 pub struct Head<S> {
     /// `CARGO_PKG_VERSION` of the fdem that wrote it.
     pub fdem_version: String,
+    /// [`BUILD_ID`] of the fdem that wrote it.
+    pub build: String,
     /// The simulation's name.
     pub simulation: String,
     /// File name of the script that ran it.
@@ -232,6 +238,12 @@ pub fn read<S: for<'de> Deserialize<'de>>(path: &Path) -> Result<Loaded<S>, Stri
             "written by fdem {}, this is fdem {}: a checkpoint restarts only with the version that wrote it",
             head.fdem_version,
             env!("CARGO_PKG_VERSION")
+        )));
+    }
+    if head.build != BUILD_ID {
+        return Err(bad(format!(
+            "written by another build of fdem {} (sources {}, this build's {BUILD_ID}): a checkpoint restarts only with the build that wrote it",
+            head.fdem_version, head.build
         )));
     }
     let body_start = payload.len() - rest.len();

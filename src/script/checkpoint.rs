@@ -139,6 +139,7 @@ pub fn write(
     };
     let head = Head {
         fdem_version: env!("CARGO_PKG_VERSION").to_string(),
+        build: checkpoint::BUILD_ID.to_string(),
         simulation: st.name.clone(),
         script: ctx
             .script_path
