@@ -102,6 +102,43 @@ fn assert_same_output(want: &Path, got: &Path) {
     assert!(compared >= 3 + 4 + 2 * 13, "only {compared} files compared");
 }
 
+/// Run the model with `crash` in its checkpoint hook into `dir/b/out` (it must fail), then
+/// restart it from its checkpoint with the reference script on `threads` threads; `set` is
+/// given to both. Returns the output directory.
+fn crash_and_restart(dir: &Path, crash: &str, set: &[&str], threads: &str) -> PathBuf {
+    let b = dir.join("b");
+    let crashed = write_model(&b, crash);
+    let out = b.join("out");
+    let mut args = vec![
+        crashed.as_os_str(),
+        os("--out"),
+        out.as_os_str(),
+        os("--quiet"),
+    ];
+    args.extend(set.iter().map(|a| os(a)));
+    let (ok, err) = fdem_run(&args);
+    assert!(!ok && err.contains("crash"), "{err}");
+    // Restart with the reference script (the crash was in the script, not the model).
+    let script = write_model(&dir.join("c"), "");
+    let ck = out.join("checkpoint.fdemck");
+    let mut args = vec![
+        script.as_os_str(),
+        os("--out"),
+        out.as_os_str(),
+        os("--quiet"),
+    ];
+    args.extend([
+        os("--restart"),
+        ck.as_os_str(),
+        os("--threads"),
+        os(threads),
+    ]);
+    args.extend(set.iter().map(|a| os(a)));
+    let (ok, err) = fdem_run(&args);
+    assert!(ok, "{err}");
+    out
+}
+
 /// A run that fails after its checkpoint at step 960 (the hook throws at 1020: the checkpoint
 /// it asks for there is never written), restarted on 1 thread, equals the 2-thread
 /// uninterrupted run in every file.
@@ -109,30 +146,7 @@ fn assert_same_output(want: &Path, got: &Path) {
 fn a_run_restarted_after_a_crash_writes_what_the_uninterrupted_run_writes() {
     let dir = common::temp_dir("crash");
     let want = reference(&dir.join("a"), "2", &[]);
-    let b = dir.join("b");
-    let crashed = write_model(&b, "if s.step >= 1000 { throw \"crash\" }");
-    let out = b.join("out");
-    let (ok, err) = fdem_run(&[
-        crashed.as_os_str(),
-        os("--out"),
-        out.as_os_str(),
-        os("--quiet"),
-    ]);
-    assert!(!ok && err.contains("crash"), "{err}");
-    // Restart with the reference script (the crash was in the script, not the model).
-    let script = write_model(&dir.join("c"), "");
-    let ck = out.join("checkpoint.fdemck");
-    let (ok, err) = fdem_run(&[
-        script.as_os_str(),
-        os("--out"),
-        out.as_os_str(),
-        os("--restart"),
-        ck.as_os_str(),
-        os("--quiet"),
-        os("--threads"),
-        os("1"),
-    ]);
-    assert!(ok, "{err}");
+    let out = crash_and_restart(&dir, "if s.step >= 1000 { throw \"crash\" }", &[], "1");
     assert_same_output(&want, &out);
 }
 
@@ -141,34 +155,9 @@ fn a_run_restarted_after_a_crash_writes_what_the_uninterrupted_run_writes() {
 #[test]
 fn a_checkpoint_between_runs_restarts_at_the_next_run() {
     let dir = common::temp_dir("between");
-    let want = reference(&dir.join("a"), "1", &["--set", "steps=700"]);
-    let b = dir.join("b");
-    let crashed = write_model(&b, "throw \"crash\"");
-    let out = b.join("out");
-    let (ok, err) = fdem_run(&[
-        crashed.as_os_str(),
-        os("--out"),
-        out.as_os_str(),
-        os("--quiet"),
-        os("--set"),
-        os("steps=700"),
-    ]);
-    assert!(!ok && err.contains("crash"), "{err}");
-    let script = write_model(&dir.join("c"), "");
-    let ck = out.join("checkpoint.fdemck");
-    let (ok, err) = fdem_run(&[
-        script.as_os_str(),
-        os("--out"),
-        out.as_os_str(),
-        os("--restart"),
-        ck.as_os_str(),
-        os("--quiet"),
-        os("--set"),
-        os("steps=700"),
-        os("--threads"),
-        os("2"),
-    ]);
-    assert!(ok, "{err}");
+    let set = ["--set", "steps=700"];
+    let want = reference(&dir.join("a"), "1", &set);
+    let out = crash_and_restart(&dir, "throw \"crash\"", &set, "2");
     assert_same_output(&want, &out);
 }
 
