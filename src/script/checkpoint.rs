@@ -222,6 +222,14 @@ pub fn at_run(ctx: &ScriptContext, s: &SimHandle) -> Result<RunAction, String> {
     st.sim.restore(saved);
     apply_script_state(&mut st, &head.script_state).map_err(|e| format!("{where_}: {e}"))?;
     st.restore_pending = false;
+    // The replay is over: from here on the script prints and checks again.
+    ctx.say(&format!(
+        "[{}] restarted from {} at step {}, t = {} s: the model, its monitors and output are restored; the script's output and self-checks before this point were skipped (they belong to the run that wrote the checkpoint), and values it computed there or that its callbacks collected are not restored",
+        st.name,
+        pending.path.display(),
+        st.sim.step,
+        super::numbers::sig(st.sim.time, 6)
+    ));
     Ok(RunAction::Resumed(head.point.run_start))
 }
 

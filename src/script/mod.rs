@@ -102,11 +102,19 @@ impl ScriptContext {
         }
     }
 
-    /// Print a line of script output (silent under `fdem check`).
+    /// Print a line of script output (silent under `fdem check`, and while a restart replays
+    /// the script up to its checkpoint).
     pub fn say(&self, msg: &str) {
-        if !self.options.check_only {
+        if !self.options.check_only && !self.replaying() {
             println!("{msg}");
         }
+    }
+
+    /// `--restart` is replaying the script up to its checkpoint: what the script prints and
+    /// checks there belongs to the run that wrote the checkpoint (it got past those checks),
+    /// and is computed from a model that has not been stepped.
+    pub fn replaying(&self) -> bool {
+        self.restart.borrow().is_some()
     }
     pub fn script_stem(&self) -> String {
         self.script_path
@@ -147,7 +155,12 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     let c = ctx.clone();
     engine.on_progress(move |ops| progress(&c, ops));
     // The script's own output shows under `fdem check` too (up to its first run).
-    engine.on_print(|s| println!("{s}"));
+    let c = ctx.clone();
+    engine.on_print(move |s| {
+        if !c.replaying() {
+            println!("{s}");
+        }
+    });
     engine.on_debug(|s, src, pos| eprintln!("{}:{}: {s}", src.unwrap_or("script"), pos));
     // One `register` per section of the API (api.rs), each in its own bindings_*.rs file.
     // A binding converts Rhai values, calls the core (Simulation, mesh, loads) and turns its
