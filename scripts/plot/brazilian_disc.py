@@ -6,8 +6,8 @@
     python3 scripts/plot/brazilian_disc.py out/brazilian_disc docs/applications/img [D t f_t]
 
 Reads the run's histories (load.csv, load_bottom.csv, displacement.csv, broken.csv,
-energy.csv), cracks.csv and its last crack surface (brazilian_disc_cracks_*.vtu), and writes
-three PNGs: load (and σ = 2P/(πDt) over f_t) against platen travel with the broken joints; the
+energy.csv) and its last crack surface (brazilian_disc_cracks_*.vtu), and writes
+three PNGs: load against platen travel (with the level σ_t = f_t, the peak's σ_t/f_t and the broken joints); the
 cracks seen along the disc's axis (crack triangles projected on the x–z plane, coloured by the
 time they broke, over the disc's outline and the loaded diameter); the energy account.
 D [m], t [m] and f_t [Pa] default to the script's 0.1, 0.02 and 8.12e6.
