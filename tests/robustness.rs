@@ -929,7 +929,10 @@ fn a_looping_geo_is_stopped_by_the_time_limit() {
         .unwrap()
         .filter_map(|e| e.ok().map(|e| e.file_name()))
         .collect();
-    assert!(left.is_empty(), "a temporary directory was left behind: {left:?}");
+    assert!(
+        left.is_empty(),
+        "a temporary directory was left behind: {left:?}"
+    );
 }
 
 // ─── Smaller ones ──────────────────────────────────────────────────────────────────────────
