@@ -2,18 +2,23 @@
 //! the script API are fed mutated valid inputs and random, hostile ones. Every input must end
 //! in a result or a clear error: a panic, a hang (a case over its time limit), an allocation
 //! beyond the cap below or an abort fails the test and prints the input (and writes it to
-//! `target/tmp/fuzz-findings/`).
+//! `target/tmp/fuzz/findings/`).
 //!
 //! Each target is one test. Without settings they try a few thousand inputs between them (a
 //! few seconds, for CI). The campaign (docs/validation.md, "Fuzzing") multiplies the counts:
 //!
 //! ```text
-//! FDEM_FUZZ_SCALE=400 cargo test --release --test fuzz -- --test-threads=1 --nocapture
+//! FDEM_FUZZ_SCALE=200 cargo test --release --test fuzz -- --test-threads=1
 //! ```
 //!
+//! Each target prints (and appends to `target/tmp/fuzz/summary.txt`) its number of inputs,
+//! how many were accepted and refused, its time and its slowest case.
+//!
 //! `FDEM_FUZZ_SEED=N` changes the inputs (default 1); every input is a function of its target,
-//! the seed and its index, so a reported case is reproduced by its seed and index. Every crash
-//! found is kept below as a named regression test (`regression_*`).
+//! the seed and its index, so a reported case is reproduced by its seed and index
+//! (`FDEM_FUZZ_CASE=i` runs case i alone and prints it; `FDEM_FUZZ_VERBOSE=1` prints why
+//! inputs were refused). Every crash found is kept as a named regression test
+//! (`regression_*`, beside its target).
 
 mod common;
 
@@ -386,14 +391,27 @@ fn campaign(
         }
     }
     let secs = start.elapsed().as_secs_f64();
-    eprintln!(
-        "fuzz {target}: {} inputs in {secs:.1} s ({:.0}/s): {ok} ok, {errs} errors, {} panics; slowest case {} ({:.1} ms)",
+    let summary = format!(
+        "fuzz {target}: {} inputs in {secs:.1} s ({:.0}/s): {ok} ok, {errs} errors, {} panics; slowest case {} ({:.1} ms); scale {}, seed {}",
         ok + errs + failures.len() as u64,
         (ok + errs) as f64 / secs,
         failures.len(),
         slowest.1,
-        slowest.0.as_secs_f64() * 1e3
+        slowest.0.as_secs_f64() * 1e3,
+        scale(),
+        base_seed()
     );
+    eprintln!("{summary}");
+    // Also appended to target/tmp/fuzz/summary.txt (the test harness hides the output of
+    // tests that pass).
+    use std::io::Write;
+    if let Ok(mut f) = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(fuzz_dir("").join("summary.txt"))
+    {
+        let _ = writeln!(f, "{summary}");
+    }
     assert!(
         failures.is_empty(),
         "fuzz {target}: {} input(s) panicked:\n\n{}",
@@ -2443,8 +2461,13 @@ impl ScriptGen<'_> {
             s.push('\n');
         }
         if self.rng.chance(0.7) {
+            let report = if verbose() {
+                "print(\"final run ok\"); } catch (e) { print(\"final run error: \" + e); }"
+            } else {
+                "} catch (e) { }"
+            };
             s.push_str(&format!(
-                "try {{ sim.run(#{{ steps: {} }}); }} catch (e) {{ }}\n",
+                "try {{ sim.run(#{{ steps: {} }}); {report}\n",
                 1 + self.rng.below(4)
             ));
         }
@@ -2484,14 +2507,52 @@ let asm = wall(#{{ courses: 1, bricks_per_course: 2, brick: [0.2, 0.1, 0.1] }});
 let v0 = (); let v1 = (); let v2 = (); let v3 = (); let v4 = (); let v5 = ();
 "#
         );
-        if layout == "jointed" && rng.chance(0.7) {
-            s.push_str("sim.insert_joints(#{ within: body, law: jl });\n");
+        // Laws written in the script (law0..law2 above, random bodies: they compile or are
+        // refused), joints, contact and motion, so that runs reach stages 2–5.
+        let params = "params: #{ a: 0.5, b: 2.0, k: 1.0 }";
+        if layout == "jointed" {
+            match rng.below(3) {
+                0 => s.push_str("sim.insert_joints(#{ within: body, law: jl });\n"),
+                1 => s.push_str(&format!(
+                    "try {{ sim.insert_joints(#{{ within: body, law: joint_law(\"script\", #{{ function: \"law{}\", {params} }}) }}); }} catch (e) {{ }}\n",
+                    rng.below(3)
+                )),
+                _ => {}
+            }
+            if rng.chance(0.3) {
+                s.push_str(&format!(
+                    "try {{ sim.fracture_criterion(#{{ function: \"law{}\", {params} }}); }} catch (e) {{ }}\n",
+                    rng.below(3)
+                ));
+            }
         }
-        if rng.chance(0.3) {
-            s.push_str("sim.contact_law(\"potential\", #{ friction: 0.3 });\n");
+        match rng.below(3) {
+            0 => s.push_str("sim.contact_law(\"potential\", #{ friction: 0.3 });\n"),
+            1 => s.push_str(&format!(
+                "try {{ sim.contact_law(\"potential\", #{{ friction_law: #{{ function: \"law{}\", {params} }} }}); }} catch (e) {{ }}\n",
+                rng.below(3)
+            )),
+            _ => {}
         }
         if rng.chance(0.3) {
             s.push_str("sim.gravity([0.0, 0.0, -9.81]);\n");
+        }
+        if layout == "rigid" && rng.chance(0.5) {
+            s.push_str("sim.integrator(\"central_difference\", #{ dt: 1.0e-4 });\n");
+        }
+        if rng.chance(0.3) {
+            let v = rng.uniform(0.1, 50.0);
+            if layout == "rigid" {
+                s.push_str(&format!(
+                    "body.set_velocity([{}, 0.0, 0.0]);\n",
+                    rhai_float(v)
+                ));
+            } else {
+                s.push_str(&format!(
+                "sim.initial_velocity(body.nodes(box(#{{ min: [0.5, -1.0, -1.0], max: [2.0, 2.0, 2.0] }})), [{}, 0.0, 0.0]);\n",
+                rhai_float(v)
+            ));
+            }
         }
         if layout == "continuous" && rng.chance(0.3) {
             s.push_str("let rb = sim.rebar(body, #{ points: [[0.1, 0.5, 0.5], [0.9, 0.5, 0.5]], diameter: 0.02, steel: stl, bond: bnd });\n");
@@ -2552,6 +2613,7 @@ let v0 = (); let v1 = (); let v2 = (); let v3 = (); let v4 = (); let v5 = ();
         let leaf = depth >= 3 || self.rng.chance(0.3);
         if leaf {
             return match self.rng.below(4) {
+                0 if self.rng.chance(0.7) => format!("j.{}", self.rng.word(&LAW_INPUTS[..6])),
                 0 => format!("j.{}", self.rng.word(LAW_INPUTS)),
                 1 => format!("p.{}", self.rng.word(&["a", "b", "k"])),
                 2 => self
@@ -2787,10 +2849,11 @@ let v0 = (); let v1 = (); let v2 = (); let v3 = (); let v4 = (); let v5 = ();
             seen.push(p.name);
             let required =
                 matches!(p.default, DefaultValue::Required) || p.default_text() == "required";
-            // Generators mostly get a coarse `size`: their default follows the thinnest
-            // dimension, and a random thin wall would mesh a million tets (slow, not wrong).
+            // Generators get a coarse `size` (or a hostile one): their default follows the
+            // thinnest dimension, and a random thin wall would mesh millions of tets (slow,
+            // not wrong; the defaults are tested in tests/generators.rs).
             let chance = if p.name == "size" && GENERATORS.contains(&name) {
-                0.97
+                1.0
             } else if required {
                 0.9
             } else {
@@ -3032,6 +3095,10 @@ fn fuzz_script_api() {
                 eprintln!("script error: {e}");
             }
         }
+        // The files it wrote read back (frames, series, histories), one case in five.
+        if c.rng.chance(0.2) {
+            check_outputs(&dir.join("out"));
+        }
         r.into()
     });
 }
@@ -3063,4 +3130,134 @@ fn regression_moving_a_body_to_1e300_is_refused() {
     sim.translate_body(0, Vec3::new(0.0, 1.0, 0.0)).unwrap();
     sim.prepare().unwrap();
     sim.step().unwrap();
+}
+
+/// Check every file a script left in `dir` as a reader would: each `.vtu` holds blocks of the
+/// sizes its header gives (points, cells and fields), each `.pvd` names files that exist,
+/// each CSV has as many fields in every row as in its header, and no `.tmp` is left.
+fn check_outputs(dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            check_outputs(&p);
+            continue;
+        }
+        let name = p.file_name().unwrap().to_string_lossy().into_owned();
+        let ext = p.extension().map(|x| x.to_string_lossy().into_owned());
+        match ext.as_deref() {
+            Some("tmp") => panic!("a temporary file was left: {}", p.display()),
+            Some("vtu") => check_vtu_structure(&std::fs::read(&p).unwrap(), &name),
+            Some("pvd") => {
+                let xml = std::fs::read_to_string(&p).unwrap();
+                assert!(xml.chars().all(xml_char), "{name}: not XML");
+                for l in xml.lines().filter(|l| l.contains("<DataSet")) {
+                    let file = xml_unescape(attribute(l, "file").unwrap());
+                    assert!(
+                        dir.join(&file).exists(),
+                        "{name} names {file}, which is not there"
+                    );
+                }
+            }
+            Some("csv") => {
+                let text = std::fs::read_to_string(&p).unwrap();
+                let mut lines = text.lines();
+                let Some(header) = lines.next() else { continue };
+                let n = csv_fields(header).len();
+                for l in lines {
+                    assert_eq!(csv_fields(l).len(), n, "{name}: '{l}' under '{header}'");
+                    for f in csv_fields(l) {
+                        assert!(f.parse::<f64>().is_ok(), "{name}: '{f}' is not a number");
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// A `.vtu` file's structure, from its header alone: every block's byte count is that of
+/// its array (points or cells × components × size), the offsets end where the connectivity
+/// does, and the appended data ends where the header says.
+fn check_vtu_structure(bytes: &[u8], name: &str) {
+    let marker = b"   _";
+    let at = bytes
+        .windows(marker.len())
+        .position(|w| w == marker)
+        .unwrap_or_else(|| panic!("{name}: no appended data"))
+        + marker.len();
+    let xml = std::str::from_utf8(&bytes[..at]).expect("the XML part is UTF-8");
+    assert!(
+        xml.chars().all(xml_char),
+        "{name}: a character XML does not allow"
+    );
+    let piece = xml.lines().find(|l| l.contains("<Piece")).unwrap();
+    let count = |k: &str| -> usize { attribute(piece, k).unwrap().parse().unwrap() };
+    let (points, cells) = (count("NumberOfPoints"), count("NumberOfCells"));
+    let base64 = xml.contains("encoding=\"base64\"");
+    let mut section = "";
+    let mut end = 0;
+    let mut connectivity = 0;
+    for l in xml.lines() {
+        for s in ["<PointData", "<CellData", "<Points", "<Cells"] {
+            if l.contains(s) {
+                section = s;
+            }
+        }
+        if !l.contains("<DataArray") {
+            continue;
+        }
+        let array = xml_unescape(attribute(l, "Name").unwrap());
+        let size = match attribute(l, "type").unwrap() {
+            "Float64" | "Int64" => 8,
+            "Int32" => 4,
+            "UInt8" => 1,
+            t => panic!("{name}: type {t}"),
+        };
+        let comps: usize = attribute(l, "NumberOfComponents").map_or(1, |c| c.parse().unwrap());
+        let off: usize = attribute(l, "offset").unwrap().parse().unwrap();
+        let head = if base64 {
+            base64_decode(&bytes[at + off..at + off + 12])[..8].to_vec()
+        } else {
+            bytes[at + off..at + off + 8].to_vec()
+        };
+        let nbytes = u64::from_le_bytes(head.try_into().unwrap()) as usize;
+        let expected = match (section, array.as_str()) {
+            ("<PointData", _) | ("<Points", _) => points * comps * size,
+            ("<CellData", _) => cells * comps * size,
+            ("<Cells", "offsets") | ("<Cells", "types") => cells * size,
+            ("<Cells", "connectivity") => {
+                connectivity = nbytes / 8;
+                nbytes
+            }
+            _ => panic!("{name}: array {array} in {section}"),
+        };
+        assert_eq!(nbytes, expected, "{name}: block {array}");
+        let len = if base64 {
+            4 * (8 + nbytes).div_ceil(3)
+        } else {
+            8 + nbytes
+        };
+        end = end.max(off + len);
+        if array == "offsets" && cells > 0 {
+            let last = if base64 {
+                let block = base64_decode(&bytes[at + off..at + off + len]);
+                block[block.len() - 8..].to_vec()
+            } else {
+                bytes[at + off + len - 8..at + off + len].to_vec()
+            };
+            let last = i64::from_le_bytes(last.try_into().unwrap()) as usize;
+            assert_eq!(
+                last, connectivity,
+                "{name}: offsets end where the connectivity does"
+            );
+        }
+    }
+    assert_eq!(
+        &bytes[at + end..],
+        b"\n  </AppendedData>\n</VTKFile>\n",
+        "{name}: the data end where the header says"
+    );
 }
