@@ -139,7 +139,35 @@ impl GeoArgs {
 /// The `fdem` command: parse the arguments, run the subcommand and exit with its code.
 pub fn main() {
     let cli = Cli::parse();
-    let code = match cli.command {
+    std::process::exit(execute(cli));
+}
+
+/// The `fdem` command in-process: `args` as the command line (the program name first).
+/// Returns the exit code instead of exiting; clap's messages (usage errors, `--help`,
+/// `--version`) are printed, without colour, to stderr or stdout as `fdem` prints them.
+/// The command-line tests and tests/fuzz.rs call it.
+pub fn run_args<I, T>(args: I) -> i32
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    match Cli::try_parse_from(args) {
+        Ok(cli) => execute(cli),
+        Err(e) => {
+            let text = e.render().to_string();
+            if e.use_stderr() {
+                eprint!("{text}");
+            } else {
+                print!("{text}");
+            }
+            e.exit_code()
+        }
+    }
+}
+
+/// Run the parsed command; returns the exit code.
+fn execute(cli: Cli) -> i32 {
+    match cli.command {
         Command::Run {
             script,
             set,
@@ -152,11 +180,11 @@ pub fn main() {
             geo,
         } => {
             if let Err(e) = set_threads(threads) {
-                std::process::exit(fail(&e));
+                return fail(&e);
             }
             let geo = match geo.policy() {
                 Ok(g) => g,
-                Err(e) => std::process::exit(fail(&e)),
+                Err(e) => return fail(&e),
             };
             let options = RunOptions {
                 out_dir: out,
@@ -216,7 +244,10 @@ pub fn main() {
             json,
         } => {
             if let Err(e) = set_threads(threads) {
-                std::process::exit(fail(&e));
+                return fail(&e);
+            }
+            if let Err(e) = check_bench_size(&case, tets, elements, &layout) {
+                return fail(&e);
             }
             let result = match case.as_str() {
                 "rigid" => bench_rigid(tets, steps, &material),
@@ -227,8 +258,7 @@ pub fn main() {
             };
             print_bench(result, json)
         }
-    };
-    std::process::exit(code);
+    }
 }
 
 /// `fdem run`: run `script` (summaries printed unless `quiet`); returns the exit code.
@@ -273,7 +303,9 @@ fn check_script(script: &Path, set: &[String], geo: crate::mesh::gmsh::GeoPolicy
     match script::run_file(script, options) {
         Ok(report) => {
             for s in &report.sims {
-                print_checked_model(script, s);
+                if let Err(code) = print_checked_model(script, s) {
+                    return code;
+                }
             }
             if report.sims.is_empty() {
                 println!(
@@ -287,8 +319,9 @@ fn check_script(script: &Path, set: &[String], geo: crate::mesh::gmsh::GeoPolicy
     }
 }
 
-/// Print one model's `fdem check` lines (mass in kg, dt in s); exit 1 if it cannot be prepared.
-fn print_checked_model(script: &Path, s: &SimHandle) {
+/// Print one model's `fdem check` lines (mass in kg, dt in s); Err(exit code 1), with the
+/// reason printed, if it cannot be prepared.
+fn print_checked_model(script: &Path, s: &SimHandle) -> Result<(), i32> {
     let mut st = s.0.borrow_mut();
     let ready = st.sim.prepare();
     let sim = &st.sim;
@@ -301,7 +334,7 @@ fn print_checked_model(script: &Path, s: &SimHandle) {
         sig(sim.total_mass(), 6)
     );
     match (ready, &sim.dt_info) {
-        (Err(e), _) => std::process::exit(fail(&format!("{}: {e}", script.display()))),
+        (Err(e), _) => return Err(fail(&format!("{}: {e}", script.display()))),
         (Ok(()), Some(i)) => {
             println!("    {i}");
             if let Some(line) = dt_cost_line(sim) {
@@ -310,6 +343,7 @@ fn print_checked_model(script: &Path, s: &SimHandle) {
         }
         _ => {}
     }
+    Ok(())
 }
 
 /// What the worst tetrahedron costs: its own critical step against the median tet's, and the
@@ -480,6 +514,37 @@ fn set_threads(threads: Option<usize>) -> Result<(), String> {
         .num_threads(n)
         .build_global()
         .map_err(|e| format!("--threads {n}: cannot start the worker threads: {e}"))
+}
+
+/// Memory of the detection benchmark per element [B]: the boxes, NBS's workspace, the
+/// pairs, and parry3d's tree of the same boxes.
+const DETECTION_BYTES_PER_ELEMENT: f64 = 400.0;
+
+/// Error unless the benchmark's model fits in the memory available (`--tets 1e19` was a
+/// capacity-overflow panic, `--tets 1e11` an allocation abort): `--elements` for the
+/// detection case, `--tets` for the others (jointed bodies cost more).
+fn check_bench_size(case: &str, tets: usize, elements: usize, layout: &str) -> Result<(), String> {
+    use crate::limits::{
+        check_memory, CONTINUOUS_BYTES_PER_TET, JOINTED_BYTES_PER_TET, MESH_BYTES_PER_TET,
+    };
+    let r = if case == "detection" {
+        check_memory(
+            &format!("--elements {elements}"),
+            elements as f64 * DETECTION_BYTES_PER_ELEMENT,
+        )
+    } else {
+        let jointed = layout == "jointed" && (case == "elastic" || case == "joints");
+        let body = if jointed {
+            JOINTED_BYTES_PER_TET
+        } else {
+            CONTINUOUS_BYTES_PER_TET
+        };
+        check_memory(
+            &format!("--tets {tets}"),
+            tets as f64 * (MESH_BYTES_PER_TET + body),
+        )
+    };
+    r.map_err(|e| format!("bench: {e}"))
 }
 
 fn parse_sets(set: &[String]) -> Result<Vec<(String, String)>, String> {

@@ -20,8 +20,7 @@ pub fn write_csv(
     header: &[&str],
     rows: impl Iterator<Item = Vec<f64>>,
 ) -> std::io::Result<()> {
-    let mut s = header.join(",");
-    s.push('\n');
+    let mut s = csv_header(header);
     for row in rows {
         let cells: Vec<String> = row.iter().map(|&v| format_number(v)).collect();
         s.push_str(&cells.join(","));
@@ -31,6 +30,27 @@ pub fn write_csv(
         std::fs::create_dir_all(dir)?;
     }
     write_atomic(path, s.as_bytes())
+}
+
+/// The header row of a CSV file, with its line end. A name holding a comma, a quote or a
+/// line break (a monitor's name may) is quoted as RFC 4180 says (`"a,b"`; a quote doubled),
+/// so that the header keeps one field per column.
+pub fn csv_header(header: &[&str]) -> String {
+    let mut s = String::new();
+    for (i, name) in header.iter().enumerate() {
+        if i > 0 {
+            s.push(',');
+        }
+        if name.contains([',', '"', '\n', '\r']) {
+            s.push('"');
+            s.push_str(&name.replace('"', "\"\""));
+            s.push('"');
+        } else {
+            s.push_str(name);
+        }
+    }
+    s.push('\n');
+    s
 }
 
 /// A CSV number: integers (step counts, exact zeros) as integers, everything else in
@@ -78,8 +98,7 @@ impl CsvStream {
             file,
             line: String::with_capacity(64 * header.len()),
         };
-        s.line.push_str(&header.join(","));
-        s.line.push('\n');
+        s.line.push_str(&csv_header(header));
         s.write_line()?;
         Ok(s)
     }

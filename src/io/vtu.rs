@@ -496,6 +496,12 @@ fn validate_fields(kind: &str, fields: &[Field], expected: usize) -> Result<(), 
                 f.name
             ));
         }
+        if !f.name.chars().all(xml_char) {
+            return Err(format!(
+                "{kind} field {:?} has a character XML does not allow (U+FFFE or U+FFFF) in its name",
+                f.name
+            ));
+        }
         if fields[..k].iter().any(|g| g.name == f.name) {
             return Err(format!("{kind} field {:?} appears more than once", f.name));
         }
@@ -522,7 +528,15 @@ fn put_f64s(out: &mut Vec<u8>, vals: &[f64]) {
     }
 }
 
-/// Append `s` escaped for use inside a double-quoted XML attribute.
+/// Whether `c` may appear in an XML 1.0 document (its `Char` production).
+pub fn xml_char(c: char) -> bool {
+    matches!(c, '\t' | '\n' | '\r' | '\u{20}'..='\u{d7ff}' | '\u{e000}'..='\u{fffd}' | '\u{10000}'..)
+}
+
+/// Append `s` escaped for use inside a double-quoted XML attribute. Tabs and line breaks
+/// become character references (a reader would turn them into spaces otherwise); characters
+/// XML does not allow at all become U+FFFD (names that reach here are validated, so this
+/// only keeps the file well-formed).
 fn push_escaped(xml: &mut String, s: &str) {
     for c in s.chars() {
         match c {
@@ -531,6 +545,10 @@ fn push_escaped(xml: &mut String, s: &str) {
             '>' => xml.push_str("&gt;"),
             '"' => xml.push_str("&quot;"),
             '\'' => xml.push_str("&apos;"),
+            '\t' => xml.push_str("&#9;"),
+            '\n' => xml.push_str("&#10;"),
+            '\r' => xml.push_str("&#13;"),
+            c if !xml_char(c) => xml.push('\u{fffd}'),
             _ => xml.push(c),
         }
     }

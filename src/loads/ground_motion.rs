@@ -166,7 +166,9 @@ pub fn parse_at2(text: &str, file: &str) -> Result<(Real, Vec<Real>, Vec<String>
         )
     })?;
     let dt = check_dt(number(dt, file, 4)?, file, 4)?;
-    let mut values = Vec::with_capacity(npts);
+    // Not more than the text can hold (a value and a separator take two bytes): a corrupt
+    // NPTS must not reserve gigabytes before the count is found wrong.
+    let mut values = Vec::with_capacity(npts.min(text.len() / 2 + 1));
     let mut last = 4;
     for (k, line) in lines.iter().enumerate().skip(4) {
         for tok in tokens(line) {
@@ -536,6 +538,9 @@ impl GroundMotion {
     /// peak between samples is missed by up to about (ω·dt)²/8 relative (resample the record
     /// finer with [`Self::resampled`] for short periods: it keeps the same piecewise-linear
     /// record).
+    ///
+    /// Each period costs N + T/dt + 1 steps: check the periods with
+    /// [`Self::check_spectrum_periods`] first (the script's `record.spectrum` does).
     pub fn spectrum(&self, periods: &[Real], damping: Real) -> Vec<Real> {
         periods
             .iter()
@@ -544,6 +549,28 @@ impl GroundMotion {
                 w * w * sdof_peak(&self.acc, self.dt, t, damping, Method::Exact)
             })
             .collect()
+    }
+
+    /// Positive periods [s] whose spectrum takes at most [`MAX_SPECTRUM_STEPS`] steps in all
+    /// (each costs N + T/dt + 1), or an error naming the first that is not positive or the
+    /// total: a period of 1e6 s on a 0.01 s record would take 1e8 steps, and a thousand of
+    /// them minutes.
+    pub fn check_spectrum_periods(&self, periods: &[Real]) -> Result<(), String> {
+        let mut total = 0.0;
+        for (i, &t) in periods.iter().enumerate() {
+            if !(t > 0.0 && t.is_finite()) {
+                return Err(format!("period {i} must be a positive number [s], got {t}"));
+            }
+            total += sdof_steps(self.acc.len(), self.dt, t);
+        }
+        if total > MAX_SPECTRUM_STEPS {
+            return Err(format!(
+                "the periods need {total:.3e} steps of the record's time step (dt = {} s) in all, more than {MAX_SPECTRUM_STEPS:.0e}: each period T costs N + T/dt + 1 steps (N = {} samples); give fewer or shorter periods",
+                self.dt,
+                self.acc.len()
+            ));
+        }
+        Ok(())
     }
 
     /// As [`Self::spectrum`], integrated with Newmark's average-acceleration method
@@ -605,14 +632,17 @@ fn interpolate(y: &[Real], dt: Real, t: Real, slope: Option<Real>) -> Real {
         };
     }
     let s = t / dt;
-    let k = s.floor() as usize;
-    if k + 1 >= y.len() {
+    // Compared as floats: a time far beyond the record (1e300 s) must not become an index.
+    if s.is_nan() || s >= (y.len() - 1) as Real {
         let t_last = (y.len() - 1) as Real * dt;
         return match slope {
-            Some(v) => y[y.len() - 1] + v * (t - t_last),
+            // A zero slope holds the value exactly, also at t = ∞.
+            Some(v) if v != 0.0 => y[y.len() - 1] + v * (t - t_last),
+            Some(_) => y[y.len() - 1],
             None => 0.0,
         };
     }
+    let k = s.floor() as usize;
     let f = s - k as Real;
     y[k] * (1.0 - f) + y[k + 1] * f
 }
@@ -673,9 +703,21 @@ pub fn kinematics(a: &[Real], dt: Real) -> (Vec<Real>, Vec<Real>) {
 ///
 /// [`Method::AverageAcceleration`]: Newmark (1959) with γ = 1/2, β = 1/4.
 pub fn sdof_peak(acc: &[Real], dt: Real, period: Real, damping: Real, method: Method) -> Real {
-    sdof_response(acc, dt, period, damping, method)
-        .iter()
-        .fold(0.0, |m: Real, u| m.max(u.abs()))
+    let mut peak: Real = 0.0;
+    sdof_walk(acc, dt, period, damping, method, |u| {
+        peak = peak.max(u.abs())
+    });
+    peak
+}
+
+/// Most SDOF steps [`GroundMotion::check_spectrum_periods`] lets one spectrum take (about a
+/// second).
+pub const MAX_SPECTRUM_STEPS: Real = 1e8;
+
+/// Steps of [`sdof_response`] for `n` samples at `dt` and `period`: N + ⌈T/dt⌉ + 1 (+ the
+/// first), as a float (it may not fit an integer).
+pub fn sdof_steps(n: usize, dt: Real, period: Real) -> Real {
+    n as Real + (period / dt).ceil() + 2.0
 }
 
 /// The relative displacement u at t = k·dt [m], k = 0 .. N + one period, of the SDOF of
@@ -687,19 +729,35 @@ pub fn sdof_response(
     damping: Real,
     method: Method,
 ) -> Vec<Real> {
+    let mut out = Vec::with_capacity(sdof_steps(acc.len(), dt, period).min(1e7) as usize);
+    sdof_walk(acc, dt, period, damping, method, |u| out.push(u));
+    out
+}
+
+/// The SDOF of [`sdof_peak`] stepped through the record and one period after it; `out`
+/// gets u at every sample, from u_0 = 0.
+fn sdof_walk(
+    acc: &[Real],
+    dt: Real,
+    period: Real,
+    damping: Real,
+    method: Method,
+    mut out: impl FnMut(Real),
+) {
     let w = 2.0 * std::f64::consts::PI / period;
     let z = damping;
-    let tail = (period / dt).ceil() as usize + 1;
+    // Saturating: a period beyond the integers gives the largest count, not a wrapped one.
+    let tail = ((period / dt).ceil() as usize).saturating_add(1);
+    let steps = acc.len().saturating_add(tail);
     let p = |k: usize| -acc.get(k).copied().unwrap_or(0.0);
     let (mut u, mut v) = (0.0, 0.0);
-    let mut out = Vec::with_capacity(acc.len() + tail + 1);
-    out.push(0.0);
+    out(0.0);
     match method {
         Method::Exact => {
             let wd = w * (1.0 - z * z).sqrt();
             let e = (-z * w * dt).exp();
             let (sn, cs) = (wd * dt).sin_cos();
-            for k in 0..acc.len() + tail {
+            for k in 0..steps {
                 let s = (p(k + 1) - p(k)) / dt;
                 let up0 = p(k) / (w * w) - 2.0 * z * s / (w * w * w);
                 let a = u - up0;
@@ -710,14 +768,14 @@ pub fn sdof_response(
                 );
                 u = h + up0 + s * dt / (w * w);
                 v = hd + s / (w * w);
-                out.push(u);
+                out(u);
             }
         }
         Method::AverageAcceleration => {
             // Newmark γ = 1/2, β = 1/4 on ü = p − 2ζωu̇ − ω²u.
             let mut acc_rel = p(0);
             let k_eff = w * w + 2.0 * z * w * 2.0 / dt + 4.0 / (dt * dt);
-            for k in 0..acc.len() + tail {
+            for k in 0..steps {
                 let rhs = p(k + 1)
                     + (4.0 / (dt * dt)) * u
                     + (4.0 / dt) * v
@@ -728,9 +786,8 @@ pub fn sdof_response(
                 acc_rel = 4.0 / (dt * dt) * (un - u) - 4.0 / dt * v - acc_rel;
                 u = un;
                 v = vn;
-                out.push(u);
+                out(u);
             }
         }
     }
-    out
 }

@@ -37,11 +37,16 @@ impl TimeFunction {
         Ok(TimeFunction::Table { t, value })
     }
 
+    /// The value at `time`; a table is held constant beyond its ends, and gives NaN at a NaN
+    /// time (no point of the table is nearer than another).
     #[inline]
     pub fn eval(&self, time: Real) -> Real {
         match self {
             TimeFunction::Constant(c) => *c,
             TimeFunction::Table { t, value } => {
+                if time.is_nan() {
+                    return Real::NAN;
+                }
                 if time <= t[0] {
                     return value[0];
                 }

@@ -34,26 +34,51 @@ impl Simulation {
     }
 
     /// Apply the rigid motion `f` to a body's reference placement (nodes x₀ = x, its mesh) and
-    /// rebuild its tets' D_m⁻¹. `f` must keep every tet non-degenerate (a rigid motion does).
+    /// rebuild its tets' D_m⁻¹. A rigid motion keeps every tet as it is in exact arithmetic;
+    /// in floating point a move to 1e300 m leaves no digits for the tet's size, so the new
+    /// placement is checked first and refused, with the body unchanged, if a tet becomes
+    /// degenerate or a coordinate non-finite.
     fn move_body(&mut self, body: usize, f: impl Fn(Vec3) -> Vec3) -> Result<(), SimError> {
         if self.step > 0 {
             return Err(SimError::Invalid("bodies can be moved only before the first step (their reference configuration would change)".into()));
         }
-        for n in self.bodies[body].nodes.clone() {
-            let p = f(self.nodes.x0[n]);
-            self.nodes.x0[n] = p;
-            self.nodes.x[n] = p;
+        let nodes = self.bodies[body].nodes.clone();
+        let moved: Vec<Vec3> = nodes.clone().map(|n| f(self.nodes.x0[n])).collect();
+        let x0 = &self.nodes.x0;
+        let at = |n: u32| {
+            let n = n as usize;
+            if nodes.contains(&n) {
+                moved[n - nodes.start]
+            } else {
+                x0[n]
+            }
+        };
+        let mut dm_inv = Vec::with_capacity(self.bodies[body].tets.len());
+        for e in self.bodies[body].tets.clone() {
+            let p = self.tets.nodes[e].map(at);
+            let inverse = edge_matrix(&p[0], &p[1], &p[2], &p[3])
+                .try_inverse()
+                .filter(|m| m.iter().all(|x| x.is_finite()));
+            match inverse {
+                Some(m) if p.iter().all(|q| q.iter().all(|x| x.is_finite())) => dm_inv.push(m),
+                _ => {
+                    return Err(SimError::Invalid(format!(
+                        "moving body '{}' would put tet {e} at ({:.6e}, {:.6e}, {:.6e}), where its size is lost in rounding (a degenerate tet); move it less far",
+                        self.bodies[body].name, p[0].x, p[0].y, p[0].z
+                    )))
+                }
+            }
+        }
+        for (n, p) in nodes.zip(&moved) {
+            self.nodes.x0[n] = *p;
+            self.nodes.x[n] = *p;
         }
         for p in &mut self.bodies[body].mesh.nodes {
             *p = f(*p);
         }
-        // dm_inv changes under rotation: rebuild the tets' reference data.
-        for e in self.bodies[body].tets.clone() {
-            let p = self.tets.nodes[e].map(|n| self.nodes.x0[n as usize]);
-            let dm = edge_matrix(&p[0], &p[1], &p[2], &p[3]);
-            self.tets.dm_inv[e] = dm
-                .try_inverse()
-                .expect("rigid motion keeps tets non-degenerate");
+        // dm_inv changes under rotation: the tets' reference data, rebuilt above.
+        for (e, m) in self.bodies[body].tets.clone().zip(dm_inv) {
+            self.tets.dm_inv[e] = m;
         }
         self.rigid_moved(body);
         self.invalidate();

@@ -123,6 +123,9 @@ fn spectrum(r: &mut Record, periods: Array, damping: Dynamic) -> RhaiResult<Arra
             }
         }
     }
+    r.0 .0
+        .check_spectrum_periods(&ts)
+        .map_err(|e| format!("spectrum(): {e}"))?;
     Ok(r.0
          .0
         .spectrum(&ts, z)

@@ -88,7 +88,7 @@ pub fn register(engine: &mut Engine) {
     register_tables(engine);
 }
 
-/// `table(..)`, `read_table(..)` and `table.eval(t)`.
+/// `table(..)`, `read_table(..)` and `table.at(t)`.
 fn register_tables(engine: &mut Engine) {
     engine.register_fn("table", |points: Array| -> RhaiResult<Table> {
         let mut pts = Vec::with_capacity(points.len());
@@ -121,8 +121,10 @@ fn register_tables(engine: &mut Engine) {
             read_table_file(&nc, path, num(&scale, "read_table() scale")?)
         },
     );
-    engine.register_fn("eval", |t: &mut Table, time: Dynamic| -> RhaiResult<Real> {
-        Ok(t.0.eval(num(&time, "eval()")?))
+    // `at`, as for records and monitors: Rhai reserves `eval`, so `table.eval(t)` could not
+    // be called from any script.
+    engine.register_fn("at", |t: &mut Table, time: Dynamic| -> RhaiResult<Real> {
+        Ok(t.0.eval(num(&time, "at()")?))
     });
 }
 

@@ -152,8 +152,6 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
         .set_max_string_size(16 << 20)
         .set_max_array_size(50_000_000)
         .set_max_map_size(100_000);
-    let c = ctx.clone();
-    engine.on_progress(move |ops| progress(&c, ops));
     // The script's own output shows under `fdem check` too (up to its first run).
     let c = ctx.clone();
     engine.on_print(move |s| {
@@ -197,6 +195,10 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
             .unwrap_or_else(|e| panic!("{name}.rhai: {e}"));
         stdlib.insert(*name, module);
     }
+    // The operation limit and interrupts watch the script from here on: the stdlib modules
+    // above are fdem's, and a small `--max-operations` stopping their setup was a panic.
+    let c = ctx.clone();
+    engine.on_progress(move |ops| progress(&c, ops));
     let mut resolvers = ModuleResolversCollection::new();
     resolvers.push(stdlib);
     let base = ctx

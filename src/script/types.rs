@@ -76,14 +76,15 @@ pub struct SimState {
 }
 
 /// Error unless `name` can name a file: not empty, not `.` or `..`, no path separator,
-/// no leading dot, no control character, at most 100 characters.
+/// no leading dot, no control character (nor U+FFFE, U+FFFF, which the `.pvd` file's XML
+/// cannot hold), at most 100 characters.
 pub fn check_file_name(func: &str, what: &str, name: &str) -> Result<(), Box<rhai::EvalAltResult>> {
     let bad = name.is_empty()
         || name.starts_with('.')
         || name.chars().count() > 100
         || name
             .chars()
-            .any(|c| c == '/' || c == '\\' || c.is_control());
+            .any(|c| c == '/' || c == '\\' || c.is_control() || !crate::io::vtu::xml_char(c));
     if bad {
         return Err(format!(
             "{func}: {what} '{}' cannot name a file: use letters, digits, '_' or '-' (not empty, no leading '.', no '/' or '\\', at most 100 characters)",
