@@ -2101,7 +2101,12 @@ fn fuzz_command_line_processes() {
     let dir = work_dir("cli-processes");
     let files = cli_files(&dir);
     campaign("cli-processes", 25, Duration::from_secs(60), |c| {
-        let args = cli_args(&mut c.rng, &files);
+        use std::os::unix::ffi::{OsStrExt, OsStringExt};
+        // A process argument cannot hold a NUL byte (the in-process target tries them).
+        let args: Vec<OsString> = cli_args(&mut c.rng, &files)
+            .into_iter()
+            .map(|a| OsString::from_vec(a.as_bytes().iter().map(|&b| b.max(1)).collect()))
+            .collect();
         c.input(format!("{args:?}").as_bytes());
         let out = common::fdem().args(&args[1..]).output().unwrap();
         let stderr = String::from_utf8_lossy(&out.stderr);
@@ -3260,4 +3265,68 @@ fn check_vtu_structure(bytes: &[u8], name: &str) {
         b"\n  </AppendedData>\n</VTKFile>\n",
         "{name}: the data end where the header says"
     );
+}
+
+/// Found with overflow checks on (`CARGO_TARGET_DIR=target/overflow cargo test --test
+/// fuzz`): a physical tag of −2⁶³ in `$Entities` (4.1) or an element's tags (2.2) has no
+/// absolute value — a panic with overflow checks, and in a release build a group named
+/// `physical_-9223372036854775808`. It is an error naming its line now.
+#[test]
+fn regression_physical_tag_without_an_absolute_value_is_an_error() {
+    let m = msh_model([1, 1, 1]);
+    let v41 = String::from_utf8(msh41_ascii(&m)).unwrap().replace(
+        "1 0 0 0 1 0.5 0.25 1 1 1 1",
+        "1 0 0 0 1 0.5 0.25 1 -9223372036854775808 1 1",
+    );
+    let v22 = String::from_utf8(msh22(&m)).unwrap().replacen(
+        " 4 2 1 1 ",
+        " 4 2 -9223372036854775808 1 ",
+        1,
+    );
+    for text in [v41, v22] {
+        let at = text.find("-9223372036854775808").unwrap();
+        let line = 1 + text[..at].matches('\n').count();
+        let e = parse_msh(text.as_bytes(), "t.msh").unwrap_err().to_string();
+        assert!(
+            e.contains("physical tag -9223372036854775808 is out of range")
+                && e.contains(&format!("t.msh:{line}:")),
+            "{e}"
+        );
+    }
+    // Negative tags (an orientation) still name the group of their absolute value.
+    let neg = String::from_utf8(msh22(&m))
+        .unwrap()
+        .replace(" 4 2 1 1 ", " 4 2 -1 1 ");
+    let mesh = parse_msh(neg.as_bytes(), "n.msh").unwrap().mesh;
+    assert_eq!(mesh.sets.elements["solid"].len(), m.tets.len());
+}
+
+/// Found with overflow checks on: a sphere or cylinder `size` so small that the cells per
+/// quarter circle saturate doubled them with an overflow (a panic with overflow checks; a
+/// count of exactly 2⁶³ wrapped to 0 cells in a release build). The count saturates and is
+/// refused.
+#[test]
+fn regression_cells_of_a_tiny_size_saturate_and_are_refused() {
+    use fdem::mesh::solids::{cylinder, sphere};
+    let quarter = std::f64::consts::PI / 4.0;
+    for ratio in [2f64.powi(63), 2f64.powi(64), 1e300] {
+        let radius = ratio / quarter;
+        for r in [
+            sphere(radius, 1.0).map(|_| ()),
+            cylinder(radius, 1.0, 1.0).map(|_| ()),
+        ] {
+            let e = r.unwrap_err();
+            assert!(e.contains("too many") || e.contains("memory"), "{e}");
+        }
+    }
+    let dir = work_dir("tiny-size");
+    let e = fdem::script::run_source(
+        &dir.join("d.rhai"),
+        "disc(#{ radius: 0.325, thickness: 0.3, size: 1.0e-300 });",
+        Default::default(),
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(e.contains("too many"), "{e}");
 }

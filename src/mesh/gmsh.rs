@@ -952,7 +952,8 @@ impl<'a> Reader<'a> {
                 let np = self.count(np, at, 1, "physical tags")?;
                 let mut tags = Vec::with_capacity(np);
                 for _ in 0..np {
-                    tags.push(self.int("a physical tag")?.0);
+                    let (t, at) = self.int("a physical tag")?;
+                    tags.push(self.physical_tag(t, at)?);
                 }
                 if dim > 0 {
                     let (nb, at) = self.size("the number of bounding entities")?;
@@ -1070,6 +1071,13 @@ impl<'a> Reader<'a> {
         Ok((nn, dim))
     }
 
+    /// A physical group tag `t` (read at `at`) without its sign (MSH 4.1 entities give the
+    /// orientation by it); an error for −2⁶³, which has no positive counterpart.
+    fn physical_tag(&self, t: i64, at: usize) -> R<i64> {
+        t.checked_abs()
+            .ok_or_else(|| self.err_at(at, format!("physical tag {t} is out of range")))
+    }
+
     fn node_ref(&self, index: &HashMap<u64, u32>, tag: u64, elem: u64, at: usize) -> R<u32> {
         index.get(&tag).copied().ok_or_else(|| {
             self.err_at(
@@ -1118,7 +1126,7 @@ impl<'a> Reader<'a> {
             }
             let groups: Vec<(u8, i64)> = entities
                 .get(&(dim, etag))
-                .map(|t| t.iter().map(|&p| (dim, p.abs())).collect())
+                .map(|t| t.iter().map(|&p| (dim, p)).collect())
                 .unwrap_or_default();
             for _ in 0..n {
                 let (tag, at) = self.size("an element tag")?;
@@ -1166,8 +1174,10 @@ impl<'a> Reader<'a> {
                 return Err(self.err_at(ntat, format!("bad count: {ntags} element tags")));
             }
             let mut tags = Vec::with_capacity(ntags as usize);
-            for _ in 0..ntags {
-                tags.push(self.ascii_int("an element tag value")?.0);
+            for k in 0..ntags {
+                let (t, at) = self.ascii_int("an element tag value")?;
+                // The first tag is the physical group.
+                tags.push(if k == 0 { self.physical_tag(t, at)? } else { t });
             }
             let mut nodes = Vec::with_capacity(nn);
             for _ in 0..nn {
@@ -1175,7 +1185,7 @@ impl<'a> Reader<'a> {
                 nodes.push(self.node_ref(index, nt, tag, nat)?);
             }
             let groups: Vec<(u8, i64)> = match tags.first() {
-                Some(&p) if p != 0 => vec![(dim, p.abs())],
+                Some(&p) if p != 0 => vec![(dim, p)],
                 _ => Vec::new(),
             };
             if let Some(&i) = by_tag.get(&tag) {

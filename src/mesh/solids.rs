@@ -67,7 +67,9 @@ pub fn cylinder(radius: Real, length: Real, h: Real) -> Result<Mesh, String> {
     // Cells per quarter of the circle, even, so that a vertex lies at each pole (±x, ±y of
     // the section): the extremes of the polygon are then ±radius exactly, and a platen set at
     // the radius touches the disc.
-    let n = 2 * cells(PI * radius / 4.0, h, 1);
+    // Saturating: a `size` of 1e-300 gives usize::MAX cells, which the check below refuses
+    // (doubled by wrapping it became 0 or an overflow panic).
+    let n = cells(PI * radius / 4.0, h, 1).saturating_mul(2);
     let a = 0.55 * radius; // half-side of the square core
     let m = cells(radius - a, h, 1); // radial cells of the ring blocks
     let nz = cells(length, h, 1);
@@ -135,7 +137,7 @@ pub fn sphere(radius: Real, h: Real) -> Result<Mesh, String> {
     need_positive("radius", radius)?;
     need_positive("size", h)?;
     // A cube face maps onto a quarter great circle along its middle: n cells across it.
-    let n = 2 * cells(PI * radius / 4.0, h, 1);
+    let n = cells(PI * radius / 4.0, h, 1).saturating_mul(2); // as in `cylinder`
     need_reasonable(product(&[6, n, n, n]))?;
     let half = n / 2;
     let (mut mesh, _) = hex_grid(
