@@ -5,12 +5,14 @@
 //! keeps them shared or gives every tetrahedron its own 4 nodes (node multiplicity, Munjiza's
 //! layout for fracture) is decided when the body is added to a simulation.
 
+pub mod cells;
 pub mod checks;
 mod generators;
 pub mod gmsh;
 pub mod locate;
 pub mod masonry;
 pub mod overlap;
+pub mod packing;
 pub mod quality;
 mod region;
 pub mod solids;
