@@ -14,6 +14,7 @@
 
 use super::masonry::{Assembly, Block};
 use super::overlap::overlapping_tets;
+use super::solids::need_reasonable;
 use super::Mesh;
 use crate::math::{Real, Vec3};
 use nalgebra::{Quaternion, UnitQuaternion};
@@ -108,6 +109,7 @@ fn place(mesh: &Mesh, p: &Placement) -> Result<Placed, String> {
     if mesh.tets.is_empty() {
         return Err("the mesh has no tetrahedra".into());
     }
+    need_reasonable(p.count as Real * mesh.tets.len() as Real)?;
     if !(p.gap >= 0.0 && p.gap.is_finite()) {
         return Err(format!("'gap' must be ≥ 0, got {}", p.gap));
     }

@@ -285,6 +285,24 @@ pub const CLOISTER_VAULT_KEYS: &[Key] = &[
     key("center", "vec3", "m", "[0, 0, 0]", "Centre of the springing octagon; the axis is vertical (+z), corner 0 of the octagon on +x."),
     key("size", "float", "m", "thickness/2", "Target edge length."),
 ];
+pub const BICONCAVE_CELL_KEYS: &[Key] = &[
+    key("radius", "float", "m", "3.91e-6", "Cell radius R₀ (Evans & Fung 1972, human red blood cell)."),
+    key("c0", "float", "m", "0.81e-6", "Thickness coefficient C₀: D(r) = √(1 − ρ²)(C₀ + C₁ρ² + C₂ρ⁴), ρ = r/R₀."),
+    key("c1", "float", "m", "7.83e-6", "Thickness coefficient C₁."),
+    key("c2", "float", "m", "-4.39e-6", "Thickness coefficient C₂."),
+    key("center", "vec3", "m", "[0, 0, 0]", "Centre of the cell (on its mid-plane)."),
+    key("axis", "vec3", "-", "[0, 0, 1]", "Axis of symmetry."),
+    key("size", "float", "m", "radius/3", "Target edge length across the diameter; there are as many layers through the thickness, so tets where the cell is thin are flat (about 10:1 at a red cell's centre)."),
+];
+pub const RANDOM_PACKING_KEYS: &[Key] = &[
+    key("count", "int", "", "required", "Number of copies (≥ 1)."),
+    key("min", "vec3", "m", "required", "Lower corner of the box every copy lies inside."),
+    key("max", "vec3", "m", "required", "Upper corner of the box."),
+    key("gap", "float", "m", "0", "Smallest distance between copies (conservative: two tets are apart only if some separating axis parts them by `gap`)."),
+    key("rotate", "bool", "", "true", "Uniformly random orientations (uniform on SO(3)); false keeps the mesh's orientation."),
+    key("seed", "int", "", "1", "Seed of the random stream: the same seed gives the same packing on any machine."),
+    key("attempts", "int", "", "100 × count", "Draws allowed before giving up with an error saying how many copies fitted."),
+];
 pub const ADD_BLOCKS_KEYS: &[Key] = &[
     key(
         "layout",
@@ -414,6 +432,17 @@ pub const DAMPING_KEYS: &[Key] = &[
 ];
 /// `at` of selections and bounds.
 pub const SELECT_KEYS: &[Key] = &[key("at", "string", "", "\"reference\"", "Where nodes are tested: \"reference\" (the positions as built: a selection means the same material points whenever it is made) or \"current\" (the positions now).")];
+pub const VOLUME_IN_BOX_KEYS: &[Key] = &[
+    key("min", "vec3", "m", "required", "Lower corner of the box."),
+    key("max", "vec3", "m", "required", "Upper corner of the box."),
+    key(
+        "at",
+        "string",
+        "",
+        "\"current\"",
+        "\"current\" or \"reference\" positions.",
+    ),
+];
 pub const BOUNDS_KEYS: &[Key] = &[key(
     "at",
     "string",
@@ -557,6 +586,10 @@ pub const API: &[FnDoc] = &[
         summary: "A tube: a periodic annular (r, θ) grid extruded along the axis, prisms cut into 3 tetrahedra. Sets `inner`, `outer`, `bottom`, `top`.", keys: HOLLOW_CYLINDER_KEYS, laws: &[] },
     FnDoc { section: "Generators", name: "notched_beam", signature: "notched_beam(#{ … }) -> Mesh",
         summary: "The three-point-bending specimen: a beam with a notch from the bottom at mid-span, structured boxes (6 Kuhn tetrahedra each, mirrored about mid-span) refined towards the notch. Face + node sets `top`, `bottom`, `notch`, `left_end`, `right_end`, `front`, `back`; node sets `load_line` (top, mid-span), `support_left`, `support_right`, `supports` (bottom, at ±span/2).", keys: NOTCHED_BEAM_KEYS, laws: &[] },
+    FnDoc { section: "Generators", name: "biconcave_cell", signature: "biconcave_cell(#{ … }) -> Mesh",
+        summary: "A red blood cell: the Evans–Fung biconcave disc z = ±½√(1 − ρ²)(C₀ + C₁ρ² + C₂ρ⁴), ρ = r/R₀ (defaults: the human cell, 7.82 µm across, 94.1 µm³), meshed by mapping the unit ball's mesh onto it, so surface nodes lie exactly on the surface. Sets `surface`, `top`, `bottom` (faces + nodes), element set `all`.", keys: BICONCAVE_CELL_KEYS, laws: &[] },
+    FnDoc { section: "Generators", name: "random_packing", signature: "random_packing(mesh, #{ … }) -> Assembly",
+        summary: "Copies of a mesh placed at random in a box without overlapping (random sequential addition: uniformly random orientation and position, redrawn while it intersects a copy already placed, tested exactly tet against tet), as an assembly of one block per copy for `sim.add_blocks`. The loose initial state of a packing to pour under gravity. Random sequential addition stops near a solid fraction of 0.38 for spheres, less for flat shapes: a box asked to hold more is an error saying how many copies fitted.", keys: RANDOM_PACKING_KEYS, laws: &[] },
     FnDoc { section: "Generators", name: "arch", signature: "arch(#{ … }) -> Assembly",
         summary: "Voussoirs of a circular arch, each a structured (r, θ, y) grid of prisms cut into tetrahedra. Block 0 is the springer at +x, the last block the springer at −x; with the default centre a semicircular arch springs from z = 0. Sets per block: `intrados`, `extrados`, `joint_right` (towards +x), `joint_left`, `front`, `back`, and `springing` on the springers. Neighbouring voussoirs share their joint faces exactly.", keys: ARCH_KEYS, laws: &[] },
     FnDoc { section: "Generators", name: "wall", signature: "wall(#{ … }) -> Assembly",
@@ -595,6 +628,8 @@ pub const API: &[FnDoc] = &[
         summary: "Impose the velocity of a rigid body's centre of mass per component [m/s] (numbers or tables of time; later calls win per component) and hold or free its rotation (a platen at constant speed: `#{ z: -0.01, x: 0.0, y: 0.0, rotation: \"fixed\" }`). An error for a deformable body (use `sim.prescribe_velocity(body.nodes(), ..)`).", keys: BODY_VELOCITY_KEYS, laws: &[] },
     FnDoc { section: "Bodies and selections", name: "body.center_of_mass", signature: "body.center_of_mass(), body.velocity() -> [x, y, z]",
         summary: "Centre of mass now [m] and its velocity at the last half step [m/s] (rigid or deformable).", keys: &[], laws: &[] },
+    FnDoc { section: "Bodies and selections", name: "sim.volume_in_box", signature: "sim.volume_in_box(bodies, #{ … }) -> float",
+        summary: "Volume [m³] of the bodies inside an axis-aligned box, each tetrahedron clipped to the box exactly (divergence theorem over the clipped faces). Divided by the box's volume it is the solid fraction of a packing measured in a core region away from the walls; overlaps of bodies in contact count twice.", keys: VOLUME_IN_BOX_KEYS, laws: &[] },
     FnDoc { section: "Bodies and selections", name: "body.bounds", signature: "mesh.bounds(), body.bounds([#{ at }]) -> #{ min, max, center, size }",
         summary: "Axis-aligned bounding box [m] of a mesh's nodes, or of a body's nodes now (or `at: \"reference\"`). Curved generated surfaces are polygons: a box's extremes are vertices, not the ideal surface (docs/generators.md says where each generator's vertices lie). `print(disc(#{ radius: 0.025, thickness: 0.01 }).bounds().max)` gives `[0.025, 0.025, 0.005]`.", keys: BOUNDS_KEYS, laws: &[] },
     FnDoc { section: "Bodies and selections", name: "body.momentum", signature: "body.momentum(), body.angular_momentum([point]) -> [x, y, z]",

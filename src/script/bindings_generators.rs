@@ -8,6 +8,7 @@ use super::types::{BodyHandle, MaterialValue, MeshValue, SimHandle};
 use crate::math::{Real, Vec3};
 use crate::mesh::masonry::{self, Assembly};
 use crate::mesh::solids::{self, NotchedBeam};
+use crate::mesh::{cells, packing};
 use crate::mesh::{Mesh, Quality, Region};
 use crate::state::Layout;
 use rhai::{Array, Dynamic, Engine, Map};
@@ -32,6 +33,8 @@ pub fn register(engine: &mut Engine) {
     engine.register_fn("disc", disc);
     engine.register_fn("hollow_cylinder", hollow_cylinder);
     engine.register_fn("notched_beam", notched_beam);
+    engine.register_fn("biconcave_cell", biconcave_cell);
+    engine.register_fn("random_packing", random_packing);
     engine.register_fn("arch", arch);
     engine.register_fn("wall", wall);
     engine.register_fn("dome", dome);
@@ -181,6 +184,56 @@ fn disc(m: Map) -> RhaiResult<MeshValue> {
     let mut mesh = gen("disc", solids::cylinder(radius, thickness, h))?;
     solids::place_on_axis(&mut mesh, center - 0.5 * thickness * axis, axis);
     Ok(MeshValue(Rc::new(mesh)))
+}
+
+fn biconcave_cell(m: Map) -> RhaiResult<MeshValue> {
+    let o = Opts::new("biconcave_cell", m, keys_of("biconcave_cell"))?;
+    let d = cells::EvansFung::HUMAN;
+    let shape = cells::EvansFung {
+        radius: o.positive("radius")?.unwrap_or(d.radius),
+        c0: o.float("c0")?.unwrap_or(d.c0),
+        c1: o.float("c1")?.unwrap_or(d.c1),
+        c2: o.float("c2")?.unwrap_or(d.c2),
+    };
+    let h = o.positive("size")?.unwrap_or(shape.radius / 3.0);
+    let axis = axis_of(&o)?;
+    let mut mesh = gen("biconcave_cell", cells::biconcave_cell(&shape, h))?;
+    solids::place_on_axis(&mut mesh, o.vec3("center")?.unwrap_or_default(), axis);
+    Ok(MeshValue(Rc::new(mesh)))
+}
+
+fn random_packing(mesh: MeshValue, m: Map) -> RhaiResult<AssemblyValue> {
+    let o = Opts::new("random_packing", m, keys_of("random_packing"))?;
+    let count = count(&o, "count", 1)?;
+    let corner = |k: &str| -> RhaiResult<Vec3> {
+        o.vec3(k)?.map_or_else(
+            || err(format!("random_packing(): missing required key '{k}'")),
+            Ok,
+        )
+    };
+    let seed = o.int("seed")?.unwrap_or(1);
+    let attempts = match o.int("attempts")? {
+        None => count.saturating_mul(100),
+        Some(a) if a >= 1 => a as usize,
+        Some(a) => {
+            return err(format!(
+                "random_packing(): key 'attempts' must be ≥ 1, got {a}"
+            ))
+        }
+    };
+    let p = packing::Placement {
+        count,
+        min: corner("min")?,
+        max: corner("max")?,
+        gap: o.float("gap")?.unwrap_or(0.0),
+        rotate: o.typed::<bool>("rotate", "true or false")?.unwrap_or(true),
+        seed: seed as u64,
+        max_attempts: attempts,
+    };
+    Ok(AssemblyValue(Rc::new(gen(
+        "random_packing",
+        packing::random_packing(&mesh.0, &p),
+    )?)))
 }
 
 fn hollow_cylinder(m: Map) -> RhaiResult<MeshValue> {

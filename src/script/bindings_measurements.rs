@@ -97,7 +97,36 @@ pub fn register(engine: &mut Engine) {
             mass_mean(s, &n, "mass_velocity", |sim, n| sim.mass_mean_velocity(n))
         },
     );
+    engine.register_fn("volume_in_box", volume_in_box);
     register_selections(engine);
+}
+
+/// `sim.volume_in_box(bodies, #{ min, max, at })`: the bodies' volume inside a box [m³].
+fn volume_in_box(s: &mut SimHandle, bodies: Array, m: Map) -> RhaiResult<f64> {
+    let o = Opts::new("volume_in_box", m, keys_of("sim.volume_in_box"))?;
+    let corner = |k: &str| -> RhaiResult<Vec3> {
+        o.vec3(k)?.map_or_else(
+            || err(format!("volume_in_box(): missing required key '{k}'")),
+            Ok,
+        )
+    };
+    let (lo, hi) = (corner("min")?, corner("max")?);
+    if (0..3).any(|k| !(hi[k] > lo[k])) {
+        return err("volume_in_box(): 'max' must be above 'min' on every axis");
+    }
+    let at = match o.string("at")? {
+        None => Configuration::Current,
+        Some(x) => Configuration::parse(&x).map_err(|e| format!("volume_in_box(): {e}"))?,
+    };
+    let mut ids = Vec::with_capacity(bodies.len());
+    for b in bodies {
+        let Some(b) = b.try_cast::<BodyHandle>() else {
+            return err("volume_in_box(): the first argument must be an array of bodies");
+        };
+        s.body_of(&b, "volume_in_box()")?;
+        ids.push(b.id);
+    }
+    Ok(s.0.borrow().sim.volume_in_box(&ids, &lo, &hi, at))
 }
 
 /// `a.place_against(b, axis [, gap])`: axis "x", "y", "z" (the side where a's centre lies)
