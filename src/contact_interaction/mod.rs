@@ -447,6 +447,11 @@ impl ContactInteraction {
         st
     }
 
+    /// The history of every candidate pair, in pair order.
+    pub fn pair_states(&self) -> impl Iterator<Item = PairState> + '_ {
+        (0..self.slots.len()).map(|k| self.pair_state(k))
+    }
+
     /// Single-thread cost of the stage 5 kernel on the pairs that touched in the last step
     /// (their geometry as of the last step), in ns per pair: the best of `repeats` passes,
     /// so it is a stable figure on a noisy machine. (touching pairs, ns per pair)
