@@ -1049,5 +1049,13 @@ mod tests {
         slide(&mut fx, Vec3::new(0.0, 0.0, 1e-2), 1);
         assert!(!fx.ci.pair_state(0).touching);
         assert_eq!(fx.ci.pair_state(0).slip, 0.0);
+        // Released and armed: no history is stored; the freed entry is reused when the pair
+        // touches again.
+        assert_eq!(fx.ci.slots[0].hist, NO_HISTORY);
+        assert_eq!(fx.ci.free[0], vec![0]);
+        slide(&mut fx, Vec3::new(0.0, 0.0, -1e-2), 1);
+        assert!(fx.ci.pair_state(0).touching);
+        assert_eq!((fx.ci.slots[0].hist, fx.ci.hist[0].len()), (0, 1));
+        assert!(fx.ci.free[0].is_empty());
     }
 }
