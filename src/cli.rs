@@ -946,6 +946,8 @@ pub fn bench_fragmented(tets: usize, steps: u64) -> Result<serde_json::Value, St
         "tet_steps_per_s": n as f64 * steps as f64 / seconds,
         "contact_over_elements": contact / sim.timers.get(Stage::Elements).max(1e-12),
         "contact_bytes": contact_bytes,
+        "contact_bytes_detection": sim.contact_detection.bytes(),
+        "contact_bytes_interaction": sim.contact.bytes_by_buffer(),
         "contact_bytes_per_candidate_pair": contact_bytes as f64 / sim.contact_detection.pairs.len().max(1) as f64,
         "stages": stages,
     }))

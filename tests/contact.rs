@@ -380,8 +380,7 @@ fn slip_weakening_friction_keeps_a_pushed_block_sliding_at_the_dynamic_accelerat
     let last = hist.last().unwrap();
     let min_slip = sim
         .contact
-        .state
-        .iter()
+        .pair_states()
         .filter(|s| s.touching)
         .map(|s| s.slip)
         .fold(Real::INFINITY, Real::min);

@@ -203,6 +203,7 @@ pub fn update_pairs(
         &|i, j| filter.keep(i, j),
         &mut cd.pairs,
     );
+    cd.detector.workspace.release_pair_buffers();
     // Find every new pair in the old list (both are ordered by their first index).
     cd.origins.clear();
     let old = &cd.old_pairs;

@@ -88,6 +88,13 @@ pub struct NbsWorkspace {
 }
 
 impl NbsWorkspace {
+    /// Free the per-chunk pair buffers: the pairs were copied to the caller's list, and a
+    /// simulation detects rarely, so keeping a second copy of every pair between detections
+    /// would cost 8 B per candidate pair for nothing.
+    pub fn release_pair_buffers(&mut self) {
+        self.chunk_pairs = Vec::new();
+    }
+
     /// Bytes held by the buffers (capacity) [B].
     pub fn bytes(&self) -> usize {
         use std::mem::size_of;

@@ -63,7 +63,32 @@ pub struct ContactEvent {
     pub point: Vec3,
 }
 
-/// History of one candidate pair.
+/// What every candidate pair keeps between steps: 4 bytes. Most candidates never touch;
+/// their only state is the separating-axis witness. A pair that touches or is not yet armed
+/// also has a [`PairState`] in its chunk's history list (`hist`, chunk-local).
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq)]
+pub struct PairSlot {
+    /// Index of the pair's history in its chunk's list, [`NO_HISTORY`] if none (the pair
+    /// is armed and not touching: every field of its history would be the default).
+    pub hist: u16,
+    /// The axis that last separated the pair (see [`potential::separating_axis`]).
+    pub witness: u8,
+}
+
+/// [`PairSlot::hist`] of a pair without history.
+pub const NO_HISTORY: u16 = u16::MAX;
+
+impl Default for PairSlot {
+    fn default() -> Self {
+        PairSlot {
+            hist: NO_HISTORY,
+            witness: 0,
+        }
+    }
+}
+
+/// History of one candidate pair that touches or is not yet armed (the others have the
+/// default history, which is not stored).
 #[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct PairState {
     /// Tangential friction force on the contactor [N].
@@ -81,13 +106,15 @@ pub struct PairState {
     /// stored in the friction spring [J] (for the dissipation account).
     pub f_prev: Vec3,
     pub e_prev: Real,
-    /// The axis that last separated the pair (see [`potential::separating_axis`]), tried
-    /// first.
+    /// The pair's witness axis while it is being evaluated (kept in [`PairSlot`]).
     pub witness: u8,
     /// Slip path while touching [m]: Σ|Δu_t| of the relative tangential displacement at the
     /// contact point, summed every step the pair's friction acts; back to 0 when the pair
     /// releases. The `slip` input of friction laws.
     pub slip: Real,
+    /// The pair's forces in the last step it touched (read for the steps it is listed in
+    /// the chunk's outputs).
+    out: PairOut,
 }
 
 impl PairState {
@@ -130,6 +157,15 @@ impl PairState {
         self.touching = false;
         self.slip = 0.0;
     }
+
+    /// The history differs from the default one and must be stored: the pair touches (its
+    /// friction spring, slip path, last forces) or is not armed yet (its broken joint).
+    /// Released, armed pairs have every field at its default (the joint id is not read
+    /// once armed).
+    #[inline(always)]
+    fn needs_history(&self) -> bool {
+        self.touching || !self.armed
+    }
 }
 
 impl Default for PairState {
@@ -143,6 +179,7 @@ impl Default for PairState {
             e_prev: 0.0,
             witness: 0,
             slip: 0.0,
+            out: PairOut::default(),
         }
     }
 }
@@ -210,10 +247,9 @@ pub struct DeepestOverlap {
     pub time: Real,
 }
 
-/// Output of one touching pair.
-#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug)]
+/// Output of one touching pair (kept in its history).
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, Default, PartialEq)]
 struct PairOut {
-    pair: u32,
     /// Simulation ids of the contactor and the target.
     tets: [u32; 2],
     /// Their nodes (contactor's 4, then the target's) and the forces on them [N].
@@ -224,7 +260,7 @@ struct PairOut {
     pressure: Real,
 }
 
-/// Marks a pair that started touching in this step (top bit of the pair index).
+/// Marks a pair that started touching in this step (top bit of its output entry).
 const NEW_FLAG: u32 = 1 << 31;
 
 /// Pairs per parallel task.
@@ -235,8 +271,14 @@ const CHUNK: usize = 1024;
 #[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
 pub struct ContactInteraction {
     pub laws: ContactLaws,
-    /// History of every candidate pair, `state[k]` for stage 4's `pairs[k]`.
-    pub state: Vec<PairState>,
+    /// Witness and history slot of every candidate pair, `slots[k]` for stage 4's
+    /// `pairs[k]`.
+    pub slots: Vec<PairSlot>,
+    /// Per chunk of [`CHUNK`] pairs: the histories of its pairs that have one. An entry
+    /// stays with its pair while the pair needs it; freed entries are listed in `free` and
+    /// reused (in pair order: deterministic).
+    pub hist: Vec<Vec<PairState>>,
+    free: Vec<Vec<u16>>,
     /// Record `events` for new touching pairs.
     pub record_events: bool,
     pub events: Vec<ContactEvent>,
@@ -253,8 +295,10 @@ pub struct ContactInteraction {
     geom: Vec<Option<TetGeom>>,
     current_boxes: Vec<Aabb>,
     inv_h: Vec<Real>,
-    /// Per chunk of pairs: touching pairs' outputs, totals and handovers.
-    chunk_out: Vec<Vec<PairOut>>,
+    /// Per chunk of pairs: the history entries of the pairs that touched in the last step,
+    /// in pair order ([`NEW_FLAG`] set for those that started touching), totals and
+    /// handovers.
+    chunk_out: Vec<Vec<u32>>,
     chunk_sums: Vec<ContactSums>,
     chunk_handover: Vec<Vec<u32>>,
 }
@@ -278,19 +322,47 @@ impl ContactInteraction {
     /// Stage 4 detected: carry the history over to the new pair list (`origins`, one per new
     /// pair: stage 4's remap) and size the per-surface and per-chunk buffers.
     pub fn carry_history(&mut self, origins: Vec<PairOrigin>, n_surface: usize) {
-        let old = std::mem::take(&mut self.state);
-        self.state = origins
+        let old_slots = std::mem::take(&mut self.slots);
+        let old_hist = std::mem::take(&mut self.hist);
+        let n_chunks = origins.len().div_ceil(CHUNK);
+        let mut hist: Vec<Vec<PairState>> = vec![Vec::new(); n_chunks];
+        self.slots = origins
             .iter()
-            .map(|o| match *o {
-                PairOrigin::Kept(k) => old[k as usize],
-                PairOrigin::New { neighbours, joint } => PairState::new_pair(neighbours, joint),
+            .enumerate()
+            .map(|(i, o)| {
+                let (witness, state) = match *o {
+                    PairOrigin::Kept(k) => {
+                        let s = old_slots[k as usize];
+                        let h = (s.hist != NO_HISTORY)
+                            .then(|| old_hist[k as usize / CHUNK][s.hist as usize]);
+                        (s.witness, h)
+                    }
+                    PairOrigin::New { neighbours, joint } => {
+                        let s = PairState::new_pair(neighbours, joint);
+                        (0, s.needs_history().then_some(s))
+                    }
+                };
+                let mut slot = PairSlot {
+                    hist: NO_HISTORY,
+                    witness,
+                };
+                if let Some(s) = state {
+                    let h = &mut hist[i / CHUNK];
+                    slot.hist = h.len() as u16;
+                    h.push(s);
+                }
+                slot
             })
             .collect();
+        hist.iter_mut().for_each(Vec::shrink_to_fit);
+        self.hist = hist;
+        self.free = vec![Vec::new(); n_chunks];
+        // The outputs point into the old histories.
+        self.chunk_out.iter_mut().for_each(Vec::clear);
         self.geom.resize(n_surface, None);
         self.current_boxes
             .resize(n_surface, Aabb::of_points(&[Vec3::zeros()]));
         self.inv_h.resize(n_surface, 0.0);
-        let n_chunks = origins.len().div_ceil(CHUNK);
         self.chunk_out.resize_with(n_chunks, Vec::new);
         self.chunk_sums.resize(n_chunks, ContactSums::default());
         self.chunk_handover.resize_with(n_chunks, Vec::new);
@@ -314,11 +386,19 @@ impl ContactInteraction {
             .reduce(|| 0.0, Real::max)
     }
 
+    /// The outputs of the pairs that touched in the last step, in pair order.
+    fn outputs(&self) -> impl Iterator<Item = &PairOut> {
+        self.chunk_out.iter().enumerate().flat_map(move |(c, out)| {
+            out.iter()
+                .map(move |&i| &self.hist[c][(i & !NEW_FLAG) as usize].out)
+        })
+    }
+
     /// Contact force on each of `n_nodes` nodes in the last step [N] (zero where none), summed
     /// in pair order. Built on demand (output, queries): stage 5 only adds to `nodes.f`.
     pub fn node_forces(&self, n_nodes: usize) -> Vec<Vec3> {
         let mut f = vec![Vec3::zeros(); n_nodes];
-        for po in self.chunk_out.iter().flatten() {
+        for po in self.outputs() {
             for (k, &n) in po.nodes.iter().enumerate() {
                 if let Some(x) = f.get_mut(n as usize) {
                     *x += po.f[k];
@@ -331,7 +411,7 @@ impl ContactInteraction {
     /// Total contact force in the last step on the nodes `range` (a body's nodes) [N].
     pub fn force_on(&self, range: std::ops::Range<usize>) -> Vec3 {
         let mut f = Vec3::zeros();
-        for po in self.chunk_out.iter().flatten() {
+        for po in self.outputs() {
             for (k, &n) in po.nodes.iter().enumerate() {
                 if range.contains(&(n as usize)) {
                     f += po.f[k];
@@ -345,7 +425,7 @@ impl ContactInteraction {
     /// where none).
     pub fn tet_pressures(&self, n_tets: usize) -> Vec<Real> {
         let mut p: Vec<Real> = vec![0.0; n_tets];
-        for po in self.chunk_out.iter().flatten() {
+        for po in self.outputs() {
             for &e in &po.tets {
                 if let Some(x) = p.get_mut(e as usize) {
                     *x = Real::max(*x, po.pressure);
@@ -353,6 +433,23 @@ impl ContactInteraction {
             }
         }
         p
+    }
+
+    /// The history of candidate pair `k` (the default one when none is stored).
+    pub fn pair_state(&self, k: usize) -> PairState {
+        let s = self.slots[k];
+        let mut st = if s.hist == NO_HISTORY {
+            PairState::default()
+        } else {
+            self.hist[k / CHUNK][s.hist as usize]
+        };
+        st.witness = s.witness;
+        st
+    }
+
+    /// The history of every candidate pair, in pair order.
+    pub fn pair_states(&self) -> impl Iterator<Item = PairState> + '_ {
+        (0..self.slots.len()).map(|k| self.pair_state(k))
     }
 
     /// Single-thread cost of the stage 5 kernel on the pairs that touched in the last step
@@ -368,9 +465,9 @@ impl ContactInteraction {
         let touching: Vec<(TetGeom, TetGeom, Real)> = detection
             .pairs
             .iter()
-            .zip(&self.state)
-            .filter(|(_, s)| s.touching)
-            .filter_map(|(&[a, b], _)| {
+            .enumerate()
+            .filter(|&(k, _)| self.pair_state(k).touching)
+            .filter_map(|(_, &[a, b])| {
                 let (ea, eb) = (surface[a as usize], surface[b as usize]);
                 let p = self
                     .laws
@@ -391,17 +488,46 @@ impl ContactInteraction {
         (touching.len(), best * 1e9 / touching.len().max(1) as f64)
     }
 
+    /// Bytes held by each stage 5 buffer (capacity), by name (for the bench).
+    pub fn bytes_by_buffer(&self) -> serde_json::Value {
+        use std::mem::size_of;
+        let hist = |h: &Vec<Vec<PairState>>| {
+            h.iter()
+                .map(|h| h.capacity() * size_of::<PairState>())
+                .sum::<usize>()
+        };
+        serde_json::json!({
+            "slots": self.slots.capacity() * size_of::<PairSlot>(),
+            "history": hist(&self.hist)
+                + self.free.iter().map(|f| f.capacity() * 2).sum::<usize>(),
+            "geometry": self.geom.capacity() * size_of::<Option<TetGeom>>()
+                + self.current_boxes.capacity() * size_of::<Aabb>()
+                + self.inv_h.capacity() * size_of::<Real>(),
+            "outputs": self
+                .chunk_out
+                .iter()
+                .map(|c| c.capacity() * 4)
+                .sum::<usize>(),
+        })
+    }
+
     /// Bytes held by the stage 5 buffers (capacity).
     pub fn bytes(&self) -> usize {
         use std::mem::size_of;
-        self.state.capacity() * size_of::<PairState>()
+        self.slots.capacity() * size_of::<PairSlot>()
+            + self
+                .hist
+                .iter()
+                .map(|h| h.capacity() * size_of::<PairState>())
+                .sum::<usize>()
+            + self.free.iter().map(|f| f.capacity() * 2).sum::<usize>()
             + self.geom.capacity() * size_of::<Option<TetGeom>>()
             + self.current_boxes.capacity() * size_of::<Aabb>()
             + self.inv_h.capacity() * size_of::<Real>()
             + self
                 .chunk_out
                 .iter()
-                .map(|c| c.capacity() * size_of::<PairOut>())
+                .map(|c| c.capacity() * 4)
                 .sum::<usize>()
     }
 }
@@ -451,7 +577,9 @@ pub fn add_contact_forces(
     update_surface_geometry(ci, &detection.surface, &tets.nodes, &nodes.x);
     let ContactInteraction {
         laws,
-        state,
+        slots,
+        hist,
+        free,
         record_events,
         events,
         tet_mass,
@@ -478,39 +606,91 @@ pub fn add_contact_forces(
         time,
     };
     let record_events = *record_events;
-    state
+    slots
         .par_chunks_mut(CHUNK)
+        .zip(hist.par_iter_mut())
+        .zip(free.par_iter_mut())
         .zip(chunk_out.par_iter_mut())
         .zip(chunk_sums.par_iter_mut())
         .zip(chunk_handover.par_iter_mut())
         .enumerate()
-        .for_each(|(ci, (((st, out), sums), handover))| {
+        .for_each(|(ci, (((((sl, hist), free), out), sums), handover))| {
             out.clear();
             handover.clear();
             *sums = ContactSums::default();
             // Slots of the compiled friction laws (on the stack, reused by every pair).
             let mut frame = Frame::new();
-            for (k, ps) in st.iter_mut().enumerate() {
+            for (k, slot) in sl.iter_mut().enumerate() {
                 let pi = ci * CHUNK + k;
-                if let Some(mut po) = interact(&inputs, pi, ps, sums, handover, &mut frame) {
-                    if !ps.touching && record_events {
-                        // Reported in pair order below.
-                        po.pair |= NEW_FLAG;
+                if slot.hist == NO_HISTORY {
+                    // No history: armed and not touching. Rejected pairs (most candidates,
+                    // most steps) only update their witness.
+                    match reject(&inputs, pi, slot.witness) {
+                        Rejection::Apart(axis) => {
+                            if slot.witness != axis {
+                                slot.witness = axis;
+                            }
+                            continue;
+                        }
+                        Rejection::Degenerate => continue,
+                        Rejection::Maybe => {}
                     }
-                    ps.touching = true;
-                    out.push(po);
+                }
+                let mut ps = if slot.hist == NO_HISTORY {
+                    PairState::default()
+                } else {
+                    hist[slot.hist as usize]
+                };
+                ps.witness = slot.witness;
+                let mut flag = 0;
+                let touches =
+                    if let Some(po) = interact(&inputs, pi, &mut ps, sums, handover, &mut frame) {
+                        if !ps.touching && record_events {
+                            // Reported in pair order below.
+                            flag = NEW_FLAG;
+                        }
+                        ps.touching = true;
+                        ps.out = po;
+                        true
+                    } else {
+                        false
+                    };
+                slot.witness = ps.witness;
+                if ps.needs_history() {
+                    if slot.hist == NO_HISTORY {
+                        slot.hist = match free.pop() {
+                            Some(h) => h,
+                            None => {
+                                // Grow by an eighth, not double: the histories are most
+                                // of stage 5's memory.
+                                if hist.len() == hist.capacity() {
+                                    hist.reserve_exact(hist.len() / 8 + 8);
+                                }
+                                hist.push(ps);
+                                (hist.len() - 1) as u16
+                            }
+                        };
+                    }
+                    hist[slot.hist as usize] = ps;
+                    if touches {
+                        out.push(slot.hist as u32 | flag);
+                    }
+                } else if slot.hist != NO_HISTORY {
+                    free.push(slot.hist);
+                    slot.hist = NO_HISTORY;
                 }
             }
         });
     // Add to the nodes in pair order (deterministic).
     let mut total = ContactSums::default();
-    for (out, s) in chunk_out.iter().zip(chunk_sums.iter()) {
+    for ((out, s), hist) in chunk_out.iter().zip(chunk_sums.iter()).zip(hist.iter()) {
         total.add(s);
-        for po in out {
+        for &i in out {
+            let po = &hist[(i & !NEW_FLAG) as usize].out;
             for k in 0..8 {
                 nodes.f[po.nodes[k] as usize] += po.f[k];
             }
-            if po.pair & NEW_FLAG != 0 {
+            if i & NEW_FLAG != 0 {
                 events.push(ContactEvent {
                     time,
                     tets: po.tets,
@@ -643,6 +823,33 @@ fn friction_and_damping(
     e_spring
 }
 
+/// The cheap tests of a candidate pair, in order: current boxes, degenerate geometry, the
+/// separating axes starting with the witness.
+enum Rejection {
+    /// The elements do not overlap; the separating axis found (the old witness when the
+    /// boxes were apart).
+    Apart(u8),
+    /// A degenerate element: no contact.
+    Degenerate,
+    /// Possibly overlapping: the kernel decides.
+    Maybe,
+}
+
+#[inline(always)]
+fn reject(inp: &StepInputs, pi: usize, witness: u8) -> Rejection {
+    let [a, b] = inp.pairs[pi];
+    if !inp.boxes[a as usize].overlaps(&inp.boxes[b as usize]) {
+        return Rejection::Apart(witness);
+    }
+    let (Some(gc), Some(gt)) = (&inp.geom[a as usize], &inp.geom[b as usize]) else {
+        return Rejection::Degenerate;
+    };
+    match separating_axis(gc, gt, witness) {
+        Some(axis) => Rejection::Apart(axis),
+        None => Rejection::Maybe,
+    }
+}
+
 /// One candidate pair `pi` in one step: rejection (boxes, then the witness axis), arming,
 /// the potential force, friction and damping. Returns the forces of a touching pair; updates
 /// its history, `sums` and `handover`.
@@ -656,24 +863,22 @@ fn interact(
     frame: &mut Frame,
 ) -> Option<PairOut> {
     let [a, b] = inp.pairs[pi];
-    // Cheap rejection on current boxes.
-    if !inp.boxes[a as usize].overlaps(&inp.boxes[b as usize]) {
-        ps.apart(sums, handover);
-        return None;
+    // Separated (most candidates, most steps): one plane test on the witness axis.
+    match reject(inp, pi, ps.witness) {
+        Rejection::Apart(axis) => {
+            ps.witness = axis;
+            ps.apart(sums, handover);
+            return None;
+        }
+        Rejection::Degenerate => {
+            ps.release(sums);
+            return None;
+        }
+        Rejection::Maybe => {}
     }
     let (Some(gc), Some(gt)) = (&inp.geom[a as usize], &inp.geom[b as usize]) else {
-        ps.release(sums);
-        return None;
+        return None; // (reject() answered Degenerate for these)
     };
-    // Separated (most candidates, most steps): one plane test on the witness axis, and
-    // nothing written unless the pair changes.
-    if let Some(axis) = separating_axis(gc, gt, ps.witness) {
-        if ps.witness != axis {
-            ps.witness = axis;
-        }
-        ps.apart(sums, handover);
-        return None;
-    }
     let (ea, eb) = (inp.surface[a as usize], inp.surface[b as usize]);
     let pr = inp
         .laws
@@ -737,7 +942,6 @@ fn interact(
     sums.max_pressure = sums.max_pressure.max(fn_mag / r.area);
     sums.area += r.area;
     Some(PairOut {
-        pair: pi as u32,
         tets: [ea, eb],
         nodes: [na[0], na[1], na[2], na[3], nb[0], nb[1], nb[2], nb[3]],
         f,
@@ -828,22 +1032,30 @@ mod tests {
         let mut fx = two_tets();
         let dx = Vec3::new(1e-4, 0.0, 0.0);
         slide(&mut fx, dx, 10);
-        let forth = fx.ci.state[0].slip;
+        let forth = fx.ci.pair_state(0).slip;
         slide(&mut fx, -dx, 10);
-        let back = fx.ci.state[0].slip;
+        let back = fx.ci.pair_state(0).slip;
         println!("slip after 10 steps forth {forth:e} m, and back {back:e} m");
-        assert!(fx.ci.state[0].touching);
+        assert!(fx.ci.pair_state(0).touching);
         assert!((forth - 1e-3).abs() < 1e-9 * 1e-3, "{forth:e}");
         assert!((back - 2e-3).abs() < 1e-9 * 2e-3, "{back:e}");
         assert!((fx.nodes.x[4] - fx.nodes.x0[4]).norm() < 1e-15);
         slide(&mut fx, Vec3::new(0.0, 0.0, -1e-5), 5);
         assert!(
-            (fx.ci.state[0].slip - back).abs() < 1e-9 * back,
+            (fx.ci.pair_state(0).slip - back).abs() < 1e-9 * back,
             "normal motion is no slip"
         );
         // Lift the contactor off: the pair releases and its slip path starts again from 0.
         slide(&mut fx, Vec3::new(0.0, 0.0, 1e-2), 1);
-        assert!(!fx.ci.state[0].touching);
-        assert_eq!(fx.ci.state[0].slip, 0.0);
+        assert!(!fx.ci.pair_state(0).touching);
+        assert_eq!(fx.ci.pair_state(0).slip, 0.0);
+        // Released and armed: no history is stored; the freed entry is reused when the pair
+        // touches again.
+        assert_eq!(fx.ci.slots[0].hist, NO_HISTORY);
+        assert_eq!(fx.ci.free[0], vec![0]);
+        slide(&mut fx, Vec3::new(0.0, 0.0, -1e-2), 1);
+        assert!(fx.ci.pair_state(0).touching);
+        assert_eq!((fx.ci.slots[0].hist, fx.ci.hist[0].len()), (0, 1));
+        assert!(fx.ci.free[0].is_empty());
     }
 }
