@@ -22,6 +22,9 @@
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters_backend::{
+    BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingErrorKind,
+};
 use std::path::{Path, PathBuf};
 
 /// Above this many points per pixel of width a series is decimated (see the module docs).
@@ -181,7 +184,7 @@ pub fn png_bytes(fig: &Figure) -> Result<Vec<u8>, String> {
     let (w, h) = (fig.width, fig.height);
     let mut rgb = vec![255u8; (w as usize) * (h as usize) * 3];
     {
-        let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
+        let root = Bitmap(BitMapBackend::with_buffer(&mut rgb, (w, h))).into_drawing_area();
         draw(fig, &root)?;
         root.present().map_err(perr)?;
     }
@@ -196,6 +199,140 @@ pub fn png_bytes(fig: &Figure) -> Result<Vec<u8>, String> {
             .map_err(|e| format!("PNG: {e}"))?;
     }
     Ok(bytes)
+}
+
+/// plotters' bitmap backend, with text drawn here: plotters 0.3.7 draws each ab_glyph glyph
+/// from the left edge of its ink, without its side bearing, so letters sat unevenly
+/// ("tim e"). Here every glyph is placed at its advance, kerned, and anti-aliased, and the
+/// layout box is plotters' own (the sum of the advances by the height size / 1.24), so text
+/// is where plotters measured it.
+struct Bitmap<'a>(BitMapBackend<'a>);
+
+type BitmapError = <BitMapBackend<'static> as DrawingBackend>::ErrorType;
+type DrawResult = Result<(), DrawingErrorKind<BitmapError>>;
+
+impl DrawingBackend for Bitmap<'_> {
+    type ErrorType = BitmapError;
+
+    fn get_size(&self) -> (u32, u32) {
+        self.0.get_size()
+    }
+    fn ensure_prepared(&mut self) -> DrawResult {
+        self.0.ensure_prepared()
+    }
+    fn present(&mut self) -> DrawResult {
+        self.0.present()
+    }
+    fn draw_pixel(&mut self, p: BackendCoord, c: BackendColor) -> DrawResult {
+        self.0.draw_pixel(p, c)
+    }
+    fn draw_line<S: BackendStyle>(
+        &mut self,
+        a: BackendCoord,
+        b: BackendCoord,
+        s: &S,
+    ) -> DrawResult {
+        self.0.draw_line(a, b, s)
+    }
+    fn draw_rect<S: BackendStyle>(
+        &mut self,
+        a: BackendCoord,
+        b: BackendCoord,
+        s: &S,
+        fill: bool,
+    ) -> DrawResult {
+        self.0.draw_rect(a, b, s, fill)
+    }
+    fn draw_path<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+        &mut self,
+        path: I,
+        s: &S,
+    ) -> DrawResult {
+        self.0.draw_path(path, s)
+    }
+    fn draw_circle<S: BackendStyle>(
+        &mut self,
+        c: BackendCoord,
+        r: u32,
+        s: &S,
+        fill: bool,
+    ) -> DrawResult {
+        self.0.draw_circle(c, r, s, fill)
+    }
+    fn fill_polygon<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+        &mut self,
+        vert: I,
+        s: &S,
+    ) -> DrawResult {
+        self.0.fill_polygon(vert, s)
+    }
+    fn blit_bitmap(&mut self, pos: BackendCoord, size: (u32, u32), src: &[u8]) -> DrawResult {
+        self.0.blit_bitmap(pos, size, src)
+    }
+
+    fn draw_text<T: BackendTextStyle>(
+        &mut self,
+        text: &str,
+        style: &T,
+        pos: BackendCoord,
+    ) -> DrawResult {
+        use ab_glyph::{Font, ScaleFont};
+        use plotters_backend::text_anchor::{HPos, VPos};
+        let color = style.color();
+        if color.alpha == 0.0 {
+            return Ok(());
+        }
+        let font = ab_glyph::FontRef::try_from_slice(FONT)
+            .map_err(|e| DrawingErrorKind::FontError(Box::new(e)))?;
+        let size = style.size() as f32;
+        let sf = font.as_scaled(size);
+        // Glyphs on a baseline at the font's ascent below the top of the box.
+        let mut glyphs = Vec::new();
+        let mut caret = 0f32;
+        let mut prev = None;
+        for c in text.chars() {
+            let id = sf.glyph_id(c);
+            if let Some(p) = prev {
+                caret += sf.kern(p, id);
+            }
+            glyphs.push(id.with_scale_and_position(size, ab_glyph::point(caret, sf.ascent())));
+            caret += sf.h_advance(id);
+            prev = Some(id);
+        }
+        let (width, height) = (caret as i32, (style.size() / 1.24) as i32);
+        let dx = match style.anchor().h_pos {
+            HPos::Left => 0,
+            HPos::Right => -width,
+            HPos::Center => -width / 2,
+        };
+        let dy = match style.anchor().v_pos {
+            VPos::Top => 0,
+            VPos::Center => -height / 2,
+            VPos::Bottom => -height,
+        };
+        let trans = style.transform();
+        for g in glyphs {
+            let Some(outline) = font.outline_glyph(g) else {
+                continue;
+            };
+            let b = outline.px_bounds();
+            let mut pixels = Vec::new();
+            outline.draw(|x, y, cov| {
+                if cov > 0.02 {
+                    pixels.push((b.min.x as i32 + x as i32, b.min.y as i32 + y as i32, cov));
+                }
+            });
+            for (x, y, cov) in pixels {
+                let (x, y) = trans.transform(x + dx, y + dy);
+                let c = BackendColor {
+                    alpha: color.alpha * cov.min(1.0) as f64,
+                    rgb: color.rgb,
+                };
+                self.0.draw_pixel((pos.0 + x, pos.1 + y), c)?;
+            }
+        }
+        Ok(())
+    }
 }
 
 fn perr<E: std::fmt::Debug>(e: E) -> String {
