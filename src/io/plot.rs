@@ -22,9 +22,7 @@
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters_backend::{
-    BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingErrorKind,
-};
+use plotters_backend::{BackendColor, BackendCoord, DrawingErrorKind};
 use std::path::{Path, PathBuf};
 
 /// Above this many points per pixel of width a series is decimated (see the module docs).
@@ -193,6 +191,10 @@ pub fn png_bytes(fig: &Figure) -> Result<Vec<u8>, String> {
         let mut enc = png::Encoder::new(&mut bytes, w, h);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
+        // Plots are mostly flat colour: the best deflate with per-row filters makes them
+        // several times smaller than the default, in milliseconds.
+        enc.set_compression(png::Compression::Best);
+        enc.set_adaptive_filter(png::AdaptiveFilterType::Adaptive);
         let mut writer = enc.write_header().map_err(|e| format!("PNG: {e}"))?;
         writer
             .write_image_data(&rgb)
@@ -226,7 +228,7 @@ impl DrawingBackend for Bitmap<'_> {
     fn draw_pixel(&mut self, p: BackendCoord, c: BackendColor) -> DrawResult {
         self.0.draw_pixel(p, c)
     }
-    fn draw_line<S: BackendStyle>(
+    fn draw_line<S: plotters_backend::BackendStyle>(
         &mut self,
         a: BackendCoord,
         b: BackendCoord,
@@ -234,7 +236,7 @@ impl DrawingBackend for Bitmap<'_> {
     ) -> DrawResult {
         self.0.draw_line(a, b, s)
     }
-    fn draw_rect<S: BackendStyle>(
+    fn draw_rect<S: plotters_backend::BackendStyle>(
         &mut self,
         a: BackendCoord,
         b: BackendCoord,
@@ -243,14 +245,14 @@ impl DrawingBackend for Bitmap<'_> {
     ) -> DrawResult {
         self.0.draw_rect(a, b, s, fill)
     }
-    fn draw_path<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+    fn draw_path<S: plotters_backend::BackendStyle, I: IntoIterator<Item = BackendCoord>>(
         &mut self,
         path: I,
         s: &S,
     ) -> DrawResult {
         self.0.draw_path(path, s)
     }
-    fn draw_circle<S: BackendStyle>(
+    fn draw_circle<S: plotters_backend::BackendStyle>(
         &mut self,
         c: BackendCoord,
         r: u32,
@@ -259,7 +261,7 @@ impl DrawingBackend for Bitmap<'_> {
     ) -> DrawResult {
         self.0.draw_circle(c, r, s, fill)
     }
-    fn fill_polygon<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+    fn fill_polygon<S: plotters_backend::BackendStyle, I: IntoIterator<Item = BackendCoord>>(
         &mut self,
         vert: I,
         s: &S,
@@ -270,7 +272,7 @@ impl DrawingBackend for Bitmap<'_> {
         self.0.blit_bitmap(pos, size, src)
     }
 
-    fn draw_text<T: BackendTextStyle>(
+    fn draw_text<T: plotters_backend::BackendTextStyle>(
         &mut self,
         text: &str,
         style: &T,
@@ -446,7 +448,7 @@ fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
 /// user's unscaled axis leaves very large or very small.
 fn tick(v: f64, span: f64) -> String {
     let big = v.abs().max(span);
-    if big >= 1e5 || big < 1e-3 {
+    if !(1e-3..1e5).contains(&big) {
         let s = format!("{v:.2e}");
         return s;
     }
