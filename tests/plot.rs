@@ -195,6 +195,39 @@ fn fdem_plot_draws_a_finished_run_and_is_deterministic() {
     let svg = std::fs::read_to_string(out.join("reaction_vs_top.svg")).unwrap();
     let rows = csv_rows(&out.join("top.csv"));
     assert!(polylines(&svg, "#1F77B4").contains(&rows));
+    // A name in several files: a monitor's own file first (a monitor named "strain" against
+    // the strain energy of energy.csv), else FILE:COLUMN says which.
+    let top = std::fs::read_to_string(out.join("top.csv")).unwrap();
+    std::fs::write(
+        out.join("strain.csv"),
+        top.replacen("step,time,top", "step,time,strain", 1),
+    )
+    .unwrap();
+    let (ok, _, stderr) = plot(&["--x", "strain", "--y", "reaction", "--format", "svg"]);
+    assert!(ok, "{stderr}");
+    let svg = std::fs::read_to_string(out.join("reaction_vs_strain.svg")).unwrap();
+    // The monitor's (its label says its unit is not recorded), not the energy's [J].
+    assert!(svg.contains("\nstrain (") && !svg.contains("\nstrain ["));
+    assert!(polylines(&svg, "#1F77B4").contains(&rows));
+    let (ok, _, stderr) = plot(&["--y", "energy:strain", "--format", "svg"]);
+    assert!(ok, "{stderr}");
+    let svg = std::fs::read_to_string(out.join("strain_vs_time.svg")).unwrap();
+    assert!(
+        svg.contains("strain [") && svg.contains("J]"),
+        "the strain energy"
+    );
+    std::fs::write(out.join("b.csv"), "step,time,q\n0,0,1\n5,0.1,2\n").unwrap();
+    std::fs::write(out.join("c.csv"), "step,time,q\n0,0,3\n5,0.1,4\n").unwrap();
+    let (ok, _, stderr) = plot(&["--y", "q"]);
+    assert!(!ok, "ambiguous");
+    assert!(
+        stderr.contains("column 'q' is in b.csv and c.csv: say which with FILE:COLUMN"),
+        "{stderr}"
+    );
+    let (ok, _, stderr) = plot(&["--y", "c:q", "--format", "svg"]);
+    assert!(ok, "{stderr}");
+    let svg = std::fs::read_to_string(out.join("q_vs_time.svg")).unwrap();
+    assert!(polylines(&svg, "#1F77B4").contains(&2));
     // Errors: an unknown column names the columns there; a bad format names the formats.
     let (ok, _, stderr) = plot(&["--y", "nope"]);
     assert!(!ok);

@@ -934,10 +934,14 @@ pub fn plot_dir(dir: &Path, o: &PlotOptions) -> Result<(Vec<PathBuf>, Vec<String
         .collect::<Result<Vec<_>, _>>()?;
     if o.x.is_some() || !o.y.is_empty() {
         let fig = chosen_figure(&tables, o)?;
-        let name = o
-            .name
-            .clone()
-            .unwrap_or_else(|| format!("{}_vs_{}", o.y[0], o.x.as_deref().unwrap_or("time")));
+        let name = o.name.clone().unwrap_or_else(|| {
+            let plain = |c: &str| c.rsplit(':').next().unwrap_or(c).to_string();
+            format!(
+                "{}_vs_{}",
+                plain(&o.y[0]),
+                plain(o.x.as_deref().unwrap_or("time"))
+            )
+        });
         check_name(&name)?;
         return Ok((write(&fig, &dir.join(name), o.format)?, Vec::new()));
     }
@@ -982,24 +986,47 @@ pub fn check_name(name: &str) -> Result<(), String> {
     Ok(())
 }
 
-/// Where a column is: (table index, column index). `time` and `step` are in every history;
-/// they are taken from the first table holding the other columns.
-fn find_column(tables: &[Table], name: &str) -> Result<usize, String> {
-    tables
+/// Where a column is: (table index, column name), from `column` or `file:column`. A name
+/// that several files have (`strain`: the strain energy in energy.csv and a monitor named
+/// strain) is the monitor's own file's (`strain.csv`), else an error asking for `file:column`.
+fn find_column(tables: &[Table], spec: &str) -> Result<(usize, String), String> {
+    let (file, name) = match spec.split_once(':') {
+        Some((f, c)) => (Some(f), c),
+        None => (None, spec),
+    };
+    let has = |t: &Table| t.columns.iter().any(|c| c == name);
+    let found: Vec<usize> = (0..tables.len())
+        .filter(|&i| has(&tables[i]) && file.is_none_or(|f| stem_of(&tables[i].path) == f))
+        .collect();
+    let own = found
         .iter()
-        .position(|t| t.columns.iter().any(|c| c == name))
-        .ok_or_else(|| {
+        .copied()
+        .find(|&i| stem_of(&tables[i].path) == name);
+    match (found.len(), own) {
+        (1, _) => Ok((found[0], name.to_string())),
+        (_, Some(i)) => Ok((i, name.to_string())),
+        (0, _) => {
             let mut all: Vec<&str> = tables
                 .iter()
                 .flat_map(|t| t.columns.iter().map(String::as_str))
                 .collect();
             all.sort_unstable();
             all.dedup();
-            format!(
-                "no column '{name}' in the CSV files here; the columns are: {}",
+            Err(format!(
+                "no column '{spec}' in the CSV files here; the columns are: {}",
                 all.join(", ")
-            )
-        })
+            ))
+        }
+        _ => Err(format!(
+            "column '{name}' is in {}: say which with FILE:COLUMN (e.g. {}:{name})",
+            found
+                .iter()
+                .map(|&i| format!("{}.csv", stem_of(&tables[i].path)))
+                .collect::<Vec<_>>()
+                .join(" and "),
+            stem_of(&tables[found[0]].path)
+        )),
+    }
 }
 
 /// The values of `name` at the steps `steps` (from the table that has it, matched on its
@@ -1029,16 +1056,17 @@ fn chosen_figure(tables: &[Table], o: &PlotOptions) -> Result<Figure, String> {
     if o.y.is_empty() {
         return Err("give the columns to plot with --y COLUMN[,COLUMN…] (with --x)".into());
     }
-    let xname = o.x.clone().unwrap_or_else(|| "time".into());
-    let yi: Vec<usize> =
+    let xspec = o.x.clone().unwrap_or_else(|| "time".into());
+    let found: Vec<(usize, String)> =
         o.y.iter()
             .map(|c| find_column(tables, c))
             .collect::<Result<_, _>>()?;
+    let (yi, ynames): (Vec<usize>, Vec<String>) = found.into_iter().unzip();
     // x = time or step: from the first y's own file; else the file that has it.
-    let xi = if xname == "time" || xname == "step" {
-        yi[0]
+    let (xi, xname) = if xspec == "time" || xspec == "step" {
+        (yi[0], xspec.clone())
     } else {
-        find_column(tables, &xname)?
+        find_column(tables, &xspec)?
     };
     let base = &tables[xi];
     let file_of = |i: usize| stem_of(&tables[i].path);
@@ -1052,7 +1080,7 @@ fn chosen_figure(tables: &[Table], o: &PlotOptions) -> Result<Figure, String> {
     })?;
     let same = yi.iter().all(|&i| i == xi);
     let mut series = Vec::new();
-    for (name, &i) in o.y.iter().zip(&yi) {
+    for (name, &i) in ynames.iter().zip(&yi) {
         let (xs, ys): (Vec<f64>, Vec<f64>) = if same {
             (x.clone(), base.column(name).unwrap())
         } else {
@@ -1081,26 +1109,26 @@ fn chosen_figure(tables: &[Table], o: &PlotOptions) -> Result<Figure, String> {
             y: ys,
         });
     }
-    let y_axis = if o.y.len() == 1 {
-        column_axis(&file_of(yi[0]), &o.y[0])
+    let y_axis = if ynames.len() == 1 {
+        column_axis(&file_of(yi[0]), &ynames[0])
     } else {
-        let axes: Vec<Axis> =
-            o.y.iter()
-                .zip(&yi)
-                .map(|(c, &i)| column_axis(&file_of(i), c))
-                .collect();
+        let axes: Vec<Axis> = ynames
+            .iter()
+            .zip(&yi)
+            .map(|(c, &i)| column_axis(&file_of(i), c))
+            .collect();
         let unit = if axes.iter().all(|a| a.unit == axes[0].unit) {
             axes[0].unit.clone()
         } else {
             Unit::Unknown
         };
-        Axis::new(&o.y.join(", "), unit)
+        Axis::new(&ynames.join(", "), unit)
     };
     Ok(Figure {
         title: o
             .title
             .clone()
-            .unwrap_or_else(|| format!("{} against {xname}", o.y.join(", "))),
+            .unwrap_or_else(|| format!("{} against {xname}", ynames.join(", "))),
         x: x_axis,
         panels: vec![Panel { y: y_axis, series }],
         width: o.width,
