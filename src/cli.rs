@@ -78,7 +78,8 @@ enum Command {
         /// CSV files are matched on their `step`.
         #[arg(long, value_name = "COLUMN", requires = "y")]
         x: Option<String>,
-        /// Columns to plot against --x, comma-separated (any CSV of the directory).
+        /// Columns to plot against --x, comma-separated (any CSV of the directory; a name
+        /// that several files have is the monitor's own file's, else say FILE:COLUMN).
         #[arg(long, value_name = "COLUMN[,COLUMN]", value_delimiter = ',')]
         y: Vec<String>,
         /// File name of the --y figure, without extension (default: <first y>_vs_<x>).
