@@ -1,4 +1,4 @@
-//! The `fdem` command line: `run`, `check`, `doc`, `bench`.
+//! The `fdem` command line: `run`, `check`, `plot`, `doc`, `bench`.
 
 use crate::material::{Formulation, Material};
 use crate::math::Vec3;
@@ -66,6 +66,37 @@ enum Command {
         mesh: Option<PathBuf>,
         #[command(flatten)]
         geo: GeoArgs,
+    },
+    /// Plot a finished run's histories as PNG and SVG beside its CSV files: the energy
+    /// account (each term against time, and the balance error), broken joints against time,
+    /// and one figure per other CSV (each monitor against time). With --y, one figure of
+    /// the chosen columns instead.
+    Plot {
+        /// The run's output directory (the one holding energy.csv and the monitors' CSVs).
+        dir: PathBuf,
+        /// Column for the x axis of the --y figure (default: time). Columns of different
+        /// CSV files are matched on their `step`.
+        #[arg(long, value_name = "COLUMN", requires = "y")]
+        x: Option<String>,
+        /// Columns to plot against --x, comma-separated (any CSV of the directory; a name
+        /// that several files have is the monitor's own file's, else say FILE:COLUMN).
+        #[arg(long, value_name = "COLUMN[,COLUMN]", value_delimiter = ',')]
+        y: Vec<String>,
+        /// File name of the --y figure, without extension (default: <first y>_vs_<x>).
+        #[arg(long, requires = "y")]
+        name: Option<String>,
+        /// Title of the --y figure (of the standard figures: a prefix).
+        #[arg(long)]
+        title: Option<String>,
+        /// png, svg or both.
+        #[arg(long, default_value = "both")]
+        format: String,
+        /// Width of a figure in pixels.
+        #[arg(long, default_value_t = 1000)]
+        width: u32,
+        /// Height of a figure in pixels (the energy account is 4/3 of it: two panels).
+        #[arg(long, default_value_t = 600)]
+        height: u32,
     },
     /// Print the script API reference (Markdown).
     Doc,
@@ -228,6 +259,16 @@ fn execute(cli: Cli) -> i32 {
             Ok(g) => check_script(&script, &set, g),
             Err(e) => fail(&e),
         },
+        Command::Plot {
+            dir,
+            x,
+            y,
+            name,
+            title,
+            format,
+            width,
+            height,
+        } => plot(&dir, x, y, name, title, &format, width, height),
         Command::Doc => {
             print!("{}", script::api::markdown());
             0
@@ -284,6 +325,51 @@ fn run_script(script: &Path, set: &[String], mut options: RunOptions) -> i32 {
             // 128 + the signal number when SIGINT or SIGTERM stopped the run, as shells do.
             crate::limits::interrupt::requested().map_or(1, |sig| 128 + sig)
         }
+    }
+}
+
+/// `fdem plot DIR`: write the figures, one line per file; the exit code.
+#[allow(clippy::too_many_arguments)]
+fn plot(
+    dir: &Path,
+    x: Option<String>,
+    y: Vec<String>,
+    name: Option<String>,
+    title: Option<String>,
+    format: &str,
+    width: u32,
+    height: u32,
+) -> i32 {
+    use crate::io::plot::{plot_dir, Format, PlotOptions};
+    let format = match Format::parse(format) {
+        Ok(f) => f,
+        Err(e) => return fail(&format!("fdem plot: --{e}")),
+    };
+    let y: Vec<String> = y
+        .into_iter()
+        .map(|c| c.trim().to_string())
+        .filter(|c| !c.is_empty())
+        .collect();
+    let options = PlotOptions {
+        x,
+        y,
+        name,
+        title,
+        format,
+        width,
+        height,
+    };
+    match plot_dir(dir, &options) {
+        Ok((written, notes)) => {
+            for n in notes {
+                eprintln!("note: {n}");
+            }
+            for p in written {
+                println!("wrote {}", p.display());
+            }
+            0
+        }
+        Err(e) => fail(&format!("fdem plot: {e}")),
     }
 }
 

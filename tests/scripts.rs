@@ -507,6 +507,8 @@ sim.every(#{ time: 1e-5 }, |s| ());
 let mon = sim.monitor("m", #{ every: 1 }, |s| s.time);
 sim.run(#{ max_time: 1.0, duration: 1e-4, steps: 5, stop_when: |s| false, check_every: 1 });
 expect_within("steps", sim.step, 5, 5);
+sim.plot(#{ file: "p", y: [mon], x: "time", x_label: "t [s]", y_label: "time again [s]", title: "T", format: "svg", width: 300, height: 200 });
+sim.plot_energy(#{ file: "e", title: "E", format: "png", width: 300, height: 300 });
 let rest = sim.bring_to_rest(#{ ratio: 1e-3, max_steps: 3, check_every: 1, damping: 1.0 });
 expect_within("rest stage steps", rest.steps, 1, 3);
 let eq = ground_motion("@GM@", #{ format: "at2", units: "g", scale: 0.5, start: 1.0, end: 10.0, baseline: true });

@@ -6,6 +6,7 @@
 
 pub mod checkpoint;
 pub mod frame;
+pub mod plot;
 pub mod vtu;
 
 use std::path::{Path, PathBuf};

@@ -47,7 +47,7 @@ pub const SECTIONS: &[(&str, &str)] = &[
     ("Reinforcement", "Rebars: 2-node bar elements of elastic–plastic steel (stage 1) embedded in a host body through bond points with a bond–slip law (stage 2); they bridge the host's cracks. Equations in docs/theory/reinforcement.md."),
     ("Loads and constraints", "Stage 6: gravity, forces, tractions, fixed and prescribed-velocity nodes, initial velocity."),
     ("Earthquake records", "Ground-motion records: read, process, and measure them (PGA, PGV, Arias intensity, response spectrum). Equations in docs/theory/ground_motion.md."),
-    ("Hooks, monitors and output", "Periodic callbacks, monitored quantities (CSV), ParaView frames."),
+    ("Hooks, monitors and output", "Periodic callbacks, monitored quantities (CSV), plots (PNG, SVG), ParaView frames."),
     ("Queries", "Read the state from a script or a callback (`s` is the simulation)."),
 ];
 
@@ -460,6 +460,54 @@ pub const REST_KEYS: &[Key] = &[
     key("check_every", "int", "steps", "50", "How often the kinetic energy is compared (and the adaptive α updated)."),
     key("damping", "float", "1/s", "adaptive", "Mass-proportional α during the stage. Default: 2ω with ω² = 2U/Σm|u|², the Rayleigh quotient of the current displacement u (≈ the lowest mode once the model sags under its load), updated at every check; until something moved, the damping the model had."),
 ];
+pub const PLOT_KEYS: &[Key] = &[
+    key("file", "string", "", "required", "Name of the figure's files, without extension: `<out_dir>/<file>.png` and `.svg` (replaced if there)."),
+    key("y", "string|monitor|array", "", "required", "The monitors to plot: a name, a monitor, or an array of them (one line each, with a legend entry)."),
+    key("x", "string|monitor", "", "\"time\"", "The x axis: \"time\" [s], \"step\", or a monitor (each y is paired with the x monitor's sample of the same step; give them the same `every`)."),
+    key("x_label", "string", "", "name and unit", "Label of the x axis, drawn as given (numbers unscaled). Default: `time [s]` scaled by an SI prefix (`time [ms]`), or the monitor's name followed by `(unit not recorded)`: a monitor does not know its unit."),
+    key("y_label", "string", "", "name", "Label of the y axis, drawn as given (numbers unscaled). Default as `x_label`: the monitor's name, `(unit not recorded)`, and the power of ten its numbers are divided by."),
+    key("title", "string", "", "\"<y> against <x>\"", "Title above the plot."),
+    key("format", "string", "", "\"both\"", "\"png\", \"svg\" or \"both\"."),
+    key("width", "int", "px", "1000", "Width in pixels, in [200, 8000]."),
+    key("height", "int", "px", "600", "Height in pixels, in [200, 8000]."),
+];
+pub const PLOT_ENERGY_KEYS: &[Key] = &[
+    key(
+        "file",
+        "string",
+        "",
+        "\"energy\"",
+        "Name of the figure's files, without extension (`<out_dir>/energy.png` and `.svg`).",
+    ),
+    key(
+        "title",
+        "string",
+        "",
+        "\"Energy account\"",
+        "Title above the plot.",
+    ),
+    key(
+        "format",
+        "string",
+        "",
+        "\"both\"",
+        "\"png\", \"svg\" or \"both\".",
+    ),
+    key(
+        "width",
+        "int",
+        "px",
+        "1000",
+        "Width in pixels, in [200, 8000].",
+    ),
+    key(
+        "height",
+        "int",
+        "px",
+        "800",
+        "Height in pixels, in [200, 8000].",
+    ),
+];
 pub const EVERY_KEYS: &[Key] = &[
     key("steps", "int", "steps", "-", "Call every this many steps."),
     key(
@@ -700,6 +748,10 @@ pub const API: &[FnDoc] = &[
         summary: "Record a number during runs; streamed to `<out_dir>/<name>.csv` (the header when the first value is recorded, then each value appended as it is recorded, so an interrupted or killed run keeps its history). `name` names a file (as the simulation's) and is not `energy` or `cracks`. Monitor methods: `last()`, `len()`, `values()`, `times()`, `write_csv()` (makes sure the file exists), and the post-processing below.", keys: MONITOR_KEYS, laws: &[] },
     FnDoc { section: "Hooks, monitors and output", name: "monitor.peak_abs", signature: "monitor.max(), min(), peak(), peak_abs(), argmax(), argmin(), argmax_abs(), at(t), first_crossing(level [, direction]), slope(t0, t1), fit(t0, t1)",
         summary: "A monitor's history, measured: `max()` (= `peak()`) and `min()` the largest and smallest recorded value (0 before anything is recorded), `peak_abs()` the largest |value| (use it for a load whose sign depends on the direction, e.g. a compressive reaction); `argmax()`, `argmin()`, `argmax_abs()` the time [s] of those values (the first on ties); `at(t)` the value at time t, linear between samples (an error outside the recorded times); `first_crossing(level)` the first time the value reaches `level`, linear between the two samples around it, `()` if it never does (`direction` \"up\", \"down\" or \"any\", the default); `slope(t0, t1)` the least-squares slope over the samples with t0 ≤ t ≤ t1 and `fit(t0, t1)` the whole line `#{ slope, intercept, r2, n }` (an error with fewer than 2 samples). Example: `let rate = load.slope(0.0, 0.002);` (the loading rate [N/s] over the first 2 ms), `let t_half = load.first_crossing(0.5 * load.max(), \"up\");`.", keys: &[], laws: &[] },
+    FnDoc { section: "Hooks, monitors and output", name: "sim.plot", signature: "sim.plot(#{ … }) -> [paths]",
+        summary: "Plot monitors as PNG and SVG in the simulation's output directory, from what they have recorded at the call (call it after a run, or from a hook to follow a long run), with axis labels, units where they are known, a legend and a title; drawn by fdem with its own font (no Python, no system fonts). Returns the paths written (none under `fdem check`). Example: `sim.plot(#{ file: \"load_displacement\", x: \"platen_displacement\", y: [\"platen_force\"], x_label: \"platen displacement [mm]\", y_label: \"force [kN]\" });`. `fdem plot out/DIR` draws the same from the CSV files of a finished run (docs/getting-started.md, Plots).", keys: PLOT_KEYS, laws: &[] },
+    FnDoc { section: "Hooks, monitors and output", name: "sim.plot_energy", signature: "sim.plot_energy([#{ … }]) -> [paths]",
+        summary: "Plot the energy account recorded so far (the samples of energy.csv) as PNG and SVG in the output directory: every term that is not zero throughout against time [J], and the balance error below it in a panel of its own. Returns the paths written.", keys: PLOT_ENERGY_KEYS, laws: &[] },
     FnDoc { section: "Hooks, monitors and output", name: "sim.checkpoint", signature: "sim.checkpoint()",
         summary: "Write the simulation's whole state to `checkpoint.fdemck` in its output directory (replacing the last one, atomically): positions, velocities, joint, contact, bar and rigid-body state, fracture events, the energy account, monitors, hook clocks and output numbering. Called inside a run (from `sim.every`), it is taken at the end of that step. `fdem run SCRIPT --restart out/<name>/checkpoint.fdemck` runs the script again and continues from it bit for bit, for any thread count (same script, same `--set` values, same fdem). Ctrl-C and SIGTERM write one too. A periodic checkpoint: `sim.every(#{ time: 0.1 }, |s| s.checkpoint());`. See docs/getting-started.md, Stopping and restarting.", keys: &[], laws: &[] },
     FnDoc { section: "Hooks, monitors and output", name: "sim.write_vtk", signature: "sim.write_vtk()",

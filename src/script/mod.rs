@@ -15,6 +15,7 @@ mod bindings_materials;
 mod bindings_measurements;
 mod bindings_mesh_io;
 mod bindings_params;
+mod bindings_plot;
 mod bindings_queries;
 mod bindings_reinforcement;
 mod bindings_rigid;
@@ -175,6 +176,7 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     bindings_ground_motion::register(&mut engine);
     bindings_queries::register(&mut engine);
     bindings_hooks::register(&mut engine);
+    bindings_plot::register(&mut engine);
     bindings_joints::register(&mut engine);
     bindings_contact::register(&mut engine, ctx.clone());
     bindings_generators::register(&mut engine);

@@ -175,7 +175,7 @@ fn open_histories(s: &SimHandle) -> RhaiResult<()> {
 }
 
 /// Columns of `energy.csv`.
-const ENERGY_HEADER: [&str; 18] = [
+pub(super) const ENERGY_HEADER: [&str; 18] = [
     "step",
     "time",
     "kinetic",
@@ -196,6 +196,31 @@ const ENERGY_HEADER: [&str; 18] = [
     "balance_error",
 ];
 
+/// One row of `energy.csv` (the columns of [`ENERGY_HEADER`]).
+pub(super) fn energy_row(e: &crate::pipeline::EnergySample) -> [f64; 18] {
+    let en = &e.energy;
+    [
+        e.step as f64,
+        e.time,
+        en.kinetic,
+        en.strain,
+        en.gravity_work,
+        en.force_work,
+        en.reaction_work,
+        en.ground_work,
+        en.mass_damping,
+        en.viscous_damping,
+        en.joint,
+        en.fracture,
+        en.contact,
+        en.friction,
+        en.plastic,
+        en.bond,
+        en.bond_slip,
+        en.balance_error(),
+    ]
+}
+
 /// Columns of `cracks.csv` (mode: 1 = I, 2 = II, 3 = mixed; body: body id).
 const CRACKS_HEADER: [&str; 7] = ["joint", "time", "x", "y", "z", "mode", "body"];
 
@@ -205,27 +230,7 @@ fn append_histories(st: &mut SimState) -> Result<(), String> {
     let st = &mut *st;
     if let Some(csv) = st.energy_csv.as_mut() {
         for e in &st.sim.energy_history[st.energy_rows..] {
-            let en = &e.energy;
-            csv.row(&[
-                e.step as f64,
-                e.time,
-                en.kinetic,
-                en.strain,
-                en.gravity_work,
-                en.force_work,
-                en.reaction_work,
-                en.ground_work,
-                en.mass_damping,
-                en.viscous_damping,
-                en.joint,
-                en.fracture,
-                en.contact,
-                en.friction,
-                en.plastic,
-                en.bond,
-                en.bond_slip,
-                en.balance_error(),
-            ])?;
+            csv.row(&energy_row(e))?;
         }
         st.energy_rows = st.sim.energy_history.len();
     }

@@ -1,0 +1,351 @@
+//! Plots written by fdem itself (`sim.plot`, `sim.plot_energy`, `fdem plot DIR`) and the
+//! headless frame renderer (scripts/plot/render_frame.py).
+//!
+//! A plot cannot be compared with a reference picture, but what it must hold can be read
+//! back: the PNG decodes (with the `png` crate, an independent decoder) to the size asked
+//! for and is not blank; the SVG holds the axis labels with their units, one legend entry per
+//! series and one polyline per series with exactly as many points as the CSV has rows (no
+//! decimation below 4 × width points, src/io/plot.rs); the same CSV gives the same bytes;
+//! bad input is an error that names what is allowed. The renderer's outer surface of a box
+//! of 10 × 2 × 2 cells must have exactly 2·(10·2·4 + 2·2·2) = 176 triangles: it finds them
+//! by matching faces by position, and a wrong reference configuration or matching gives
+//! another number (it gave 400 while it used the current positions of a broken bar).
+
+mod common;
+use common::{fdem, run_script, temp_dir};
+use std::path::Path;
+
+/// A small elastic column settling under gravity, two monitors every 5 steps, plotted.
+const TINY: &str = r#"
+let sim = simulation(#{ name: "tiny", energy_every: 10 });
+let m = material("elastic/munjiza", #{ density: 2000.0, young: 1.0e7, poisson: 0.25 });
+let b = sim.add_body("b", box(#{ min: [0.0, 0.0, 0.0], max: [0.2, 0.2, 0.4] }).mesh(#{ divisions: [1, 1, 2] }), m);
+let base = b.nodes(half_space(#{ point: [0.0, 0.0, 0.001], normal: [0.0, 0.0, -1.0] }));
+let top = b.nodes(half_space(#{ point: [0.0, 0.0, 0.399], normal: [0.0, 0.0, 1.0] }));
+sim.fix(base);
+sim.gravity([0.0, 0.0, -9.81]);
+let settle = sim.monitor("top", #{ every: 5 }, |s| s.displacement(top)[2]);
+let reaction = sim.monitor("reaction", #{ every: 5 }, |s| s.reaction(base)[2]);
+sim.run(#{ steps: 300 });
+let a = sim.plot(#{ file: "top_vs_time", y: "top", width: 640, height: 400 });
+let b2 = sim.plot(#{ file: "reaction_vs_top", x: settle, y: [reaction], x_label: "settlement [m]", y_label: "reaction [N]", title: "Reaction against settlement", format: "svg" });
+let e = sim.plot_energy(#{ format: "both" });
+print(`plotted ${a.len() + b2.len() + e.len()} files`);
+"#;
+
+/// Run TINY into `dir/out`; its output directory.
+fn tiny_run(dir: &Path) -> std::path::PathBuf {
+    let (ok, out, err) = run_script(dir, "tiny", TINY, &[]);
+    assert!(ok, "{out}\n{err}");
+    assert!(out.contains("plotted 5 files"), "{out}");
+    dir.join("out")
+}
+
+/// Width, height and the RGB(A) pixels of a PNG file, decoded by the `png` crate.
+fn decode_png(path: &Path) -> (u32, u32, Vec<u8>, usize) {
+    let dec = png::Decoder::new(std::fs::File::open(path).unwrap());
+    let mut reader = dec.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    buf.truncate(info.buffer_size());
+    (info.width, info.height, buf, info.color_type.samples())
+}
+
+/// Not blank: the share of pixels that are not white, and the variance of the grey levels.
+fn ink(pixels: &[u8], samples: usize) -> (f64, f64) {
+    let grey: Vec<f64> = pixels
+        .chunks(samples)
+        .map(|p| p[..3.min(samples)].iter().map(|&c| c as f64).sum::<f64>() / 3.0)
+        .collect();
+    let n = grey.len() as f64;
+    let mean = grey.iter().sum::<f64>() / n;
+    let var = grey.iter().map(|g| (g - mean).powi(2)).sum::<f64>() / n;
+    let dark = grey.iter().filter(|&&g| g < 250.0).count() as f64 / n;
+    (dark, var)
+}
+
+/// Data rows of a CSV file.
+fn csv_rows(path: &Path) -> usize {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .filter(|l| !l.trim().is_empty())
+        .count()
+}
+
+/// Point counts of the SVG's polylines drawn in `color` (`#RRGGBB`).
+fn polylines(svg: &str, color: &str) -> Vec<usize> {
+    svg.lines()
+        .filter(|l| l.starts_with("<polyline") && l.contains(&format!("stroke=\"{color}\"")))
+        .map(|l| {
+            let pts = l
+                .split("points=\"")
+                .nth(1)
+                .unwrap()
+                .split('"')
+                .next()
+                .unwrap();
+            pts.split_whitespace().count()
+        })
+        .collect()
+}
+
+fn assert_png(path: &Path, w: u32, h: u32) {
+    let (pw, ph, px, samples) = decode_png(path);
+    assert_eq!((pw, ph), (w, h), "{}", path.display());
+    let (dark, var) = ink(&px, samples);
+    // Axes, ticks, labels and a line: a few per cent of the pixels, never all of them. A
+    // blank (all white) picture has 0 and 0; a picture without text has under 1 %.
+    assert!(dark > 0.01 && dark < 0.5, "{}: {dark}", path.display());
+    assert!(var > 100.0, "{}: grey variance {var}", path.display());
+}
+
+#[test]
+fn sim_plot_writes_monitors_and_the_energy_account_as_png_and_svg() {
+    let dir = temp_dir("sim_plot");
+    let out = tiny_run(&dir);
+    let rows = csv_rows(&out.join("top.csv"));
+    assert_eq!(rows, 61, "300 steps, every 5, and the first");
+    // Monitor against time: both files, the size asked for.
+    assert_png(&out.join("top_vs_time.png"), 640, 400);
+    let svg = std::fs::read_to_string(out.join("top_vs_time.svg")).unwrap();
+    // Time runs to ~1e-3 s or more here: scaled by an SI prefix or not, it says [.s].
+    assert!(
+        svg.contains("time [ms]") || svg.contains("time [s]"),
+        "x label"
+    );
+    // A monitor does not know its unit: the label says so.
+    assert!(svg.contains("unit not recorded"), "y label");
+    assert!(svg.contains(">\ntop\n</text>"), "legend entry");
+    let lines = polylines(&svg, "#1F77B4");
+    assert!(
+        lines.contains(&rows),
+        "a polyline of {rows} points: {lines:?}"
+    );
+    // Monitor against monitor, the user's labels drawn as given, SVG only.
+    assert!(!out.join("reaction_vs_top.png").exists());
+    let svg = std::fs::read_to_string(out.join("reaction_vs_top.svg")).unwrap();
+    for text in [
+        "settlement [m]",
+        "reaction [N]",
+        "Reaction against settlement",
+    ] {
+        assert!(svg.contains(text), "{text}");
+    }
+    assert!(polylines(&svg, "#1F77B4").contains(&rows));
+    // The energy account: the terms that are not zero, and the balance error panel.
+    assert_png(&out.join("energy.png"), 1000, 800);
+    let svg = std::fs::read_to_string(out.join("energy.svg")).unwrap();
+    for text in [
+        "kinetic",
+        "strain",
+        "gravity_work",
+        "balance error [",
+        "energy [",
+    ] {
+        assert!(svg.contains(text), "{text}");
+    }
+    let e_rows = csv_rows(&out.join("energy.csv"));
+    assert!(e_rows > 10);
+    assert!(polylines(&svg, "#1F77B4").contains(&e_rows));
+}
+
+#[test]
+fn fdem_plot_draws_a_finished_run_and_is_deterministic() {
+    let dir = temp_dir("cli_plot");
+    let out = tiny_run(&dir);
+    let plot = |extra: &[&str]| {
+        let o = fdem().arg("plot").arg(&out).args(extra).output().unwrap();
+        (
+            o.status.success(),
+            String::from_utf8_lossy(&o.stdout).into_owned(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    let (ok, stdout, stderr) = plot(&["--width", "640", "--height", "400"]);
+    assert!(ok, "{stderr}");
+    // energy, top, reaction: PNG and SVG each (no cracks.csv: no joints).
+    assert_eq!(
+        stdout.lines().filter(|l| l.starts_with("wrote ")).count(),
+        6,
+        "{stdout}"
+    );
+    assert_png(&out.join("top.png"), 640, 400);
+    assert_png(&out.join("reaction.png"), 640, 400);
+    assert_png(&out.join("energy.png"), 640, 533);
+    let svg1 = std::fs::read(out.join("energy.svg")).unwrap();
+    let png1 = std::fs::read(out.join("top.png")).unwrap();
+    let (ok, _, _) = plot(&["--width", "640", "--height", "400"]);
+    assert!(ok);
+    assert_eq!(
+        svg1,
+        std::fs::read(out.join("energy.svg")).unwrap(),
+        "same CSV, same SVG"
+    );
+    assert_eq!(
+        png1,
+        std::fs::read(out.join("top.png")).unwrap(),
+        "same CSV, same PNG"
+    );
+    // Chosen columns from two files, matched on step.
+    let (ok, stdout, stderr) = plot(&["--x", "top", "--y", "reaction", "--format", "svg"]);
+    assert!(ok, "{stderr}");
+    assert!(stdout.contains("reaction_vs_top.svg"), "{stdout}");
+    let svg = std::fs::read_to_string(out.join("reaction_vs_top.svg")).unwrap();
+    let rows = csv_rows(&out.join("top.csv"));
+    assert!(polylines(&svg, "#1F77B4").contains(&rows));
+    // A name in several files: a monitor's own file first (a monitor named "strain" against
+    // the strain energy of energy.csv), else FILE:COLUMN says which.
+    let top = std::fs::read_to_string(out.join("top.csv")).unwrap();
+    std::fs::write(
+        out.join("strain.csv"),
+        top.replacen("step,time,top", "step,time,strain", 1),
+    )
+    .unwrap();
+    let (ok, _, stderr) = plot(&["--x", "strain", "--y", "reaction", "--format", "svg"]);
+    assert!(ok, "{stderr}");
+    let svg = std::fs::read_to_string(out.join("reaction_vs_strain.svg")).unwrap();
+    // The monitor's (its label says its unit is not recorded), not the energy's [J].
+    assert!(svg.contains("\nstrain (") && !svg.contains("\nstrain ["));
+    assert!(polylines(&svg, "#1F77B4").contains(&rows));
+    let (ok, _, stderr) = plot(&["--y", "energy:strain", "--format", "svg"]);
+    assert!(ok, "{stderr}");
+    let svg = std::fs::read_to_string(out.join("strain_vs_time.svg")).unwrap();
+    assert!(
+        svg.contains("strain [") && svg.contains("J]"),
+        "the strain energy"
+    );
+    std::fs::write(out.join("b.csv"), "step,time,q\n0,0,1\n5,0.1,2\n").unwrap();
+    std::fs::write(out.join("c.csv"), "step,time,q\n0,0,3\n5,0.1,4\n").unwrap();
+    let (ok, _, stderr) = plot(&["--y", "q"]);
+    assert!(!ok, "ambiguous");
+    assert!(
+        stderr.contains("column 'q' is in b.csv and c.csv: say which with FILE:COLUMN"),
+        "{stderr}"
+    );
+    let (ok, _, stderr) = plot(&["--y", "c:q", "--format", "svg"]);
+    assert!(ok, "{stderr}");
+    let svg = std::fs::read_to_string(out.join("q_vs_time.svg")).unwrap();
+    assert!(polylines(&svg, "#1F77B4").contains(&2));
+    // Errors: an unknown column names the columns there; a bad format names the formats.
+    let (ok, _, stderr) = plot(&["--y", "nope"]);
+    assert!(!ok);
+    assert!(stderr.contains("no column 'nope'"), "{stderr}");
+    let listed = stderr.split("the columns are: ").nth(1).unwrap_or_default();
+    let listed: Vec<&str> = listed.trim().split(", ").collect();
+    for c in ["kinetic", "reaction", "step", "time", "top"] {
+        assert!(listed.contains(&c), "{c} not listed: {stderr}");
+    }
+    let (ok, _, stderr) = plot(&["--format", "jpg"]);
+    assert!(
+        !ok && stderr.contains("\"png\", \"svg\", \"both\""),
+        "{stderr}"
+    );
+    let (ok, _, stderr) = plot(&["--width", "5"]);
+    assert!(!ok && stderr.contains("[200, 8000]"), "{stderr}");
+    // A directory without CSV files.
+    let empty = temp_dir("cli_plot_empty");
+    let o = fdem().arg("plot").arg(&empty).output().unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && stderr.contains("no CSV files"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn sim_plot_errors_name_what_is_allowed() {
+    let dir = temp_dir("sim_plot_errors");
+    let head = TINY.split("let a = sim.plot").next().unwrap();
+    let cases = [
+        (
+            "sim.plot(#{ file: \"f\", y: \"top\", colour: \"red\" });",
+            "unknown key 'colour'; allowed keys: file, y, x, x_label, y_label, title, format, width, height",
+        ),
+        (
+            "sim.plot(#{ file: \"f\", y: \"tip\" });",
+            "no monitor named \"tip\"; its monitors are \"top\", \"reaction\"",
+        ),
+        ("sim.plot(#{ y: \"top\" });", "missing required key 'file'"),
+        (
+            "sim.plot(#{ file: \"f\", y: \"top\", format: \"gif\" });",
+            "\"png\", \"svg\", \"both\"",
+        ),
+        ("sim.plot(#{ file: \"a/b\", y: \"top\" });", "cannot name a file"),
+        ("sim.plot_energy(#{ size: 3 });", "allowed keys: file, title, format, width, height"),
+    ];
+    for (i, (call, msg)) in cases.iter().enumerate() {
+        let text = format!("{head}{call}\n");
+        let (ok, out, err) = run_script(&dir, &format!("e{i}"), &text, &[]);
+        assert!(!ok, "{call}: {out}");
+        assert!(err.contains(msg), "{call}:\n{err}");
+        // The script's line and column are given.
+        assert!(err.contains(&format!("e{i}.rhai")), "{err}");
+    }
+}
+
+/// PNG needs no system font: the binary links neither fontconfig nor freetype (the font
+/// is bundled, data/fonts/), so a machine without them draws the same text.
+#[cfg(target_os = "linux")]
+#[test]
+fn the_binary_links_no_font_library() {
+    let Ok(o) = std::process::Command::new("ldd")
+        .arg(env!("CARGO_BIN_EXE_fdem"))
+        .output()
+    else {
+        eprintln!("ldd is not installed: nothing to check");
+        return;
+    };
+    let libs = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{libs}");
+    for lib in ["fontconfig", "freetype", "expat"] {
+        assert!(!libs.contains(lib), "fdem links {lib}:\n{libs}");
+    }
+}
+
+/// The headless picture of the cracked state: scripts/tension_bar.rhai in quick mode breaks
+/// the bar in two (8 joints of one section); the renderer draws its last frame with the crack
+/// surface.
+#[test]
+#[ignore = "needs python3 with meshio and matplotlib"]
+fn render_frame_draws_the_cracked_state_headless() {
+    let dir = temp_dir("render");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = dir.join("tb");
+    let o = fdem()
+        .args(["run", "--quiet", "--set", "quick=true", "--out"])
+        .arg(&out)
+        .arg(root.join("scripts/tension_bar.rhai"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let broken = csv_rows(&out.join("cracks.csv"));
+    assert!(broken > 0);
+    let png = dir.join("frame.png");
+    let o = std::process::Command::new("python3")
+        .arg(root.join("scripts/plot/render_frame.py"))
+        .arg(&out)
+        .args(["--cracks", "--scale", "20", "--out"])
+        .arg(&png)
+        .env("MPLBACKEND", "Agg")
+        .env_remove("DISPLAY")
+        .output()
+        .expect("python3 (pip install -r requirements-dev.txt)");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // 10 × 2 × 2 cells of 6 tetrahedra: 176 outer triangles; every broken joint drawn.
+    assert!(stdout.contains("(176 outer faces"), "{stdout}");
+    assert!(
+        stdout.contains(&format!("{broken} broken joints")),
+        "{stdout}"
+    );
+    let (w, h, px, samples) = decode_png(&png);
+    assert!(w > 300 && h > 200, "{w} × {h}");
+    let (dark, var) = ink(&px, samples);
+    assert!(dark > 0.02 && var > 100.0, "{dark} {var}");
+}
