@@ -191,7 +191,7 @@ fn unknown_key_is_named_with_the_allowed_keys() {
     );
     assert!(err.contains("did you mean 'density'?"), "{err}");
     assert!(
-        err.contains("allowed keys: density, young, poisson, viscosity"),
+        err.contains("allowed keys: young, poisson, density, viscosity"),
         "{err}"
     );
 }
