@@ -196,6 +196,29 @@ fn unknown_key_is_named_with_the_allowed_keys() {
     );
 }
 
+/// `elastic/mooney_rivlin` from a script: its constants read back (μ = 2(C₁₀ + C₀₁) = 1 MPa,
+/// K = 50 MPa give E = 9Kμ/(3K + μ) = 2.980 MPa), and a key of the other laws is refused
+/// with the laws that take it and the keys this one takes.
+#[test]
+fn mooney_rivlin_material_from_a_script() {
+    let text = "let m = material(\"elastic/mooney_rivlin\", #{ density: 1100.0, c10: 0.4e6, c01: 0.1e6, bulk: 50.0e6 });\nexpect_near(\"c10\", m.c10, 0.4e6, 1e-12);\nexpect_near(\"c01\", m.c01, 0.1e6, 1e-12);\nexpect_near(\"bulk\", m.bulk, 50.0e6, 1e-12);\nexpect_near(\"young\", m.young, 9.0 * 50.0e6 * 1.0e6 / (150.0e6 + 1.0e6), 1e-12);\nprint(m.law);\n";
+    let (ok, out, err) = run_text("mooney", text, &[]);
+    assert!(ok, "{err}");
+    assert!(out.contains("elastic/mooney_rivlin"), "{out}");
+    let text = "let m = material(\"elastic/mooney_rivlin\",\n    #{ density: 1100.0, young: 1e6, c10: 0.4e6, c01: 0.1e6, bulk: 50.0e6 });\n";
+    let (ok, _, err) = run_text("mooney_key", text, &[]);
+    assert!(!ok);
+    assert!(
+        err.contains("mooney_key.rhai:1:9: error: material(\"elastic/mooney_rivlin\"): key 'young' belongs to \"elastic/small_strain\""),
+        "{err}"
+    );
+    assert!(err.contains("takes c10, c01, bulk, density, viscosity"), "{err}");
+    let text = "let m = material(\"elastic/mooney_rivlin\", #{ density: 1100.0, c10: 0.4e6, c01: 0.1e6 });\n";
+    let (ok, _, err) = run_text("mooney_missing", text, &[]);
+    assert!(!ok);
+    assert!(err.contains("bulk"), "{err}");
+}
+
 #[test]
 fn misspelled_variable_is_a_compile_error_with_its_place() {
     let text = "let size = 0.1;\nlet b = box(#{ min: [0.0, 0.0, 0.0], max: [1.0, 1.0, 1.0] }).mesh(#{ size: sise });\n";
