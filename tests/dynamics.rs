@@ -473,9 +473,15 @@ fn mooney_rivlin_free_vibration_conserves_energy_at_large_strain() {
     let (e_08, stretch, min_k, p) = rubber_cube_vibration(0.8);
     let (e_02, _, _, _) = rubber_cube_vibration(0.2);
     assert!(e_08 < 0.02, "energy error {e_08:e} at safety 0.8");
-    assert!(e_02 < e_08 / 10.0, "energy error {e_02:e} at safety 0.2 vs {e_08:e} at 0.8");
+    assert!(
+        e_02 < e_08 / 10.0,
+        "energy error {e_02:e} at safety 0.2 vs {e_08:e} at 0.8"
+    );
     assert!(p < 1e-10, "momentum {p:e}");
     // Not vacuous: the cube stretches by more than 30 % and the energy sloshes into strain.
     assert!(stretch > 0.3, "largest stretch {stretch}");
-    assert!(min_k < 0.1, "kinetic energy never below {min_k:e} of the initial");
+    assert!(
+        min_k < 0.1,
+        "kinetic energy never below {min_k:e} of the initial"
+    );
 }

@@ -212,7 +212,10 @@ fn mooney_rivlin_material_from_a_script() {
         err.contains("mooney_key.rhai:1:9: error: material(\"elastic/mooney_rivlin\"): key 'young' belongs to \"elastic/small_strain\""),
         "{err}"
     );
-    assert!(err.contains("takes c10, c01, bulk, density, viscosity"), "{err}");
+    assert!(
+        err.contains("takes c10, c01, bulk, density, viscosity"),
+        "{err}"
+    );
     let text = "let m = material(\"elastic/mooney_rivlin\", #{ density: 1100.0, c10: 0.4e6, c01: 0.1e6 });\n";
     let (ok, _, err) = run_text("mooney_missing", text, &[]);
     assert!(!ok);

@@ -565,7 +565,11 @@ mod tests {
         let eps = 0.5 * (g + g.transpose());
         let lambda = k - 2.0 * mu / 3.0;
         let hooke = Mat3::identity() * (lambda * eps.trace()) + eps * (2.0 * mu);
-        for measure in [StressMeasure::Cauchy, StressMeasure::Pk1, StressMeasure::Pk2] {
+        for measure in [
+            StressMeasure::Cauchy,
+            StressMeasure::Pk1,
+            StressMeasure::Pk2,
+        ] {
             let s = m.stress(&(Mat3::identity() + g), measure);
             assert!(
                 (s - hooke).norm() < 1e-5 * hooke.norm(),
@@ -596,7 +600,11 @@ mod tests {
             let f = Mat3::from_diagonal(&crate::math::Vec3::new(lam, s, s));
             let sig = m.stress(&f, StressMeasure::Cauchy);
             let exact = 2.0 * (lam * lam - 1.0 / lam) * (c10 + c01 / lam);
-            close(sig[(0, 0)] - sig[(1, 1)], exact, &format!("uniaxial λ = {lam}"));
+            close(
+                sig[(0, 0)] - sig[(1, 1)],
+                exact,
+                &format!("uniaxial λ = {lam}"),
+            );
             close(sig[(1, 1)], sig[(2, 2)], "lateral symmetry");
             assert!(sig[(0, 1)].abs() < 1e-9 * c10);
         }
@@ -605,8 +613,16 @@ mod tests {
             f[(0, 1)] = gamma;
             let sig = m.stress(&f, StressMeasure::Cauchy);
             close(sig[(0, 1)], 2.0 * (c10 + c01) * gamma, "shear stress");
-            close(sig[(0, 0)] - sig[(2, 2)], 2.0 * c10 * gamma * gamma, "σ11 − σ33");
-            close(sig[(1, 1)] - sig[(2, 2)], -2.0 * c01 * gamma * gamma, "σ22 − σ33");
+            close(
+                sig[(0, 0)] - sig[(2, 2)],
+                2.0 * c10 * gamma * gamma,
+                "σ11 − σ33",
+            );
+            close(
+                sig[(1, 1)] - sig[(2, 2)],
+                -2.0 * c01 * gamma * gamma,
+                "σ22 − σ33",
+            );
         }
     }
 
