@@ -6,12 +6,13 @@
     python3 scripts/plot/laminated_glass.py out/laminated_glass docs/applications/img [tag]
 
 Reads the run's histories (deceleration.csv, ball_velocity.csv, deflection.csv, broken.csv,
-energy.csv) and its last crack surface (laminated_glass_cracks_*.vtu), and writes two PNGs
+energy.csv), its last crack surface (laminated_glass_cracks_*.vtu) and last frame, and writes three PNGs
 (names prefixed `laminated_glass[_tag]`): the histories (the ball's deceleration in g, raw
 every 5 steps and averaged over 0.1 ms, its velocity, the deflection under it and the broken
 joints, and the energy account), and the crack pattern seen from above (the broken glass
 faces of each ply, mirrored from the quarter model to the whole 300 × 300 mm plate, coloured
-by the time they broke; delaminated interface faces in grey).
+by the time they broke; delaminated interface faces in grey), and a section of the last frame
+along the symmetry plane y = 0 (deflected plies, damage, the ball).
 """
 
 import csv
@@ -126,14 +127,17 @@ def crack_pattern(run, prefix, half=0.15):
     # triangles of a through-thickness face project to slivers, so draw each face as its
     # edge-on segment, widened a little, by projecting the triangle.
     fig, axes = plt.subplots(1, 2, figsize=(12, 6))
+    # Interface joints have side A on the glass (`between: [glass, pvb]`), so they are drawn
+    # with their ply.
     for a, ply, name in [(axes[0], 2, "upper ply (struck face)"), (axes[1], 0, "lower ply")]:
         polys, colors, greys = [], [], []
         for k, t in enumerate(tri):
             xy = pts[t][:, :2]
-            z = pts[t][:, 2]
             if body[k] != ply:
                 continue
-            delam = np.ptp(z) < 0.2 * max(np.ptp(xy[:, 0]), np.ptp(xy[:, 1]), 1e-9)
+            q = pts[t]
+            n = np.cross(q[1] - q[0], q[2] - q[0])
+            delam = abs(n[2]) > 0.9 * np.linalg.norm(n)  # a horizontal face: the interface
             for sx in (1, -1):
                 for sy in (1, -1):
                     p = xy * np.array([sx, sy]) * 1e3
@@ -164,11 +168,56 @@ def crack_pattern(run, prefix, half=0.15):
     plt.close(fig)
 
 
+def section(run, prefix, strip=0.004):
+    """The last frame cut near the symmetry plane y = 0: the tetrahedra with a node within
+    `strip` of it, drawn as their x–z outlines (glass coloured by damage, PVB blue), the ball's
+    outline, mirrored about x = 0."""
+    files = sorted(glob.glob(os.path.join(run, "laminated_glass_[0-9]*.vtu")))
+    m = meshio.read(files[-1])
+    tets = m.cells_dict["tetra"]
+    x = m.points
+    body = m.cell_data["body"][0]
+    damage = m.cell_data["damage"][0]
+    keep = [(k, t) for k, t in enumerate(tets) if body[k] != 3 and x[t][:, 1].min() < strip]
+    fig, a = plt.subplots(figsize=(12, 4.5))
+    polys, vals, pvb = [], [], []
+    for k, t in keep:
+        faces = [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]]
+        for sx in (1, -1):
+            for f in faces:
+                p = x[t][f][:, [0, 2]] * np.array([sx, 1.0]) * 1e3
+                if body[k] == 1:
+                    pvb.append(p)
+                else:
+                    polys.append(p)
+                    vals.append(damage[k])
+    pc = PolyCollection(polys, array=np.array(vals), cmap="inferno_r", clim=(0, 1), edgecolor="0.3", lw=0.2)
+    a.add_collection(pc)
+    a.add_collection(PolyCollection(pvb, facecolor="C0", edgecolor="C0", lw=0.2, alpha=0.6))
+    fig.colorbar(pc, ax=a, label="largest joint damage on the tetrahedron's faces")
+    ball = [k for k in range(len(tets)) if body[k] == 3]
+    zc = x[np.unique(tets[ball])][:, 2]
+    r = (zc.max() - zc.min()) / 2
+    th = np.linspace(0, 2 * np.pi, 200)
+    a.plot(r * np.cos(th) * 1e3, (zc.min() + r + r * np.sin(th)) * 1e3, "k-", lw=1)
+    a.set_xlim(-160, 160)
+    a.set_ylim(min(-10, x[:, 2].min() * 1e3 - 5), 60)
+    a.set_aspect("equal")
+    a.set_xlabel("x [mm]")
+    a.set_ylabel("z [mm]")
+    t = os.path.basename(files[-1])
+    a.set_title(f"section y ≈ 0 of the last frame ({t}; mirrored about x = 0; blue: PVB; circle: the ball)")
+    fig.tight_layout()
+    fig.savefig(prefix + "_section.png", dpi=110)
+    plt.close(fig)
+
+
 def main(run, out, tag=""):
     os.makedirs(out, exist_ok=True)
     prefix = os.path.join(out, "laminated_glass" + (f"_{tag}" if tag else ""))
     histories(run, prefix)
     crack_pattern(run, prefix)
+    section(run, prefix)
 
 
 if __name__ == "__main__":
