@@ -171,6 +171,11 @@ fn every_declared_law_parameter_changes_its_law() {
     every_parameter_changes("material", MATERIAL_PARAMS, |g| {
         Material::from_params(Formulation::NeoHookean, g)
     });
+    every_parameter_changes(
+        "elastic/mooney_rivlin",
+        fdem::material::MOONEY_RIVLIN_PARAMS,
+        |g| Material::from_params(Formulation::MooneyRivlin, g),
+    );
     for law in fdem::joints::law::JOINT_LAWS {
         every_parameter_changes(law.name, law.params, |g| {
             let pen = given_penalties(g)?;

@@ -191,9 +191,35 @@ fn unknown_key_is_named_with_the_allowed_keys() {
     );
     assert!(err.contains("did you mean 'density'?"), "{err}");
     assert!(
-        err.contains("allowed keys: density, young, poisson, viscosity"),
+        err.contains("allowed keys: young, poisson, density, viscosity"),
         "{err}"
     );
+}
+
+/// `elastic/mooney_rivlin` from a script: its constants read back (μ = 2(C₁₀ + C₀₁) = 1 MPa,
+/// K = 50 MPa give E = 9Kμ/(3K + μ) = 2.980 MPa), and a key of the other laws is refused
+/// with the laws that take it and the keys this one takes.
+#[test]
+fn mooney_rivlin_material_from_a_script() {
+    let text = "let m = material(\"elastic/mooney_rivlin\", #{ density: 1100.0, c10: 0.4e6, c01: 0.1e6, bulk: 50.0e6 });\nexpect_near(\"c10\", m.c10, 0.4e6, 1e-12);\nexpect_near(\"c01\", m.c01, 0.1e6, 1e-12);\nexpect_near(\"bulk\", m.bulk, 50.0e6, 1e-12);\nexpect_near(\"young\", m.young, 9.0 * 50.0e6 * 1.0e6 / (150.0e6 + 1.0e6), 1e-12);\nprint(m.law);\n";
+    let (ok, out, err) = run_text("mooney", text, &[]);
+    assert!(ok, "{err}");
+    assert!(out.contains("elastic/mooney_rivlin"), "{out}");
+    let text = "let m = material(\"elastic/mooney_rivlin\",\n    #{ density: 1100.0, young: 1e6, c10: 0.4e6, c01: 0.1e6, bulk: 50.0e6 });\n";
+    let (ok, _, err) = run_text("mooney_key", text, &[]);
+    assert!(!ok);
+    assert!(
+        err.contains("mooney_key.rhai:1:9: error: material(\"elastic/mooney_rivlin\"): key 'young' belongs to \"elastic/small_strain\""),
+        "{err}"
+    );
+    assert!(
+        err.contains("takes c10, c01, bulk, density, viscosity"),
+        "{err}"
+    );
+    let text = "let m = material(\"elastic/mooney_rivlin\", #{ density: 1100.0, c10: 0.4e6, c01: 0.1e6 });\n";
+    let (ok, _, err) = run_text("mooney_missing", text, &[]);
+    assert!(!ok);
+    assert!(err.contains("bulk"), "{err}");
 }
 
 #[test]
@@ -441,6 +467,7 @@ fn gate(j, p) { j.opening > p.limit || j.damage >= 1.0 }
 let p = params(#{ n: 2 });
 let sim = simulation(#{ name: "all", out_dir: "ignored", energy_every: 3, stress_output: "pk2", vtk_encoding: "base64" });
 let m = material("elastic/neo_hookean", #{ density: 1000.0, young: 1e6, poisson: 0.3, viscosity: 1.0 });
+let mr = material("elastic/mooney_rivlin", #{ density: 1000.0, c10: 3e5, c01: 5e4, bulk: 1e7, viscosity: 1.0 });
 let mesh = box(#{ min: [0.0, 0.0, 0.0], max: [1.0, 0.5, 0.5] }).mesh(#{ divisions: [2, 1, 1] });
 mesh.rotate(#{ axis: [0.0, 0.0, 1.0], degrees: 0.0, center: [0.0, 0.0, 0.0] });
 let b = sim.add_body("b", mesh, m, #{ layout: "continuous" });

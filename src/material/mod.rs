@@ -11,6 +11,17 @@
 //! | `elastic/st_venant_kirchhoff` | E = ½(FᵀF − I) | S = λ tr E I + 2μ E, P = F S | yes |
 //! | `elastic/munjiza` | Ẽ_d = ½(B/J^{2/3} − I), Ẽ_s = ½(J^{2/3} − 1) I, B = FFᵀ | σ = (2μ Ẽ_d + 3K Ẽ_s)/J^{2/3} | no (Cauchy-elastic) |
 //! | `elastic/neo_hookean` | C = FᵀF, J = det F | P = μ(F − F⁻ᵀ) + λ ln J F⁻ᵀ | yes |
+//! | `elastic/mooney_rivlin` | Ī₁ = J^{-2/3} I₁, Ī₂ = J^{-4/3} I₂ | P = ∂W/∂F below | yes |
+//!
+//! `elastic/mooney_rivlin` is the compressible Mooney–Rivlin solid in the decoupled form of
+//! Holzapfel (2000), *Nonlinear Solid Mechanics*, §6.5 (the form of Abaqus' `MOONEY-RIVLIN`
+//! with D₁ = 2/K): W = C₁₀(Ī₁ − 3) + C₀₁(Ī₂ − 3) + (K/2)(J − 1)², with I₁ = tr C,
+//! I₂ = ½(I₁² − tr C²), C = FᵀF. Its parameters are `c10`, `c01` (both ≥ 0, which makes W
+//! polyconvex, Ball 1977) and the bulk modulus `bulk`; at small strain it is Hooke's law with
+//! μ = 2(C₁₀ + C₀₁) and K, so λ = K − 2μ/3, E = 9Kμ/(3K + μ) and ν = (3K − 2μ)/(2(3K + μ))
+//! are derived from them (the critical time step uses the p-wave modulus K + 4μ/3). With
+//! ∂I₁/∂F = 2F, ∂I₂/∂F = 2(I₁F − FC), ∂J/∂F = J F⁻ᵀ:
+//! P = C₁₀ J^{-2/3}(2F − ⅔ I₁ F⁻ᵀ) + C₀₁ J^{-4/3}(2(I₁F − FC) − ⁴⁄₃ I₂ F⁻ᵀ) + K(J − 1) J F⁻ᵀ.
 //!
 //! `elastic/munjiza` is Munjiza (2004), *The Combined Finite-Discrete Element Method*, eqs.
 //! 4.215–4.220: the left Cauchy–Green tensor split into a shape-changing and a volume-changing
@@ -22,9 +33,10 @@
 //! [Pa·s] the `viscosity` (Munjiza's 2μ_v); P_v = J σ_v F⁻ᵀ (small strain: P_v = η sym(Ḟ)).
 
 use crate::math::{Mat3, Real};
-use crate::params::{value_of, DefaultValue, Given, Param, Range};
+use crate::params::{value_of, DefaultValue, Given, LawParams, Param, Range};
 
-/// Parameters of every elastic law (`material(law, #{ … })`).
+/// Parameters of the laws given by Young's modulus and Poisson's ratio, with the common ones
+/// ([`MATERIAL_COMMON_PARAMS`]); [`Material::new`] checks its arguments against them.
 pub const MATERIAL_PARAMS: &[Param] = &[
     Param::float(
         "density",
@@ -56,6 +68,46 @@ pub const MATERIAL_PARAMS: &[Param] = &[
     ),
 ];
 
+/// Keys every law of `material(law, #{ … })` takes.
+pub const MATERIAL_COMMON_PARAMS: &[Param] = &[MATERIAL_PARAMS[0], MATERIAL_PARAMS[3]];
+
+/// The elastic constants of the laws given by E and ν.
+pub const ELASTIC_PARAMS: &[Param] = &[MATERIAL_PARAMS[1], MATERIAL_PARAMS[2]];
+
+/// The constants of `elastic/mooney_rivlin`.
+pub const MOONEY_RIVLIN_PARAMS: &[Param] = &[
+    Param::float(
+        "c10",
+        "Pa",
+        DefaultValue::Required,
+        Range::NON_NEGATIVE,
+        "C₁₀, the coefficient of Ī₁ − 3; small-strain shear modulus μ = 2(C₁₀ + C₀₁) > 0.",
+    ),
+    Param::float(
+        "c01",
+        "Pa",
+        DefaultValue::Required,
+        Range::NON_NEGATIVE,
+        "C₀₁, the coefficient of Ī₂ − 3 (0 gives a neo-Hookean solid in Ī₁).",
+    ),
+    Param::float(
+        "bulk",
+        "Pa",
+        DefaultValue::Required,
+        Range::POSITIVE,
+        "Bulk modulus K of the volumetric energy (K/2)(J − 1)².",
+    ),
+];
+
+/// The laws of `material(law, #{ … })` and their own keys (besides [`MATERIAL_COMMON_PARAMS`]).
+pub const MATERIAL_LAWS: &[LawParams] = &[
+    LawParams { name: "elastic/small_strain", summary: "Hooke's law on the linear strain sym(F) − I (not objective).", params: ELASTIC_PARAMS },
+    LawParams { name: "elastic/st_venant_kirchhoff", summary: "Hooke's law between the Green–Lagrange strain and the PK2 stress.", params: ELASTIC_PARAMS },
+    LawParams { name: "elastic/munjiza", summary: "Left Cauchy–Green split into shape and volume change, Cauchy stress (Munjiza 2004 eq. 4.220).", params: ELASTIC_PARAMS },
+    LawParams { name: "elastic/neo_hookean", summary: "Compressible neo-Hookean, W = μ/2(I₁ − 3) − μ ln J + λ/2 ln²J.", params: ELASTIC_PARAMS },
+    LawParams { name: "elastic/mooney_rivlin", summary: "Compressible Mooney–Rivlin, W = C₁₀(Ī₁ − 3) + C₀₁(Ī₂ − 3) + K/2 (J − 1)² (Holzapfel 2000 §6.5), for rubber-like solids.", params: MOONEY_RIVLIN_PARAMS },
+];
+
 /// The strain/stress formulation of an elastic material.
 #[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Formulation {
@@ -63,14 +115,16 @@ pub enum Formulation {
     StVenantKirchhoff,
     Munjiza,
     NeoHookean,
+    MooneyRivlin,
 }
 
 impl Formulation {
-    pub const ALL: [Formulation; 4] = [
+    pub const ALL: [Formulation; 5] = [
         Formulation::SmallStrain,
         Formulation::StVenantKirchhoff,
         Formulation::Munjiza,
         Formulation::NeoHookean,
+        Formulation::MooneyRivlin,
     ];
 
     /// Registry name used in scripts.
@@ -80,6 +134,7 @@ impl Formulation {
             Formulation::StVenantKirchhoff => "elastic/st_venant_kirchhoff",
             Formulation::Munjiza => "elastic/munjiza",
             Formulation::NeoHookean => "elastic/neo_hookean",
+            Formulation::MooneyRivlin => "elastic/mooney_rivlin",
         }
     }
 
@@ -137,16 +192,28 @@ pub struct Material {
     pub viscosity: Real,
     /// λ [Pa]
     pub lambda: Real,
-    /// μ [Pa]
+    /// μ [Pa] (Mooney–Rivlin: 2(C₁₀ + C₀₁))
     pub mu: Real,
+    /// C₀₁ [Pa] of `elastic/mooney_rivlin` (C₁₀ = μ/2 − C₀₁); 0 for the other laws.
+    #[serde(default)]
+    pub c01: Real,
 }
 
 impl Material {
-    /// Build from E, ν, ρ; checks 0 < E, −1 < ν < 0.5, ρ > 0, η ≥ 0.
-    /// A material of `formulation` from the values of [`MATERIAL_PARAMS`] (checked, with
-    /// their defaults).
+    /// A material of `formulation` from the values of its law's parameters
+    /// ([`MATERIAL_LAWS`] and [`MATERIAL_COMMON_PARAMS`]; checked, with their defaults).
     pub fn from_params(formulation: Formulation, given: Given) -> Result<Self, String> {
         let v = |name| value_of(MATERIAL_PARAMS, name, given);
+        if formulation == Formulation::MooneyRivlin {
+            let mr = |name| value_of(MOONEY_RIVLIN_PARAMS, name, given);
+            return Material::mooney_rivlin(
+                v("density")?,
+                mr("c10")?,
+                mr("c01")?,
+                mr("bulk")?,
+                v("viscosity")?,
+            );
+        }
         Material::new(
             formulation,
             v("density")?,
@@ -156,6 +223,9 @@ impl Material {
         )
     }
 
+    /// Build from E, ν, ρ; checks 0 < E, −1 < ν < 0.5, ρ > 0, η ≥ 0. For
+    /// `elastic/mooney_rivlin` E and ν set the small-strain constants: C₀₁ = 0 (use
+    /// [`Material::mooney_rivlin`] for both constants).
     pub fn new(
         formulation: Formulation,
         density: Real,
@@ -180,7 +250,50 @@ impl Material {
             viscosity,
             lambda,
             mu,
+            c01: 0.0,
         })
+    }
+
+    /// `elastic/mooney_rivlin` from C₁₀, C₀₁ ≥ 0 (not both 0), the bulk modulus K > 0, ρ > 0
+    /// and η ≥ 0. Its small-strain constants are μ = 2(C₁₀ + C₀₁) and K, which must give
+    /// ν = (3K − 2μ)/(2(3K + μ)) > −1 (always) and < 0.5 (always for finite K).
+    pub fn mooney_rivlin(
+        density: Real,
+        c10: Real,
+        c01: Real,
+        bulk: Real,
+        viscosity: Real,
+    ) -> Result<Self, String> {
+        for (p, x) in MOONEY_RIVLIN_PARAMS.iter().zip([c10, c01, bulk]) {
+            p.check(x)?;
+        }
+        for (p, x) in MATERIAL_COMMON_PARAMS.iter().zip([density, viscosity]) {
+            p.check(x)?;
+        }
+        let mu = 2.0 * (c10 + c01);
+        if mu <= 0.0 {
+            return Err(format!(
+                "c10 + c01 must be > 0 Pa (the shear modulus is 2(c10 + c01)), got {c10} + {c01}"
+            ));
+        }
+        let young = 9.0 * bulk * mu / (3.0 * bulk + mu);
+        let poisson = (3.0 * bulk - 2.0 * mu) / (2.0 * (3.0 * bulk + mu));
+        Ok(Material {
+            name: Formulation::MooneyRivlin.name().to_string(),
+            formulation: Formulation::MooneyRivlin,
+            density,
+            young,
+            poisson,
+            viscosity,
+            lambda: bulk - 2.0 * mu / 3.0,
+            mu,
+            c01,
+        })
+    }
+
+    /// C₁₀ of `elastic/mooney_rivlin` [Pa] (μ/2 for the others, which have no C₀₁).
+    pub fn c10(&self) -> Real {
+        0.5 * self.mu - self.c01
     }
 
     /// Bulk modulus K = λ + 2μ/3 [Pa].
@@ -218,6 +331,19 @@ impl Material {
                 let f_inv_t = f.try_inverse().unwrap_or(Mat3::zeros()).transpose();
                 (f - f_inv_t) * mu + f_inv_t * (lambda * j.ln())
             }
+            Formulation::MooneyRivlin => {
+                let j = f.determinant();
+                let f_inv_t = f.try_inverse().unwrap_or(Mat3::zeros()).transpose();
+                let c = f.transpose() * f;
+                let i1 = c.trace();
+                let i2 = 0.5 * (i1 * i1 - (c * c).trace());
+                let y = inv_cbrt(j.abs()); // J^{-1/3}
+                let (jm23, jm43) = (y * y, y * y * y * y);
+                let (c10, c01) = (self.c10(), self.c01);
+                (f * 2.0 - f_inv_t * (2.0 / 3.0 * i1)) * (c10 * jm23)
+                    + ((f * i1 - f * c) * 2.0 - f_inv_t * (4.0 / 3.0 * i2)) * (c01 * jm43)
+                    + f_inv_t * (self.bulk() * (j - 1.0) * j)
+            }
         }
     }
 
@@ -246,6 +372,16 @@ impl Material {
                 let j = f.determinant();
                 let lnj = j.ln();
                 0.5 * mu * ((f.transpose() * f).trace() - 3.0) - mu * lnj + 0.5 * lambda * lnj * lnj
+            }
+            Formulation::MooneyRivlin => {
+                let j = f.determinant();
+                let c = f.transpose() * f;
+                let i1 = c.trace();
+                let i2 = 0.5 * (i1 * i1 - (c * c).trace());
+                let y = inv_cbrt(j.abs());
+                self.c10() * (i1 * y * y - 3.0)
+                    + self.c01 * (i2 * y * y * y * y - 3.0)
+                    + 0.5 * self.bulk() * (j - 1.0) * (j - 1.0)
             }
         }
     }
@@ -373,5 +509,149 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A rubber-like Mooney–Rivlin solid with both constants non-zero (C₀₁/C₁₀ = 0.25, a
+    /// typical ratio of fits to rubber; K/μ = 50, nearly incompressible).
+    fn rubber() -> Material {
+        Material::mooney_rivlin(1100.0, 0.4e6, 0.1e6, 50e6, 0.0).unwrap()
+    }
+
+    /// A general large deformation (stretches up to ~40 %, shear, J ≈ 1.06).
+    fn big_f() -> Mat3 {
+        Mat3::new(1.3, 0.25, -0.1, 0.05, 0.85, 0.3, -0.15, 0.1, 1.1)
+    }
+
+    /// Reference: P = ∂W/∂F, checked by central differences of W. h = 1e-6 on entries of
+    /// order 1: truncation O(h²) ≈ 1e-12 relative, rounding ε·|W|/h ≈ 1e-10·|W|; 1e-6
+    /// relative to |P| leaves margin and catches any wrong term (a missing ⅔ or ⁴⁄₃ factor
+    /// is an O(1) error).
+    #[test]
+    fn mooney_rivlin_pk1_is_energy_derivative() {
+        let m = rubber();
+        for f in [big_f(), Mat3::identity() * 0.97 + big_f() * 0.02] {
+            let p = m.pk1(&f);
+            let h = 1e-6;
+            for i in 0..3 {
+                for j in 0..3 {
+                    let (mut fp, mut fm) = (f, f);
+                    fp[(i, j)] += h;
+                    fm[(i, j)] -= h;
+                    let d = (m.energy_density(&fp) - m.energy_density(&fm)) / (2.0 * h);
+                    assert!(
+                        (d - p[(i, j)]).abs() < 1e-6 * p.norm(),
+                        "({i},{j}): fd {d:e} vs P {:e}",
+                        p[(i, j)]
+                    );
+                }
+            }
+        }
+    }
+
+    /// Reference: linearised elasticity. At F = I + g, |g| = 1e-6, Mooney–Rivlin is Hooke's
+    /// law with μ = 2(C₁₀ + C₀₁) and bulk modulus K (λ = K − 2μ/3) up to O(|g|) relative;
+    /// 1e-5 relative as for the other laws. Also W(I) = 0, P(I) = 0 and the p-wave modulus
+    /// (used by the critical time step) is K + 4μ/3.
+    #[test]
+    fn mooney_rivlin_is_hooke_at_small_strain() {
+        let m = rubber();
+        let (mu, k) = (2.0 * (0.4e6 + 0.1e6), 50e6);
+        assert!((m.mu - mu).abs() < 1e-9 * mu && (m.bulk() - k).abs() < 1e-9 * k);
+        assert!((m.p_wave_modulus() - (k + 4.0 * mu / 3.0)).abs() < 1e-9 * k);
+        assert!((m.young - 9.0 * k * mu / (3.0 * k + mu)).abs() < 1e-9 * m.young);
+        assert_eq!(m.energy_density(&Mat3::identity()), 0.0);
+        assert!(m.pk1(&Mat3::identity()).norm() < 1e-9 * mu);
+        let g = Mat3::new(1.0, 0.3, -0.2, 0.1, -0.5, 0.4, 0.7, 0.2, 0.6) * 1e-6;
+        let eps = 0.5 * (g + g.transpose());
+        let lambda = k - 2.0 * mu / 3.0;
+        let hooke = Mat3::identity() * (lambda * eps.trace()) + eps * (2.0 * mu);
+        for measure in [
+            StressMeasure::Cauchy,
+            StressMeasure::Pk1,
+            StressMeasure::Pk2,
+        ] {
+            let s = m.stress(&(Mat3::identity() + g), measure);
+            assert!(
+                (s - hooke).norm() < 1e-5 * hooke.norm(),
+                "{measure:?}: {s} vs {hooke}"
+            );
+        }
+    }
+
+    /// Reference: Rivlin's exact results for the incompressible Mooney–Rivlin solid
+    /// (σ = −pI + 2C₁₀B − 2C₀₁B⁻¹; Holzapfel 2000 §7.2, Ogden 1984 §5.3). For an isochoric
+    /// F (J = 1 exactly) the compressible law's volumetric term vanishes and its deviatoric
+    /// part equals the incompressible one up to the pressure, so stress *differences* are
+    /// exact: uniaxial F = diag(λ, λ^{-1/2}, λ^{-1/2}):
+    /// σ₁₁ − σ₂₂ = 2(λ² − 1/λ)(C₁₀ + C₀₁/λ); simple shear F = I + γ e₁⊗e₂: σ₁₂ = 2(C₁₀ + C₀₁)γ,
+    /// σ₁₁ − σ₃₃ = 2C₁₀γ², σ₂₂ − σ₃₃ = −2C₀₁γ². Only rounding separates them: 1e-10 relative.
+    #[test]
+    fn mooney_rivlin_matches_rivlin_uniaxial_and_simple_shear() {
+        let m = rubber();
+        let (c10, c01) = (0.4e6, 0.1e6);
+        let close = |a: Real, b: Real, what: &str| {
+            assert!(
+                (a - b).abs() <= 1e-10 * b.abs().max(c10),
+                "{what}: {a:e} vs {b:e}"
+            );
+        };
+        for lam in [0.5, 0.8, 1.5, 2.0, 3.0] {
+            let s = 1.0 / Real::sqrt(lam);
+            let f = Mat3::from_diagonal(&crate::math::Vec3::new(lam, s, s));
+            let sig = m.stress(&f, StressMeasure::Cauchy);
+            let exact = 2.0 * (lam * lam - 1.0 / lam) * (c10 + c01 / lam);
+            close(
+                sig[(0, 0)] - sig[(1, 1)],
+                exact,
+                &format!("uniaxial λ = {lam}"),
+            );
+            close(sig[(1, 1)], sig[(2, 2)], "lateral symmetry");
+            assert!(sig[(0, 1)].abs() < 1e-9 * c10);
+        }
+        for gamma in [0.1, 0.5, 1.0, 2.0] {
+            let mut f = Mat3::identity();
+            f[(0, 1)] = gamma;
+            let sig = m.stress(&f, StressMeasure::Cauchy);
+            close(sig[(0, 1)], 2.0 * (c10 + c01) * gamma, "shear stress");
+            close(
+                sig[(0, 0)] - sig[(2, 2)],
+                2.0 * c10 * gamma * gamma,
+                "σ11 − σ33",
+            );
+            close(
+                sig[(1, 1)] - sig[(2, 2)],
+                -2.0 * c01 * gamma * gamma,
+                "σ22 − σ33",
+            );
+        }
+    }
+
+    /// Reference: material frame indifference. For any rotation Q, W(QF) = W(F) and
+    /// P(QF) = Q·P(F) (Holzapfel 2000 §6.2). Rounding only: 1e-12 relative.
+    #[test]
+    fn mooney_rivlin_is_objective() {
+        let m = rubber();
+        let f = big_f();
+        let q = nalgebra::Rotation3::from_scaled_axis(crate::math::Vec3::new(0.7, -1.1, 0.4))
+            .into_inner();
+        let (w, wq) = (m.energy_density(&f), m.energy_density(&(q * f)));
+        assert!((w - wq).abs() < 1e-12 * w.abs(), "{w} vs {wq}");
+        let (p, pq) = (m.pk1(&f), m.pk1(&(q * f)));
+        assert!((q * p - pq).norm() < 1e-12 * p.norm());
+        // The Cauchy stress is symmetric (balance of angular momentum).
+        let s = m.stress(&f, StressMeasure::Cauchy);
+        assert!((s - s.transpose()).norm() < 1e-12 * s.norm());
+    }
+
+    /// Parameter checks: negative constants, μ = 0 and a non-positive bulk modulus are
+    /// refused with the parameter named.
+    #[test]
+    fn mooney_rivlin_refuses_bad_constants() {
+        let e = Material::mooney_rivlin(1100.0, -1.0, 0.1e6, 50e6, 0.0).unwrap_err();
+        assert!(e.contains("c10 must be ≥ 0"), "{e}");
+        let e = Material::mooney_rivlin(1100.0, 0.0, 0.0, 50e6, 0.0).unwrap_err();
+        assert!(e.contains("c10 + c01 must be > 0"), "{e}");
+        let e = Material::mooney_rivlin(1100.0, 1e6, 0.0, 0.0, 0.0).unwrap_err();
+        assert!(e.contains("bulk must be > 0"), "{e}");
     }
 }

@@ -1,6 +1,5 @@
 //! Script bindings of the section "Materials": `material(law, #{ … })` and its properties.
 
-use super::api::keys_of;
 use super::opts::{err, Opts, RhaiResult};
 use super::types::MaterialValue;
 use crate::material::{Formulation, Material};
@@ -22,7 +21,7 @@ pub fn register(engine: &mut Engine) {
                     names.join(", ")
                 ));
             };
-            let o = Opts::new("material", m, keys_of("material"))?;
+            let o = Opts::for_law("material", "material", law, m)?;
             let material =
                 Material::from_params(formulation, &|p| o.given(p)).map_err(|e| o.error(e))?;
             Ok(MaterialValue {
@@ -33,6 +32,9 @@ pub fn register(engine: &mut Engine) {
     );
     engine.register_get("young", |m: &mut MaterialValue| m.material.young);
     engine.register_get("poisson", |m: &mut MaterialValue| m.material.poisson);
+    engine.register_get("c10", |m: &mut MaterialValue| m.material.c10());
+    engine.register_get("c01", |m: &mut MaterialValue| m.material.c01);
+    engine.register_get("bulk", |m: &mut MaterialValue| m.material.bulk());
     engine.register_get("density", |m: &mut MaterialValue| m.material.density);
     engine.register_get("viscosity", |m: &mut MaterialValue| m.material.viscosity);
     engine.register_get("law", |m: &mut MaterialValue| {
