@@ -111,7 +111,7 @@ fn volume_in_box(s: &mut SimHandle, bodies: Array, m: Map) -> RhaiResult<f64> {
         )
     };
     let (lo, hi) = (corner("min")?, corner("max")?);
-    if (0..3).any(|k| !(hi[k] > lo[k])) {
+    if (0..3).any(|k| hi[k].partial_cmp(&lo[k]) != Some(std::cmp::Ordering::Greater)) {
         return err("volume_in_box(): 'max' must be above 'min' on every axis");
     }
     let at = match o.string("at")? {
