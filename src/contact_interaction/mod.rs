@@ -581,7 +581,6 @@ pub fn add_contact_forces(
         hist,
         free,
         record_events,
-        events,
         tet_mass,
         geom,
         current_boxes,
@@ -681,9 +680,23 @@ pub fn add_contact_forces(
                 }
             }
         });
-    // Add to the nodes in pair order (deterministic).
+    scatter_in_pair_order(ci, nodes, time)
+}
+
+/// Add the touching pairs' forces to the nodes in pair order (deterministic for any thread
+/// count), record new-contact events, collect the handed-over joints and the step's sums.
+fn scatter_in_pair_order(
+    ci: &mut ContactInteraction,
+    nodes: &mut Nodes,
+    time: Real,
+) -> ContactSums {
     let mut total = ContactSums::default();
-    for ((out, s), hist) in chunk_out.iter().zip(chunk_sums.iter()).zip(hist.iter()) {
+    for ((out, s), hist) in ci
+        .chunk_out
+        .iter()
+        .zip(ci.chunk_sums.iter())
+        .zip(ci.hist.iter())
+    {
         total.add(s);
         for &i in out {
             let po = &hist[(i & !NEW_FLAG) as usize].out;
@@ -691,7 +704,7 @@ pub fn add_contact_forces(
                 nodes.f[po.nodes[k] as usize] += po.f[k];
             }
             if i & NEW_FLAG != 0 {
-                events.push(ContactEvent {
+                ci.events.push(ContactEvent {
                     time,
                     tets: po.tets,
                     point: po.point,
