@@ -489,6 +489,9 @@ expect_within("glue", sim.insert_joints(#{ between: [slab, b], law: glue, gap_to
 let t = sim.add_body("t", tet_mesh(#{ nodes: [[0.0, 0.0, 11.0], [1.0, 0.0, 11.0], [0.0, 1.0, 11.0], [0.0, 0.0, 12.0]], tets: [[0, 1, 2, 3]] }), m);
 let bricks = array(mesh.copy().mirror(#{ point: [0.0, 0.0, 20.0], normal: [0.0, 0.0, 1.0] }), #{ count: [2, 1, 1], spacing: [1.0, 0.0, 0.0] });
 let br = sim.add_body("brick", bricks[1], m);
+let cell = biconcave_cell(#{ radius: 3.91e-6, c0: 0.81e-6, c1: 7.83e-6, c2: -4.39e-6, center: [0.0, 0.0, 50.0], axis: [1.0, 0.0, 0.0], size: 2.0e-6 });
+expect_within("packed cells", random_packing(cell, #{ count: 2, min: [0.0, 0.0, 0.0], max: [3.0e-5, 3.0e-5, 3.0e-5], gap: 1.0e-7, rotate: true, seed: 3, attempts: 1000 }).n_blocks, 2, 2);
+expect_within("volume in a box", sim.volume_in_box([b], #{ min: [0.0, 0.0, 0.0], max: [0.5, 0.5, 0.5], at: "reference" }), 0.1249999, 0.1250001);
 fn elastic_steel(b, p) { #{ stress: b.young * (b.strain - b.plastic_strain), plastic_strain: b.plastic_strain, history: b.history } }
 fn flat_bond(b, p) { p.tau }
 let st1 = steel(#{ density: 7800.0, young: 2e11, yield_stress: 4e8, hardening: 1e9, ultimate_strain: 0.2, rate_c: 40.4, rate_p: 5.0 });
