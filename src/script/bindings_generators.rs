@@ -205,12 +205,6 @@ fn biconcave_cell(m: Map) -> RhaiResult<MeshValue> {
 fn random_packing(mesh: MeshValue, m: Map) -> RhaiResult<AssemblyValue> {
     let o = Opts::new("random_packing", m, keys_of("random_packing"))?;
     let count = count(&o, "count", 1)?;
-    let corner = |k: &str| -> RhaiResult<Vec3> {
-        o.vec3(k)?.map_or_else(
-            || err(format!("random_packing(): missing required key '{k}'")),
-            Ok,
-        )
-    };
     let seed = o.int("seed")?.unwrap_or(1);
     let attempts = match o.int("attempts")? {
         None => count.saturating_mul(100),
@@ -223,8 +217,8 @@ fn random_packing(mesh: MeshValue, m: Map) -> RhaiResult<AssemblyValue> {
     };
     let p = packing::Placement {
         count,
-        min: corner("min")?,
-        max: corner("max")?,
+        min: o.req_vec3("min")?,
+        max: o.req_vec3("max")?,
         gap: o.float("gap")?.unwrap_or(0.0),
         rotate: o.typed::<bool>("rotate", "true or false")?.unwrap_or(true),
         seed: seed as u64,

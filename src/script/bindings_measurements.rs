@@ -104,13 +104,7 @@ pub fn register(engine: &mut Engine) {
 /// `sim.volume_in_box(bodies, #{ min, max, at })`: the bodies' volume inside a box [m³].
 fn volume_in_box(s: &mut SimHandle, bodies: Array, m: Map) -> RhaiResult<f64> {
     let o = Opts::new("volume_in_box", m, keys_of("sim.volume_in_box"))?;
-    let corner = |k: &str| -> RhaiResult<Vec3> {
-        o.vec3(k)?.map_or_else(
-            || err(format!("volume_in_box(): missing required key '{k}'")),
-            Ok,
-        )
-    };
-    let (lo, hi) = (corner("min")?, corner("max")?);
+    let (lo, hi) = (o.req_vec3("min")?, o.req_vec3("max")?);
     if (0..3).any(|k| hi[k].partial_cmp(&lo[k]) != Some(std::cmp::Ordering::Greater)) {
         return err("volume_in_box(): 'max' must be above 'min' on every axis");
     }
