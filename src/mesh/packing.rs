@@ -9,7 +9,9 @@
 //! cells) pack as densely as their shape allows: candidate copies whose bounding spheres are
 //! within reach are tested tet against tet with the separating-axis test of
 //! [`super::overlap`], widened by `gap` (a pair is apart only if some axis separates it by at
-//! least `gap`, which is conservative). Draws come from a SplitMix64 stream seeded by `seed`:
+//! least `gap`, which is conservative). Copies whose centres are closer than twice the
+//! radius of a ball about the centre that lies inside the mesh overlap for certain and are
+//! redrawn without the tet test (for round particles that is most rejections). Draws come from a SplitMix64 stream seeded by `seed`:
 //! the same inputs give the same packing on every machine and thread count.
 
 use super::masonry::{Assembly, Block};
@@ -126,6 +128,8 @@ fn place(mesh: &Mesh, p: &Placement) -> Result<Placed, String> {
     let local: Vec<Vec3> = mesh.nodes.iter().map(|q| q - centre).collect();
     let radius = local.iter().map(|q| q.norm()).fold(0.0, Real::max);
     let reach = 2.0 * radius + p.gap;
+    // Copies closer than this overlap for certain (two inscribed balls intersect).
+    let sure_overlap = 2.0 * inscribed_radius(mesh, &centre);
 
     let mut rng = SplitMix64(p.seed);
     let mut placed: Vec<(Vec3, Mesh)> = Vec::with_capacity(p.count.min(1 << 20));
@@ -180,8 +184,13 @@ fn place(mesh: &Mesh, p: &Placement) -> Result<Placed, String> {
                     };
                     for &j in list {
                         let (cj, other) = &placed[j as usize];
-                        if (cj - c).norm() >= reach {
+                        let d = (cj - c).norm();
+                        if d >= reach {
                             continue;
+                        }
+                        if d < sure_overlap {
+                            clear = false;
+                            break 'search;
                         }
                         if overlapping_tets(&copy, other, -p.gap, 1).0 > 0 {
                             clear = false;
@@ -197,6 +206,29 @@ fn place(mesh: &Mesh, p: &Placement) -> Result<Placed, String> {
         }
     }
     Ok((placed, attempts))
+}
+
+/// Radius of a ball about `centre` that lies inside the mesh [m]: the smallest distance from
+/// `centre` to the plane of a boundary face (a lower bound of the distance to the boundary),
+/// or 0 when `centre` is in no tetrahedron (a ring, a biconcave cell's dimple).
+fn inscribed_radius(mesh: &Mesh, centre: &Vec3) -> Real {
+    if super::locate::locate_points(mesh, &[*centre], 0.0)[0].is_none() {
+        return 0.0;
+    }
+    super::topology::boundary_faces(mesh)
+        .iter()
+        .map(|f| {
+            let [a, b, c] = f.nodes.map(|n| mesh.nodes[n as usize]);
+            let n = (b - a).cross(&(c - a));
+            let len = n.norm();
+            if len > 0.0 {
+                (centre - a).dot(&n).abs() / len
+            } else {
+                0.0
+            }
+        })
+        .fold(Real::INFINITY, Real::min)
+        .min(Real::MAX)
 }
 
 #[cfg(test)]
@@ -305,5 +337,48 @@ mod tests {
         let (placed, _) = place(&ball, &p).unwrap();
         let fraction = placed.len() as Real * ball.volume() / side.powi(3);
         assert!(fraction > 0.2 && fraction < 0.3841, "{fraction}");
+    }
+
+    /// The shortcut that redraws copies without the tet test: the inscribed radius about the
+    /// centre is a lower bound of the distance to the surface (sphere: between 0.9·R and R for
+    /// this mesh; the cell: at most half its 0.81 µm centre thickness), and copies closer than
+    /// twice it overlap on the exact test, in every one of 100 random orientations and
+    /// distances. Reference: the exact tet–tet test of `overlap`, which the shortcut must
+    /// never contradict.
+    #[test]
+    fn the_inscribed_ball_shortcut_only_rejects_copies_that_overlap() {
+        let ball = sphere(0.5, 0.2).unwrap();
+        let cell = biconcave_cell(&EvansFung::HUMAN, 1.2e-6).unwrap();
+        for (mesh, lo, hi) in [(&ball, 0.45, 0.5), (&cell, 0.1e-6, 0.405e-6)] {
+            let (l, h) = mesh.bounds();
+            let centre = 0.5 * (l + h);
+            let r = inscribed_radius(mesh, &centre);
+            assert!(r > lo && r <= hi, "inscribed radius {r}");
+            let mut rng = SplitMix64(5);
+            for _ in 0..100 {
+                let place_copy = |rng: &mut SplitMix64, at: Vec3| {
+                    let q = random_rotation(rng);
+                    let mut m = mesh.clone();
+                    for x in &mut m.nodes {
+                        *x = at + q * (*x - centre);
+                    }
+                    m
+                };
+                let dir = Vec3::new(
+                    rng.uniform() - 0.5,
+                    rng.uniform() - 0.5,
+                    rng.uniform() - 0.5,
+                )
+                .normalize();
+                let d = 2.0 * r * rng.uniform();
+                let a = place_copy(&mut rng, Vec3::zeros());
+                let b = place_copy(&mut rng, dir * d);
+                assert!(
+                    overlapping_tets(&a, &b, 0.0, 1).0 > 0,
+                    "d = {d} < 2r = {}",
+                    2.0 * r
+                );
+            }
+        }
     }
 }
