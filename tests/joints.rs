@@ -1071,3 +1071,99 @@ fn rate_dependent_joints_loaded_fast_and_held_do_not_break() {
     assert!(r.peak < 1.6, "held near 1.5·f_t·A, peak {}", r.peak);
     assert!(r.balance.abs() < 0.02, "balance {}", r.balance);
 }
+
+/// A broken joint whose faces no longer face each other is retired once: what its springs
+/// hold is booked as dissipated, it applies no force, and later calls skip it. Reference: the
+/// energy account — a broken Munjiza joint closed by δ (no slip against its anchors) stores
+/// ½·(p/h)·δ²·A, and retiring it must move exactly that into the dissipation (1e-9: the same
+/// arithmetic in a different order). Cases: slid 3h (past the 2h limit), faces folded onto
+/// each other (mid-surface collapsed, normals opposed); and a control slid 1.5h that stays in force.
+/// (The laminated-glass run booked 9 J of friction that no force paid for in one step from a
+/// folded broken joint kept in force.)
+#[test]
+fn broken_joint_whose_faces_parted_is_retired_with_its_energy_booked() {
+    use fdem::joints::add_joint_forces;
+    let coh = law(Calibration::Exact);
+    let t_dir = Vec3::new(1.0, -1.0, 0.0).normalize();
+    let retire = |slide: Real, fold: bool| {
+        let mut r = rig(coh.clone(), constant(Vec3::zeros()));
+        r.sim.prepare().unwrap();
+        let dc = 3.0 * coh.peak_opening(r.size);
+        let shift = -r.n * dc + t_dir * (slide * r.size);
+        for &i in &r.b_nodes {
+            r.sim.nodes.x[i as usize] += shift;
+        }
+        let faces = r.sim.joints.faces[0];
+        if fold {
+            // Swap where two of B's face nodes sit: face B turns over onto face A.
+            let [b1, b2] = [faces[1][1] as usize, faces[1][2] as usize];
+            r.sim.nodes.x.swap(b1, b2);
+        }
+        let x = r.sim.nodes.x.clone();
+        let (_, _, pts) = fdem::joints::joint_kinematics(&faces, &x);
+        for (p, (_, ds, dir)) in pts.iter().enumerate() {
+            r.sim.joints.state[0][p].damage = 1.0;
+            r.sim.joints.anchor[0][p] = dir * *ds;
+        }
+        r.sim.joints.broken[0] = true;
+        let stored = r.sim.joints.stored_energy(0, &x);
+        let zero = |r: &mut Rig| r.sim.nodes.f.iter_mut().for_each(|f| *f = Vec3::zeros());
+        zero(&mut r);
+        let first = add_joint_forces(&mut r.sim.joints, &mut r.sim.nodes, 0.0, true);
+        let force: Real = r.sim.nodes.f.iter().map(|f| f.norm()).sum();
+        zero(&mut r);
+        let second = add_joint_forces(&mut r.sim.joints, &mut r.sim.nodes, 0.0, true);
+        let force2: Real = r.sim.nodes.f.iter().map(|f| f.norm()).sum();
+        let closed = 0.5 * coh.normal_penalty / r.size * dc * dc * r.area;
+        (
+            first,
+            second,
+            force,
+            force2,
+            stored,
+            closed,
+            r.sim.joints.handed_over[0],
+        )
+    };
+
+    let (first, second, force, force2, stored, closed, handed) = retire(3.0, false);
+    assert!(
+        (stored - closed).abs() < 1e-9 * closed,
+        "stored {stored:e} vs ½(p/h)δ²A = {closed:e}"
+    );
+    assert_eq!((first.parted, handed), (1, true), "slid 3h: retired");
+    assert!(
+        (first.dissipated - closed).abs() < 1e-9 * closed,
+        "booked {:e} vs stored {closed:e}",
+        first.dissipated
+    );
+    assert_eq!(
+        (force, first.energy),
+        (0.0, 0.0),
+        "a retired joint acts no more"
+    );
+    assert_eq!(
+        (second.parted, second.dissipated, second.energy, force2),
+        (0, 0.0, 0.0, 0.0),
+        "and is skipped afterwards"
+    );
+
+    let (first, second, force, _, stored, _, handed) = retire(0.0, true);
+    assert_eq!((first.parted, handed), (1, true), "folded: retired");
+    assert!(
+        (first.dissipated - stored).abs() <= 1e-9 * stored.abs().max(closed),
+        "booked {:e} vs stored {stored:e}",
+        first.dissipated
+    );
+    assert_eq!((force, second.parted, second.dissipated), (0.0, 0, 0.0));
+
+    let (first, second, force, force2, stored, closed, handed) = retire(1.5, false);
+    assert_eq!(
+        (first.parted, handed),
+        (0, false),
+        "slid 1.5h: still in force"
+    );
+    assert!(force > 0.0 && force2 > 0.0, "it pushes the faces apart");
+    assert!((first.energy - stored).abs() < 1e-9 * closed);
+    assert_eq!(second.parted, 0);
+}

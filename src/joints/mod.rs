@@ -263,6 +263,8 @@ pub struct JointSums {
     pub dissipated: Real,
     /// Joints with every point at D = 1 that are not yet marked broken.
     pub newly_failed: usize,
+    /// Broken joints retired in this step because their faces parted ([`faces_parted`]).
+    pub parted: usize,
 }
 
 impl Joints {
@@ -659,6 +661,35 @@ fn joint_jumps(faces: &[[u32; 3]; 2], x: &[Vec3]) -> (Vec3, Real, [Real; 3], [Ve
     (n, 0.5 * len, dn, st)
 }
 
+/// Whether a broken joint's two faces have parted for good: they no longer face each other
+/// (their normals more than 90° apart, or the mid-surface, whose normal the joint's opening
+/// and slip are measured along, shrunk below a quarter of the reference area `area0`), or
+/// a point's jump is more than twice the joint's size `h`. Then the joint's kinematics no
+/// longer describe a crack: a fragment folded back over its neighbour makes the mid-surface
+/// collapse and its normal swing from step to step, and a joint kept in force there turned
+/// that swing into friction slip, booking dissipation that no force paid for (9 J in one
+/// step of the laminated-glass run). Such a joint is handed over to contact for good.
+fn faces_parted(
+    faces: &[[u32; 3]; 2],
+    x: &[Vec3],
+    mid_area: Real,
+    area0: Real,
+    h: Real,
+    pts: &[(Real, Real, Vec3); 3],
+) -> bool {
+    if mid_area < 0.25 * area0 {
+        return true;
+    }
+    if pts.iter().any(|(dn, ds, _)| dn.hypot(*ds) > 2.0 * h) {
+        return true;
+    }
+    let normal = |f: &[u32; 3]| {
+        let [a, b, c] = f.map(|n| x[n as usize]);
+        (b - a).cross(&(c - a))
+    };
+    normal(&faces[0]).dot(&normal(&faces[1])) < 0.0
+}
+
 /// Kinematics of one integration point from [`joint_kinematics`]' (opening, slip, direction).
 #[inline(always)]
 fn point_kinematics(n: Vec3, size: Real, (dn, ds, dir): &(Real, Real, Vec3)) -> PointKinematics {
@@ -764,6 +795,7 @@ pub fn add_joint_forces(
         law,
         size,
         inv_size,
+        area0,
         state,
         anchor,
         broken,
@@ -775,7 +807,8 @@ pub fn add_joint_forces(
         partials,
         ..
     } = joints;
-    let handed_over = &*handed_over;
+    let n_handed = handed_over.len();
+    let hp = SyncPtr(handed_over.as_mut_ptr());
     let x = &nodes.x;
     let fp = SyncPtr(nodes.f.as_mut_ptr());
     let sp = SyncPtr(state.as_mut_ptr());
@@ -788,7 +821,8 @@ pub fn add_joint_forces(
         let mut frame = compiled::Frame::new();
         let mut scaled: (JointLaw, CohesiveConsts);
         for j in range.clone() {
-            if broken[j] && handed_over.get(j).copied().unwrap_or(false) {
+            // SAFETY: as for the state (each joint is read and written by its block only).
+            if broken[j] && j < n_handed && unsafe { *hp.get().add(j) } {
                 continue;
             }
             // SAFETY: blocks are disjoint ranges of joints, so each state is
@@ -832,6 +866,30 @@ pub fn add_joint_forces(
             let uses_anchor = matches!(lw, JointLaw::Cohesive(_));
             // SAFETY: as for the state.
             let anchors = unsafe { &mut *ap.get().add(j) };
+            if was_failed
+                && broken[j]
+                && j < n_handed
+                && faces_parted(&faces[j], x, area, area0[j], size[j], &pts)
+            {
+                // A broken joint whose faces no longer face each other: its springs let go
+                // (what they hold at these kinematics is booked as dissipated, as on
+                // re-opening) and it acts no more.
+                for (p, pt) in pts.iter().enumerate() {
+                    let k = point_kinematics(n, size[j], pt);
+                    let anchor = if uses_anchor {
+                        anchors[p]
+                    } else {
+                        Vec3::zeros()
+                    };
+                    let mut ps = PointState::from_parts(st[p], anchor);
+                    let t = lw.evaluate_in(&mut frame, cs, &k, inv_h, &mut ps, true);
+                    s.dissipated += (t.dissipated + t.energy) * area / 3.0;
+                }
+                // SAFETY: as for the state.
+                unsafe { *hp.get().add(j) = true };
+                s.parted += 1;
+                continue;
+            }
             for (p, pt) in pts.iter().enumerate() {
                 let k = point_kinematics(n, size[j], pt);
                 let dir = pt.2;
@@ -875,6 +933,7 @@ pub fn add_joint_forces(
             total.energy += p.energy;
             total.dissipated += p.dissipated;
             total.newly_failed += p.newly_failed;
+            total.parted += p.parted;
         }
     }
     total
