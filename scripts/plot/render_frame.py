@@ -7,10 +7,12 @@ inside a faint outline of the bodies.
     python3 -m pip install -r requirements-dev.txt      # meshio, numpy, matplotlib
     python3 scripts/plot/render_frame.py OUT_DIR [--frame N] [--field von_mises]
             [--cracks] [--view iso|xz|xy|yz] [--scale 1] [--out FILE.png] [--title TEXT]
+            [--hide-bodies 216-220,3]
 
 OUT_DIR is a run's output directory (it holds <name>_000000.vtu …, and once a joint broke
 <name>_cracks_000000.vtu …). --frame is the frame number (default: the last; negative counts
-from the end). --field is a cell field of the frame: von_mises, damage, fragment, body,
+from the end). --hide-bodies leaves out the tetrahedra of the bodies listed by id (the
+`body` cell field; ids and ranges a-b, comma separated), e.g. a container's walls. --field is a cell field of the frame: von_mises, damage, fragment, body,
 material, contact_pressure (default: fragment when the model has joints, else von_mises).
 --view looks along an axis (xz: from -y, the side; xy: from +z, the top; yz: from +x) or
 from an oblique corner (iso). --scale magnifies the displacement. Writes OUT_DIR/<name>_frame
@@ -102,6 +104,18 @@ def crack_frame(out_dir, name, t):
     return os.path.join(out_dir, best) if best else None
 
 
+def body_ids(spec):
+    """Body ids from "3,216-220" (ids and inclusive ranges)."""
+    ids = []
+    for part in spec.split(","):
+        lo, _, hi = part.strip().partition("-")
+        try:
+            ids.extend(range(int(lo), int(hi or lo) + 1))
+        except ValueError:
+            sys.exit(f"render_frame: --hide-bodies {spec}: expected ids and ranges like 3,216-220")
+    return ids
+
+
 def outer_faces(x0, tets):
     """Faces of the tetrahedra that no other tetrahedron shares (matched by reference
     position, rounded to a millionth of the model's size): (tet index, 3 node ids) each."""
@@ -173,6 +187,7 @@ def main(argv=None):
     ap.add_argument("--scale", type=float, default=1.0)
     ap.add_argument("--out", default=None)
     ap.add_argument("--title", default=None)
+    ap.add_argument("--hide-bodies", default=None)
     a = ap.parse_args(argv)
 
     name = series_name(a.out_dir)
@@ -189,6 +204,14 @@ def main(argv=None):
         sys.exit(f"render_frame: {path} has no tetrahedra")
     tets = m.cells_dict["tetra"]
     fields = {k: np.asarray(v[0]) for k, v in m.cell_data.items()}
+    if a.hide_bodies:
+        if "body" not in fields:
+            sys.exit(f"render_frame: --hide-bodies: {path} has no body field")
+        keep = ~np.isin(fields["body"], body_ids(a.hide_bodies))
+        if not keep.any():
+            sys.exit(f"render_frame: --hide-bodies {a.hide_bodies} hides every tetrahedron")
+        tets = tets[keep]
+        fields = {k: v[keep] for k, v in fields.items()}
     field = a.field or ("fragment" if "fragment" in fields else "von_mises")
     if field not in fields or fields[field].ndim != 1:
         scalars = sorted(k for k, v in fields.items() if v.ndim == 1)
