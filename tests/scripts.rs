@@ -534,7 +534,7 @@ let sel = b.nodes(cyl, #{ at: "reference" });
 let bb = b.bounds(#{ at: "current" });
 sim.every(#{ steps: 2 }, |s| s.write_vtk());
 sim.every(#{ time: 1e-5 }, |s| ());
-let mon = sim.monitor("m", #{ every: 1 }, |s| s.time);
+let mon = sim.monitor("m", #{ every: 1, unit: "s" }, |s| s.time);
 sim.run(#{ max_time: 1.0, duration: 1e-4, steps: 5, stop_when: |s| false, check_every: 1 });
 expect_within("steps", sim.step, 5, 5);
 sim.plot(#{ file: "p", y: [mon], x: "time", x_label: "t [s]", y_label: "time again [s]", title: "T", format: "svg", width: 300, height: 200 });

@@ -15,6 +15,7 @@ record the model received), the energy account, and a picture of the vault with 
 import csv
 import glob
 import os
+import re
 import sys
 
 import matplotlib
@@ -29,10 +30,11 @@ G = 9.80665
 
 
 def read_csv(path):
+    """Columns by name; a header `name [unit]` (a monitor with a unit) is read as `name`."""
     with open(path) as f:
         rows = list(csv.reader(f))
     head, body = rows[0], np.array(rows[1:], dtype=float)
-    return {h: body[:, i] for i, h in enumerate(head)}
+    return {re.sub(r" \[[^\[\]]+\]$", "", h): body[:, i] for i, h in enumerate(head)}
 
 
 def spectrum(t, a, periods, zeta=0.05):

@@ -464,8 +464,8 @@ pub const PLOT_KEYS: &[Key] = &[
     key("file", "string", "", "required", "Name of the figure's files, without extension: `<out_dir>/<file>.png` and `.svg` (replaced if there)."),
     key("y", "string|monitor|array", "", "required", "The monitors to plot: a name, a monitor, or an array of them (one line each, with a legend entry)."),
     key("x", "string|monitor", "", "\"time\"", "The x axis: \"time\" [s], \"step\", or a monitor (each y is paired with the x monitor's sample of the same step; give them the same `every`)."),
-    key("x_label", "string", "", "name and unit", "Label of the x axis, drawn as given (numbers unscaled). Default: `time [s]` scaled by an SI prefix (`time [ms]`), or the monitor's name followed by `(unit not recorded)`: a monitor does not know its unit."),
-    key("y_label", "string", "", "name", "Label of the y axis, drawn as given (numbers unscaled). Default as `x_label`: the monitor's name, `(unit not recorded)`, and the power of ten its numbers are divided by."),
+    key("x_label", "string", "", "name and unit", "Label of the x axis, drawn as given (numbers unscaled). Default: `time [s]` scaled by an SI prefix (`time [ms]`), or the monitor's name and its `unit` (`force [kN]`: an SI prefix where the unit takes one, else a power of ten, `stress [×10³ MPa]`; `(unit not recorded)` for a monitor without one)."),
+    key("y_label", "string", "", "name", "Label of the y axis, drawn as given (numbers unscaled). Default as `x_label`: the monitor's name and unit; for several monitors their names and their common unit, or each unit in its legend entry when they differ."),
     key("title", "string", "", "\"<y> against <x>\"", "Title above the plot."),
     key("format", "string", "", "\"both\"", "\"png\", \"svg\" or \"both\"."),
     key("width", "int", "px", "1000", "Width in pixels, in [200, 8000]."),
@@ -518,13 +518,22 @@ pub const EVERY_KEYS: &[Key] = &[
         "Call each time simulated time passes a multiple of this; at least the time step (shorter is an error at `run`: use `steps: 1`).",
     ),
 ];
-pub const MONITOR_KEYS: &[Key] = &[key(
-    "every",
-    "int",
-    "steps",
-    "1",
-    "Record every this many steps (and once when the run starts).",
-)];
+pub const MONITOR_KEYS: &[Key] = &[
+    key(
+        "every",
+        "int",
+        "steps",
+        "1",
+        "Record every this many steps (and once when the run starts).",
+    ),
+    key(
+        "unit",
+        "string",
+        "",
+        "none",
+        "Unit of the recorded number (\"N\", \"m\", \"J\", \"MPa\", \"m/s\"; \"-\" for a pure number such as a count or a ratio). Written into the CSV header as `name [unit]` and put on plot axes (`force [kN]`, scaled by an SI prefix where the unit takes one). Without it the axis says `(unit not recorded)`. Not empty, no brackets.",
+    ),
+];
 pub const RUN_KEYS: &[Key] = &[
     key("max_time", "float", "s", "-", "Stop when the simulated time reaches this value (absolute)."),
     key("duration", "float", "s", "-", "Run for this much simulated time from now."),

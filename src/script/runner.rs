@@ -651,11 +651,12 @@ fn record(nc: &NativeCallContext, s: &SimHandle, m: &MonitorHandle) -> RhaiResul
     Ok(())
 }
 
-/// Create a monitor's CSV file (header `step,time,<name>`) unless it is open (or under
-/// `fdem check`, which writes nothing).
+/// Create a monitor's CSV file (header `step,time,<name>`, or `step,time,<name> [<unit>]`
+/// with a unit) unless it is open (or under `fdem check`, which writes nothing).
 fn open_monitor(d: &mut super::types::MonitorData) -> Result<(), String> {
     if d.csv.is_none() && !d.dry {
-        d.csv = Some(CsvStream::create(&d.path, &["step", "time", &d.name])?);
+        let value = crate::io::column_header(&d.name, d.unit.as_deref());
+        d.csv = Some(CsvStream::create(&d.path, &["step", "time", &value])?);
     }
     Ok(())
 }

@@ -121,6 +121,8 @@ pub struct MonitorHandle(pub Rc<RefCell<MonitorData>>);
 
 pub struct MonitorData {
     pub name: String,
+    /// The `unit` key: written into the CSV header as `name [unit]`, put on plot axes.
+    pub unit: Option<String>,
     pub every: u64,
     pub f: FnPtr,
     pub times: Vec<f64>,
