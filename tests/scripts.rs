@@ -442,6 +442,67 @@ sim.run(#{{ steps: 20 }});
     );
 }
 
+/// The relative balance error has a floor: its scale is at least ½·Σ E·V₀·(1e-7)², the
+/// model's elastic energy at a strain of 1e-7. Reference: two blocks at rest, the upper
+/// meshed finer than the lower, touching, contact on, no load: roundoff leaves energies of
+/// ~1e-23 J with an unbooked error of the same size, which read as 1.6 of the largest term
+/// and warned before the floor (measured on main). Against the floor (1e-8 J here:
+/// ½·1e9 Pa·0.002 m³·1e-14) it must be below 1e-12. The same model kicked between runs to
+/// ½·m·v² = 3.1e-9 J (below the floor, 0.31 of it: work no term books) must still warn,
+/// with the error over the floor (0.31 ± 5 %: the kick's energy over the floor).
+#[test]
+fn balance_error_has_a_floor_so_a_model_at_rest_does_not_warn() {
+    let model = |kick: &str| {
+        format!(
+            r#"let sim = simulation(#{{ name: "rest" }});
+let m = material("elastic/munjiza", #{{ density: 2500.0, young: 1.0e9, poisson: 0.2 }});
+let a = sim.add_body("a", box(#{{ min: [0.0, 0.0, 0.0], max: [0.1, 0.1, 0.1] }}).mesh(#{{ divisions: [2, 2, 2] }}), m);
+let b = sim.add_body("b", box(#{{ min: [0.0, 0.0, 0.1], max: [0.1, 0.1, 0.2] }}).mesh(#{{ divisions: [3, 3, 3] }}), m);
+sim.fix(a.nodes(half_space(#{{ point: [0.0, 0.0, 0.001], normal: [0.0, 0.0, -1.0] }})));
+sim.contact_law("potential", #{{ friction: 0.5 }});
+sim.run(#{{ steps: 1500 }});
+{kick}
+sim.run(#{{ steps: 1500 }});
+let e = sim.energy();
+print(`floor ${{e.floor}} relative ${{e.relative_error}} largest ${{[e.kinetic, e.strain, e.contact].reduce(|m, v| if v > m {{ v }} else {{ m }}, 0.0)}}`);
+"#
+        )
+    };
+    let number = |out: &str, key: &str| -> f64 {
+        let line = out.lines().find(|l| l.starts_with("floor ")).unwrap();
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let i = words.iter().position(|w| *w == key).unwrap();
+        words[i + 1].parse().unwrap()
+    };
+    let (ok, out, err) = run_text_with_summary("rest", &model(""));
+    assert!(ok, "{err}");
+    let floor = number(&out, "floor");
+    // ½·E·V·ε² over both blocks, to rounding.
+    assert!((floor / 1e-8 - 1.0).abs() < 1e-12, "floor {floor}");
+    // Roundoff-level energies: all terms far below the floor, so the floor is the scale.
+    assert!(number(&out, "largest") < 1e-6 * floor, "{out}");
+    assert!(number(&out, "relative").abs() < 1e-12, "{out}");
+    assert!(!out.contains("WARNING"), "a model at rest warned:\n{out}");
+    assert!(
+        out.contains("of the floor, the model's elastic energy at a strain of 1e-7"),
+        "{out}"
+    );
+    // A real imbalance above 1 % of the floor still warns.
+    let (ok, out, err) = run_text_with_summary(
+        "rest_kicked",
+        &model("sim.initial_velocity(b.nodes(), [5.0e-5, 0.0, 0.0]);"),
+    );
+    assert!(ok, "{err}");
+    let warnings: Vec<&str> = out
+        .lines()
+        .filter(|l| l.contains("WARNING: energy balance error"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "warned once: {out}");
+    assert!(warnings[0].contains("of the floor"), "{}", warnings[0]);
+    let rel = number(&out, "relative");
+    assert!((rel / 0.3125 - 1.0).abs() < 0.05, "relative error {rel}");
+}
+
 #[test]
 fn doc_command_matches_the_script_reference_page() {
     let out = fdem().arg("doc").output().unwrap();

@@ -111,6 +111,9 @@ pub struct Energy {
     pub bond_slip: Real,
     /// Kinetic + strain energy at the first step.
     pub initial: Real,
+    /// The least scale of the relative balance error: the elastic energy of the whole model at
+    /// a strain of [`Energy::FLOOR_STRAIN`] ([`Energy::floor_of`]). Not a term of the balance.
+    pub floor: Real,
 }
 
 impl Energy {
@@ -119,6 +122,19 @@ impl Energy {
     /// summary. Sound runs close to 1e-4 or better (docs/validation.md); 1 % means some
     /// energy is created or lost that no term books.
     pub const WARNING_THRESHOLD: Real = 0.01;
+
+    /// The strain of [`Energy::floor_of`]: 1e-7, far below any strain a model is run for,
+    /// far above the roundoff of positions (1e-16 relative) a model at rest is left with.
+    pub const FLOOR_STRAIN: Real = 1e-7;
+
+    /// The floor of the relative balance error's scale, ½·Σ E·V₀·ε² with ε =
+    /// [`Energy::FLOOR_STRAIN`]: the elastic energy of the whole model at a uniform strain of
+    /// 1e-7, from `young_volume` = Σ E·V₀ over its deformable elements [N·m]. A model at rest
+    /// (or at its first samples) holds energies of roundoff size, and its balance error over
+    /// them is noise of order 1: against this floor it reads as the tiny number it is.
+    pub fn floor_of(young_volume: Real) -> Real {
+        0.5 * young_volume * Self::FLOOR_STRAIN * Self::FLOOR_STRAIN
+    }
 
     /// The relative balance error passes [`Energy::WARNING_THRESHOLD`].
     pub fn balance_is_off(&self) -> bool {
@@ -141,9 +157,10 @@ impl Energy {
         self.kinetic + self.strain + self.joint + self.contact + self.bond + self.dissipated()
             - (self.initial + self.external_work())
     }
-    /// Balance error relative to the largest energy in the account.
-    pub fn relative_balance_error(&self) -> Real {
-        let scale = [
+    /// The scale of the relative balance error: the largest energy in the account, or the
+    /// floor ([`Energy::floor_of`]) when that is larger.
+    pub fn balance_scale(&self) -> Real {
+        [
             self.kinetic,
             self.strain,
             self.joint,
@@ -155,9 +172,26 @@ impl Energy {
             self.reaction_work.abs(),
             self.ground_work.abs(),
             self.dissipated(),
+            self.floor,
         ]
         .into_iter()
-        .fold(0.0, Real::max);
+        .fold(0.0, Real::max)
+    }
+
+    /// What [`Energy::balance_scale`] is, for messages: "the largest term", or the floor when
+    /// every term is smaller.
+    pub fn scale_name(&self) -> &'static str {
+        if self.floor > 0.0 && self.balance_scale() == self.floor {
+            "the floor, the model's elastic energy at a strain of 1e-7"
+        } else {
+            "the largest term"
+        }
+    }
+
+    /// Balance error relative to [`Energy::balance_scale`] (the largest energy in the account,
+    /// at least the floor); 0 when every term is 0.
+    pub fn relative_balance_error(&self) -> Real {
+        let scale = self.balance_scale();
         if scale > 0.0 {
             self.balance_error() / scale
         } else {
@@ -917,6 +951,7 @@ impl Simulation {
                 } else {
                     self.energy.initial
                 },
+                floor: self.energy_floor(),
             };
             self.energy_history.push(EnergySample {
                 step: self.step,

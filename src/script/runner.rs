@@ -486,11 +486,12 @@ fn warn_balance(ctx: &ScriptContext, st: &mut SimState) {
     }
     st.balance_warned = true;
     ctx.say(&format!(
-        "[{}] WARNING: energy balance error {} J at t = {} s is {} of the largest term (over {} %): energy is created or lost that no term books. Check it before trusting the results: a time step near its limit (lower the integrator's safety), a friction or joint law out of its range, or a known limit (docs/theory/contact.md, Energy account)",
+        "[{}] WARNING: energy balance error {} J at t = {} s is {} of {} (over {} %): energy is created or lost that no term books. Check it before trusting the results: a time step near its limit (lower the integrator's safety), a friction or joint law out of its range, or a known limit (docs/theory/contact.md, Energy account)",
         st.name,
         sig(e.balance_error(), 4),
         sig(st.sim.time, 6),
         sig(e.relative_balance_error(), 3),
+        e.scale_name(),
         sig(100.0 * Energy::WARNING_THRESHOLD, 2)
     ));
 }
@@ -953,12 +954,13 @@ fn stage_table(sim: &Simulation) -> String {
 fn balance_lines(sim: &Simulation) -> String {
     let e = &sim.energy;
     let mut s = format!(
-        "   {:<20} {:>12}\n   {:<20} {:>12}   ({} of the largest term)\n",
+        "   {:<20} {:>12}\n   {:<20} {:>12}   ({} of {})\n",
         "initial (kin+strain)",
         sig(e.initial, 5),
         "balance error",
         sig(e.balance_error(), 5),
-        sig(e.relative_balance_error(), 3)
+        sig(e.relative_balance_error(), 3),
+        e.scale_name()
     );
     if let Some(first) = sim
         .energy_history
@@ -966,8 +968,9 @@ fn balance_lines(sim: &Simulation) -> String {
         .find(|h| h.energy.balance_is_off())
     {
         s.push_str(&format!(
-            "   WARNING: the balance error passed {} % of the largest term (first at t = {} s); the energy account does not close\n",
+            "   WARNING: the balance error passed {} % of {} (first at t = {} s); the energy account does not close\n",
             sig(100.0 * Energy::WARNING_THRESHOLD, 2),
+            first.energy.scale_name(),
             sig(first.time, 6)
         ));
     }
