@@ -503,6 +503,72 @@ print(`floor ${{e.floor}} relative ${{e.relative_error}} largest ${{[e.kinetic, 
     assert!((rel / 0.3125 - 1.0).abs() < 0.05, "relative error {rel}");
 }
 
+/// The place of the element that sets dt is where it is now, written so that a micro-scale
+/// model reads (the red blood cell's places printed as 0.0000). Reference: a 8 × 8 × 2 µm
+/// block moving at 0.1 m/s; after the first run it is d = 0.1·t away from where it was
+/// built (t printed by the script), so the element's x lies in [d, d + 8 µm] (tolerance:
+/// the printed 4 significant digits), and every coordinate prints in scientific notation.
+#[test]
+fn dt_messages_give_the_current_place_readably() {
+    let text = r#"let sim = simulation(#{ name: "micro" });
+let m = material("elastic/neo_hookean", #{ density: 1100.0, young: 1.0e4, poisson: 0.3 });
+let b = sim.add_body("cell", box(#{ min: [0.0, 0.0, 0.0], max: [8.0e-6, 8.0e-6, 2.0e-6] }).mesh(#{ divisions: [2, 2, 1] }), m, #{ layout: "continuous" });
+sim.initial_velocity(b.nodes(), [0.1, 0.0, 0.0]);
+sim.run(#{ steps: 2000 });
+print(`moved at t = ${sim.time}`);
+sim.integrator("central_difference", #{ safety: 0.5 });
+sim.run(#{ steps: 1 });
+sim.integrator("central_difference", #{ dt: 1.0 });
+sim.run(#{ steps: 1 });
+"#;
+    let (ok, out, err) = run_text_with_summary("micro", text);
+    assert!(!ok, "dt = 1 s is too large: {out}");
+    let t: f64 = out
+        .lines()
+        .find_map(|l| l.strip_prefix("moved at t = "))
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap();
+    let d = 0.1 * t;
+    assert!(d > 3.0 * 8e-6, "moved farther than its size: {d}");
+    // "(x, y, z)" after "at ": each coordinate in scientific notation, x where it is now.
+    let place = |s: &str| -> Vec<String> {
+        let p = s.split("of body 'cell' at (").nth(1).unwrap();
+        p[..p.find(')').unwrap()]
+            .split(", ")
+            .map(str::to_string)
+            .collect()
+    };
+    let lines: Vec<&str> = out
+        .lines()
+        .filter(|l| l.starts_with("[micro] dt ="))
+        .collect();
+    assert_eq!(
+        lines.len(),
+        2,
+        "the first run's line and the new safety's:\n{out}"
+    );
+    let msg = err
+        .lines()
+        .find(|l| l.contains("is larger than the critical"))
+        .unwrap();
+    for s in [lines[0], lines[1], msg] {
+        let c = place(s);
+        assert!(
+            c.iter().all(|v| v.contains('e')),
+            "scientific notation: {s}"
+        );
+        let x: f64 = c[0].parse().unwrap();
+        let first = std::ptr::eq(s, lines[0]);
+        let (lo, hi) = if first { (0.0, 8e-6) } else { (d, d + 8e-6) };
+        assert!(
+            x >= lo * (1.0 - 1e-3) && x <= hi * (1.0 + 1e-3),
+            "x = {x} not in [{lo}, {hi}]: {s}"
+        );
+    }
+}
+
 #[test]
 fn doc_command_matches_the_script_reference_page() {
     let out = fdem().arg("doc").output().unwrap();

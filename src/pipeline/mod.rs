@@ -214,7 +214,8 @@ pub struct TimeStepInfo {
     pub dt: Real,
     pub critical: Real,
     pub safety: Real,
-    /// Element that sets the critical step, its body and centroid.
+    /// Element that sets the critical step, its body and its centroid where it is when the
+    /// step is chosen (current positions).
     pub tet: usize,
     pub body: String,
     pub centroid: Vec3,
@@ -229,7 +230,7 @@ pub struct TimeStepInfo {
 
 impl std::fmt::Display for TimeStepInfo {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let c = self.centroid;
+        let at = crate::math::fmt_place(&self.centroid);
         let how = if self.fixed {
             "fixed by the script".to_string()
         } else {
@@ -238,8 +239,8 @@ impl std::fmt::Display for TimeStepInfo {
         match self.joints {
             None => write!(
                 f,
-                "dt = {:.4e} s ({how}); critical {:.4e} s set by tet {} of body '{}' at ({:.4}, {:.4}, {:.4})",
-                self.dt, self.critical, self.tet, self.body, c.x, c.y, c.z
+                "dt = {:.4e} s ({how}); critical {:.4e} s set by tet {} of body '{}' at {at}",
+                self.dt, self.critical, self.tet, self.body
             )?,
             Some((node, alone)) => {
                 let by = match (node == usize::MAX, self.contact) {
@@ -251,8 +252,8 @@ impl std::fmt::Display for TimeStepInfo {
                 };
                 write!(
                     f,
-                    "dt = {:.4e} s ({how}); critical {:.4e} s: tetrahedra alone {alone:.4e} s (tet {} of body '{}' at ({:.4}, {:.4}, {:.4})), lowered by {by}",
-                    self.dt, self.critical, self.tet, self.body, c.x, c.y, c.z
+                    "dt = {:.4e} s ({how}); critical {:.4e} s: tetrahedra alone {alone:.4e} s (tet {} of body '{}' at {at}), lowered by {by}",
+                    self.dt, self.critical, self.tet, self.body
                 )?
             }
         }
@@ -681,7 +682,7 @@ impl Simulation {
             return Err(SimError::Invalid("every body is rigid and contact is off: nothing limits the time step; set it with sim.integrator(\"central_difference\", #{ dt })".into()));
         }
         let body = &self.bodies[self.tets.body[tet] as usize];
-        let centroid = self.reference_centroid(tet);
+        let centroid = self.current_centroid(tet);
         let mut info = TimeStepInfo {
             dt: self.settings.safety * critical,
             critical,
@@ -696,8 +697,8 @@ impl Simulation {
         if let Some(dt) = self.settings.dt {
             if dt > critical {
                 return Err(SimError::Invalid(format!(
-                    "dt = {dt:.4e} s is larger than the critical time step {critical:.4e} s set by tet {tet} of body '{}' at ({:.4}, {:.4}, {:.4}); use dt ≤ {:.4e} s or leave dt unset for the automatic step",
-                    body.name, centroid.x, centroid.y, centroid.z, critical
+                    "dt = {dt:.4e} s is larger than the critical time step {critical:.4e} s set by tet {tet} of body '{}' at {}; use dt ≤ {:.4e} s or leave dt unset for the automatic step",
+                    body.name, crate::math::fmt_place(&centroid), critical
                 )));
             }
             info.dt = dt;
@@ -995,25 +996,21 @@ impl Simulation {
             };
             let p = self.nodes.x0[n];
             return format!(
-                "{} node(s) got a non-finite position or velocity in step {step} (stage 7, integration; t = {t:.6e} → {:.6e} s, dt = {dt:.4e} s); first: node {n} of {owner}, reference position ({:.4}, {:.4}, {:.4}). Likely cause: a non-finite force (a law or a table returned NaN or ∞), or a stiffness far above the one the time step was chosen for (a contact or joint penalty, a stiffening material); check the loads and laws acting there",
+                "{} node(s) got a non-finite position or velocity in step {step} (stage 7, integration; t = {t:.6e} → {:.6e} s, dt = {dt:.4e} s); first: node {n} of {owner}, reference position {}. Likely cause: a non-finite force (a law or a table returned NaN or ∞), or a stiffness far above the one the time step was chosen for (a contact or joint penalty, a stiffening material); check the loads and laws acting there",
                 (0..self.nodes.len()).filter(|&i| !self.node_is_finite(i)).count(),
                 t + dt,
-                p.x, p.y, p.z
+                crate::math::fmt_place(&p)
             );
         }
         if let Some(e) = (0..self.tets.len()).find(|&e| self.tet_is_inverted(e)) {
             let b = &self.bodies[self.tets.body[e] as usize].name;
-            let c = self.tets.nodes[e]
-                .iter()
-                .map(|&n| self.nodes.x[n as usize])
-                .sum::<Vec3>()
-                / 4.0;
+            let c = self.current_centroid(e);
             let j = elements::deformation_gradient(&self.tets, &self.nodes.x, e).determinant();
             return format!(
-                "{inverted} element(s) inverted (det F ≤ 0) in step {} (by its motion, t = {:.6e} → {t:.6e} s, dt = {dt:.4e} s), found by {found_by}; first: tet {e} of body '{b}' at ({:.4}, {:.4}, {:.4}) with det F = {j:.3e}. Likely cause: {}",
+                "{inverted} element(s) inverted (det F ≤ 0) in step {} (by its motion, t = {:.6e} → {t:.6e} s, dt = {dt:.4e} s), found by {found_by}; first: tet {e} of body '{b}' at {} with det F = {j:.3e}. Likely cause: {}",
                 step.saturating_sub(1),
                 t - self.dt_prev,
-                c.x, c.y, c.z,
+                crate::math::fmt_place(&c),
                 self.inversion_cause(e)
             );
         }
@@ -1098,7 +1095,7 @@ impl Simulation {
             .map(|(name, v)| format!("c.{name} = {v:.6e}"))
             .collect();
         format!(
-            "friction law '{}' returned friction = {} (μ must be finite and ≥ 0) in step {} (t = {:.6e} s) for the pair of tet {} (body '{}') and tet {} (body '{}') at ({:.4}, {:.4}, {:.4}); its inputs: {}",
+            "friction law '{}' returned friction = {} (μ must be finite and ≥ 0) in step {} (t = {:.6e} s) for the pair of tet {} (body '{}') and tet {} (body '{}') at {}; its inputs: {}",
             law.name,
             f.friction,
             self.step,
@@ -1107,9 +1104,7 @@ impl Simulation {
             body(f.tets[0]),
             f.tets[1],
             body(f.tets[1]),
-            f.point.x,
-            f.point.y,
-            f.point.z,
+            crate::math::fmt_place(&f.point),
             inputs.join(", ")
         )
     }

@@ -52,6 +52,15 @@ impl Simulation {
         self.nodes.m.iter().sum()
     }
 
+    /// Centroid of tet `e` at its current position [m].
+    pub fn current_centroid(&self, e: usize) -> Vec3 {
+        self.tets.nodes[e]
+            .iter()
+            .map(|&n| self.nodes.x[n as usize])
+            .sum::<Vec3>()
+            / 4.0
+    }
+
     /// Centroid of tet `e` in the reference configuration [m].
     pub fn reference_centroid(&self, e: usize) -> Vec3 {
         self.tets.nodes[e]

@@ -280,15 +280,23 @@ fn prepare_run(ctx: &ScriptContext, s: &SimHandle) -> RhaiResult<()> {
             .map_err(|e| format!("run(): {e}"))?;
         warn_jointless_bodies(ctx, &st);
     }
-    let line = st
+    // Printed again when the step or what sets it changes, not when the element that sets
+    // it has only moved (its place is where it is now).
+    let (line, key) = st
         .sim
         .dt_info
         .as_ref()
-        .map(|i| i.to_string())
+        .map(|i| {
+            let unplaced = crate::pipeline::TimeStepInfo {
+                centroid: Default::default(),
+                ..i.clone()
+            };
+            (i.to_string(), unplaced.to_string())
+        })
         .unwrap_or_default();
-    if st.printed_dt.as_deref() != Some(line.as_str()) {
+    if st.printed_dt.as_deref() != Some(key.as_str()) {
         ctx.say(&format!("[{}] {line}", st.name));
-        st.printed_dt = Some(line);
+        st.printed_dt = Some(key);
     }
     Ok(())
 }

@@ -36,7 +36,8 @@ pub struct SimState {
     pub material_ids: HashMap<u64, u32>,
     /// Number of completed `run` calls.
     pub runs: usize,
-    /// Last printed time-step line (printed again only when it changes).
+    /// The last time-step line printed, without the element's place: printed again only when
+    /// the rest changes (`runner::prepare_run`).
     pub printed_dt: Option<String>,
     /// Wall time spent inside runs [s].
     pub wall: f64,
