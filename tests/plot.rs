@@ -459,3 +459,55 @@ fn monitor_keys_and_units_are_checked() {
         assert!(err.contains(&format!("k{i}.rhai")), "{err}");
     }
 }
+
+/// scripts/plot/rc_beam_impact_frame.py drew the concrete at points + displacement, but fdem
+/// writes the points at their current place: the displacement was added twice (the bars,
+/// drawn at their points, sat away from the concrete). Reference: the last frame of the quick
+/// tension bar (broken in two) against its first: the positions drawn are the frame's points
+/// exactly, and the reference positions (points − displacement) are the same in both frames
+/// though the nodes moved between them, to 1e-12 m (roundoff of x − X on coordinates of
+/// order 1 m).
+#[test]
+#[ignore = "needs python3 with meshio and matplotlib"]
+fn rc_beam_frame_draws_the_current_positions_once() {
+    let dir = temp_dir("rc_frame");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = dir.join("tb");
+    let o = fdem()
+        .args(["run", "--quiet", "--set", "quick=true", "--out"])
+        .arg(&out)
+        .arg(root.join("scripts/tension_bar.rhai"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let check = r#"
+import glob, sys
+import meshio, numpy as np
+sys.path.insert(0, sys.argv[1])
+import rc_beam_impact_frame as f
+frames = sorted(p for p in glob.glob(sys.argv[2] + "/tension_bar_[0-9]*.vtu"))
+first, last = meshio.read(frames[0]), meshio.read(frames[-1])
+x, x0 = f.places(last)
+u = np.abs(last.point_data["displacement"] - first.point_data["displacement"]).max()
+assert u > 1e-6, u
+assert np.array_equal(x, last.points)
+err = np.abs(x0 - f.places(first)[1]).max()
+assert err < 1e-12, err
+print(f"displacement up to {u:.3e} m; reference places within {err:.1e} m")
+"#;
+    let o = std::process::Command::new("python3")
+        .arg("-c")
+        .arg(check)
+        .arg(root.join("scripts/plot"))
+        .arg(&out)
+        .env("MPLBACKEND", "Agg")
+        .output()
+        .expect("python3 (pip install -r requirements-dev.txt)");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(stdout.contains("reference places within"), "{stdout}");
+}
