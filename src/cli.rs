@@ -450,7 +450,7 @@ fn dt_cost_line(sim: &Simulation) -> Option<String> {
     dts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let (worst, e) = dts[0];
     let median = dts[dts.len() / 2].0;
-    let c = sim.reference_centroid(e);
+    let at = crate::math::fmt_place(&sim.current_centroid(e));
     let body = &sim.bodies[sim.tets.body[e] as usize].name;
     let ratio = median / worst;
     let note = if ratio >= 3.0 {
@@ -459,10 +459,7 @@ fn dt_cost_line(sim: &Simulation) -> Option<String> {
         ""
     };
     Some(format!(
-        "worst tet {e} of body '{body}' at ({:.4}, {:.4}, {:.4}) allows {} s; the median tet allows {} s: {}× the steps the median would need{note}",
-        c.x,
-        c.y,
-        c.z,
+        "worst tet {e} of body '{body}' at {at} allows {} s; the median tet allows {} s: {}× the steps the median would need{note}",
         sig(worst, 4),
         sig(median, 4),
         sig(ratio, 3)

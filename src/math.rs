@@ -26,6 +26,27 @@ pub fn von_mises(s: &Mat3) -> Real {
         .sqrt()
 }
 
+/// A place for messages, `(x, y, z)` [m]: each coordinate with 4 decimals, or with 4
+/// significant digits in scientific notation below 0.01 m in magnitude (so the places of a
+/// micro-scale model, a red blood cell of 8 µm, do not all print as `0.0000`); zero, and a
+/// coordinate 1e-12 or less of the largest one (roundoff: −1.4e-17 beside 0.1), as `0`.
+pub fn fmt_place(p: &Vec3) -> String {
+    let largest = p
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold(0.0, |m: Real, v| m.max(v.abs()));
+    let c = |v: Real| {
+        if v.abs() <= 1e-12 * largest {
+            "0".to_string()
+        } else if v.abs() < 0.01 {
+            format!("{v:.3e}")
+        } else {
+            format!("{v:.4}")
+        }
+    };
+    format!("({}, {}, {})", c(p.x), c(p.y), c(p.z))
+}
+
 /// Rotation matrix about a unit `axis` by `angle` radians (Rodrigues).
 pub fn rotation_matrix(axis: &Vec3, angle: Real) -> Mat3 {
     let a = axis.normalize();
@@ -48,5 +69,41 @@ impl<T> SyncPtr<T> {
     #[inline(always)]
     pub(crate) fn get(self) -> *mut T {
         self.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Places in messages: 4 decimals from 0.01 m up, 4 significant digits in scientific
+    /// notation below (a micro-scale model's places are not 0.0000), zero as 0.
+    #[test]
+    fn places_read_at_every_scale() {
+        assert_eq!(
+            fmt_place(&Vec3::new(0.5125, 0.0125, 1.155)),
+            "(0.5125, 0.0125, 1.1550)"
+        );
+        assert_eq!(
+            fmt_place(&Vec3::new(3.91e-6, -1.2344e-7, 0.0)),
+            "(3.910e-6, -1.234e-7, 0)"
+        );
+        assert_eq!(
+            fmt_place(&Vec3::new(0.00625, 0.01, -12.0)),
+            "(6.250e-3, 0.0100, -12.0000)"
+        );
+        assert_eq!(
+            fmt_place(&Vec3::new(Real::NAN, 1e5, 0.0)),
+            "(NaN, 100000.0000, 0)"
+        );
+        // Roundoff beside the other coordinates is 0; a small coordinate of a small place is not.
+        assert_eq!(
+            fmt_place(&Vec3::new(0.1, 0.05, -1.4e-17)),
+            "(0.1000, 0.0500, 0)"
+        );
+        assert_eq!(
+            fmt_place(&Vec3::new(2e-6, 1e-19, 1e-9)),
+            "(2.000e-6, 0, 1.000e-9)"
+        );
     }
 }

@@ -442,6 +442,133 @@ sim.run(#{{ steps: 20 }});
     );
 }
 
+/// The relative balance error has a floor: its scale is at least ½·Σ E·V₀·(1e-7)², the
+/// model's elastic energy at a strain of 1e-7. Reference: two blocks at rest, the upper
+/// meshed finer than the lower, touching, contact on, no load: roundoff leaves energies of
+/// ~1e-23 J with an unbooked error of the same size, which read as 1.6 of the largest term
+/// and warned before the floor (measured on main). Against the floor (1e-8 J here:
+/// ½·1e9 Pa·0.002 m³·1e-14) it must be below 1e-12. The same model kicked between runs to
+/// ½·m·v² = 3.1e-9 J (below the floor, 0.31 of it: work no term books) must still warn,
+/// with the error over the floor (0.31 ± 5 %: the kick's energy over the floor).
+#[test]
+fn balance_error_has_a_floor_so_a_model_at_rest_does_not_warn() {
+    let model = |kick: &str| {
+        format!(
+            r#"let sim = simulation(#{{ name: "rest" }});
+let m = material("elastic/munjiza", #{{ density: 2500.0, young: 1.0e9, poisson: 0.2 }});
+let a = sim.add_body("a", box(#{{ min: [0.0, 0.0, 0.0], max: [0.1, 0.1, 0.1] }}).mesh(#{{ divisions: [2, 2, 2] }}), m);
+let b = sim.add_body("b", box(#{{ min: [0.0, 0.0, 0.1], max: [0.1, 0.1, 0.2] }}).mesh(#{{ divisions: [3, 3, 3] }}), m);
+sim.fix(a.nodes(half_space(#{{ point: [0.0, 0.0, 0.001], normal: [0.0, 0.0, -1.0] }})));
+sim.contact_law("potential", #{{ friction: 0.5 }});
+sim.run(#{{ steps: 1500 }});
+{kick}
+sim.run(#{{ steps: 1500 }});
+let e = sim.energy();
+print(`floor ${{e.floor}} relative ${{e.relative_error}} largest ${{[e.kinetic, e.strain, e.contact].reduce(|m, v| if v > m {{ v }} else {{ m }}, 0.0)}}`);
+"#
+        )
+    };
+    let number = |out: &str, key: &str| -> f64 {
+        let line = out.lines().find(|l| l.starts_with("floor ")).unwrap();
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let i = words.iter().position(|w| *w == key).unwrap();
+        words[i + 1].parse().unwrap()
+    };
+    let (ok, out, err) = run_text_with_summary("rest", &model(""));
+    assert!(ok, "{err}");
+    let floor = number(&out, "floor");
+    // ½·E·V·ε² over both blocks, to rounding.
+    assert!((floor / 1e-8 - 1.0).abs() < 1e-12, "floor {floor}");
+    // Roundoff-level energies: all terms far below the floor, so the floor is the scale.
+    assert!(number(&out, "largest") < 1e-6 * floor, "{out}");
+    assert!(number(&out, "relative").abs() < 1e-12, "{out}");
+    assert!(!out.contains("WARNING"), "a model at rest warned:\n{out}");
+    assert!(
+        out.contains("of the floor, the model's elastic energy at a strain of 1e-7"),
+        "{out}"
+    );
+    // A real imbalance above 1 % of the floor still warns.
+    let (ok, out, err) = run_text_with_summary(
+        "rest_kicked",
+        &model("sim.initial_velocity(b.nodes(), [5.0e-5, 0.0, 0.0]);"),
+    );
+    assert!(ok, "{err}");
+    let warnings: Vec<&str> = out
+        .lines()
+        .filter(|l| l.contains("WARNING: energy balance error"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "warned once: {out}");
+    assert!(warnings[0].contains("of the floor"), "{}", warnings[0]);
+    let rel = number(&out, "relative");
+    assert!((rel / 0.3125 - 1.0).abs() < 0.05, "relative error {rel}");
+}
+
+/// The place of the element that sets dt is where it is now, written so that a micro-scale
+/// model reads (the red blood cell's places printed as 0.0000). Reference: a 8 × 8 × 2 µm
+/// block moving at 0.1 m/s; after the first run it is d = 0.1·t away from where it was
+/// built (t printed by the script), so the element's x lies in [d, d + 8 µm] (tolerance:
+/// the printed 4 significant digits), and every coordinate prints in scientific notation.
+#[test]
+fn dt_messages_give_the_current_place_readably() {
+    let text = r#"let sim = simulation(#{ name: "micro" });
+let m = material("elastic/neo_hookean", #{ density: 1100.0, young: 1.0e4, poisson: 0.3 });
+let b = sim.add_body("cell", box(#{ min: [0.0, 0.0, 0.0], max: [8.0e-6, 8.0e-6, 2.0e-6] }).mesh(#{ divisions: [2, 2, 1] }), m, #{ layout: "continuous" });
+sim.initial_velocity(b.nodes(), [0.1, 0.0, 0.0]);
+sim.run(#{ steps: 2000 });
+print(`moved at t = ${sim.time}`);
+sim.integrator("central_difference", #{ safety: 0.5 });
+sim.run(#{ steps: 1 });
+sim.integrator("central_difference", #{ dt: 1.0 });
+sim.run(#{ steps: 1 });
+"#;
+    let (ok, out, err) = run_text_with_summary("micro", text);
+    assert!(!ok, "dt = 1 s is too large: {out}");
+    let t: f64 = out
+        .lines()
+        .find_map(|l| l.strip_prefix("moved at t = "))
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap();
+    let d = 0.1 * t;
+    assert!(d > 3.0 * 8e-6, "moved farther than its size: {d}");
+    // "(x, y, z)" after "at ": each coordinate in scientific notation, x where it is now.
+    let place = |s: &str| -> Vec<String> {
+        let p = s.split("of body 'cell' at (").nth(1).unwrap();
+        p[..p.find(')').unwrap()]
+            .split(", ")
+            .map(str::to_string)
+            .collect()
+    };
+    let lines: Vec<&str> = out
+        .lines()
+        .filter(|l| l.starts_with("[micro] dt ="))
+        .collect();
+    assert_eq!(
+        lines.len(),
+        2,
+        "the first run's line and the new safety's:\n{out}"
+    );
+    let msg = err
+        .lines()
+        .find(|l| l.contains("is larger than the critical"))
+        .unwrap();
+    for s in [lines[0], lines[1], msg] {
+        let c = place(s);
+        assert!(
+            c.iter().all(|v| v.contains('e')),
+            "scientific notation: {s}"
+        );
+        let x: f64 = c[0].parse().unwrap();
+        let first = std::ptr::eq(s, lines[0]);
+        let (lo, hi) = if first { (0.0, 8e-6) } else { (d, d + 8e-6) };
+        assert!(
+            x >= lo * (1.0 - 1e-3) && x <= hi * (1.0 + 1e-3),
+            "x = {x} not in [{lo}, {hi}]: {s}"
+        );
+    }
+}
+
 #[test]
 fn doc_command_matches_the_script_reference_page() {
     let out = fdem().arg("doc").output().unwrap();
@@ -534,7 +661,7 @@ let sel = b.nodes(cyl, #{ at: "reference" });
 let bb = b.bounds(#{ at: "current" });
 sim.every(#{ steps: 2 }, |s| s.write_vtk());
 sim.every(#{ time: 1e-5 }, |s| ());
-let mon = sim.monitor("m", #{ every: 1 }, |s| s.time);
+let mon = sim.monitor("m", #{ every: 1, unit: "s" }, |s| s.time);
 sim.run(#{ max_time: 1.0, duration: 1e-4, steps: 5, stop_when: |s| false, check_every: 1 });
 expect_within("steps", sim.step, 5, 5);
 sim.plot(#{ file: "p", y: [mon], x: "time", x_label: "t [s]", y_label: "time again [s]", title: "T", format: "svg", width: 300, height: 200 });

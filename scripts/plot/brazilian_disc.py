@@ -16,6 +16,7 @@ D [m], t [m] and f_t [Pa] default to the script's 0.1, 0.02 and 8.12e6.
 import csv
 import glob
 import os
+import re
 import sys
 
 import matplotlib
@@ -28,10 +29,11 @@ from matplotlib.collections import PolyCollection  # noqa: E402
 
 
 def read_csv(path):
+    """Columns by name; a header `name [unit]` (a monitor with a unit) is read as `name`."""
     with open(path) as f:
         rows = list(csv.reader(f))
     head, body = rows[0], np.array(rows[1:], dtype=float)
-    return {h: body[:, i] for i, h in enumerate(head)}
+    return {re.sub(r" \[[^\[\]]+\]$", "", h): body[:, i] for i, h in enumerate(head)}
 
 
 def main(run, out, D=0.1, t=0.02, f_t=8.12e6):

@@ -15,6 +15,7 @@ record the model received), the energy account, and a picture of the vault with 
 import csv
 import glob
 import os
+import re
 import sys
 
 import matplotlib
@@ -29,10 +30,11 @@ G = 9.80665
 
 
 def read_csv(path):
+    """Columns by name; a header `name [unit]` (a monitor with a unit) is read as `name`."""
     with open(path) as f:
         rows = list(csv.reader(f))
     head, body = rows[0], np.array(rows[1:], dtype=float)
-    return {h: body[:, i] for i, h in enumerate(head)}
+    return {re.sub(r" \[[^\[\]]+\]$", "", h): body[:, i] for i, h in enumerate(head)}
 
 
 def spectrum(t, a, periods, zeta=0.05):
@@ -126,7 +128,7 @@ def main(run, out):
     # The vault and its cracks at the end of the run.
     frame = sorted(glob.glob(os.path.join(run, "dome_[0-9]*.vtu")))[-1]
     m = meshio.read(frame)
-    pts = m.points + m.point_data["displacement"]
+    pts = m.points  # fdem writes the points at their current place
     tris = boundary_triangles(m.cells_dict["tetra"])
     fig = plt.figure(figsize=(8, 7))
     ax = fig.add_subplot(projection="3d")

@@ -18,6 +18,7 @@ along the symmetry plane y = 0 (deflected plies, damage, the ball).
 import csv
 import glob
 import os
+import re
 import sys
 
 import matplotlib
@@ -30,10 +31,11 @@ from matplotlib.collections import PolyCollection  # noqa: E402
 
 
 def read_csv(path):
+    """Columns by name; a header `name [unit]` (a monitor with a unit) is read as `name`."""
     with open(path) as f:
         rows = list(csv.reader(f))
     head, body = rows[0], np.array(rows[1:], dtype=float)
-    return {h: body[:, i] for i, h in enumerate(head)}
+    return {re.sub(r" \[[^\[\]]+\]$", "", h): body[:, i] for i, h in enumerate(head)}
 
 
 def moving_average(t, y, window):

@@ -18,6 +18,7 @@ the load–deflection curves of several runs ("directory:label") in one figure.
 import csv
 import glob
 import os
+import re
 import sys
 
 import matplotlib
@@ -33,10 +34,11 @@ G_F_A = 124.0 * 0.1 * 0.05  # G_F × ligament area [J]
 
 
 def read_csv(path):
+    """Columns by name; a header `name [unit]` (a monitor with a unit) is read as `name`."""
     with open(path) as f:
         rows = list(csv.reader(f))
     head, body = rows[0], np.array(rows[1:], dtype=float)
-    return {h: body[:, i] for i, h in enumerate(head)}
+    return {re.sub(r" \[[^\[\]]+\]$", "", h): body[:, i] for i, h in enumerate(head)}
 
 
 def curve(run):

@@ -21,15 +21,24 @@ import meshio  # noqa: E402
 from matplotlib.collections import LineCollection, PolyCollection  # noqa: E402
 
 
+def places(m):
+    """Current and reference positions of a frame's nodes: fdem writes the points at their
+    current place, so the reference place is points − displacement (adding the displacement
+    to the points, as this script once did, drew the concrete displaced twice, away from the
+    bars, which are drawn where they are)."""
+    x = m.points
+    return x, x - m.point_data["displacement"]
+
+
 def main(run, out, k, depth, title):
     f = sorted(glob.glob(run + "/rc_beam_impact_[0-9]*.vtu"))[k]
     fb = sorted(glob.glob(run + "/rc_beam_impact_bars_[0-9]*.vtu"))[k]
     m, b = meshio.read(f), meshio.read(fb)
-    x = m.points + m.point_data["displacement"]
+    x, x0 = places(m)
     tets = m.cells_dict["tetra"]
     body = m.cell_data["body"][0]
     fragment = m.cell_data["fragment"][0]
-    centroid0 = m.points[tets].mean(axis=1)
+    centroid0 = x0[tets].mean(axis=1)
     front = (centroid0[:, 1] < depth) & (body == 0) & (centroid0[:, 0] < 1.6)
     fig, ax = plt.subplots(figsize=(14, 5))
     ax.add_collection(

@@ -16,6 +16,7 @@ import csv
 import glob
 import math
 import os
+import re
 import sys
 
 import matplotlib
@@ -31,9 +32,10 @@ SIGMA_C = 2 * 20.0 * math.cos(math.radians(30)) / (1 - math.sin(math.radians(30)
 
 
 def column(path, name):
+    """The column `name` of a CSV history; its header may carry a unit (`name [unit]`)."""
     with open(path) as f:
         rows = list(csv.reader(f))
-    i = rows[0].index(name)
+    i = [re.sub(r" \[[^\[\]]+\]$", "", h) for h in rows[0]].index(name)
     return np.array([float(r[i]) for r in rows[1:]])
 
 

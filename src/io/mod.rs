@@ -54,6 +54,42 @@ pub fn csv_header(header: &[&str]) -> String {
     s
 }
 
+/// The header of a column of `name` in `unit`: `name [unit]`, or `name` without a unit
+/// (read back by [`split_unit`]).
+pub fn column_header(name: &str, unit: Option<&str>) -> String {
+    match unit {
+        Some(u) => format!("{name} [{u}]"),
+        None => name.to_string(),
+    }
+}
+
+/// A column header split into name and unit: `force [kN]` → (`force`, `kN`); a header
+/// without a trailing `[unit]` (the CSVs of fdem before units, `step`, `time`) → (itself,
+/// None). Inverse of [`column_header`] for every unit [`check_unit`] accepts.
+pub fn split_unit(header: &str) -> (String, Option<String>) {
+    if let Some((name, rest)) = header.rsplit_once(" [") {
+        if let Some(u) = rest.strip_suffix(']') {
+            if !name.is_empty() && check_unit(u).is_ok() {
+                return (name.to_string(), Some(u.to_string()));
+            }
+        }
+    }
+    (header.to_string(), None)
+}
+
+/// Error unless `u` can be written as a column's unit and read back: not empty, no
+/// surrounding spaces, no brackets, no control characters (`"N"`, `"MPa"`, `"m/s²"`, `"-"`
+/// for a pure number).
+pub fn check_unit(u: &str) -> Result<(), String> {
+    if u.is_empty() || u.trim() != u || u.contains(['[', ']']) || u.chars().any(char::is_control) {
+        return Err(format!(
+            "unit \"{}\" cannot be written in a CSV header as `name [unit]`: give a symbol such as \"N\", \"MPa\" or \"m/s\" (\"-\" for a pure number), without brackets, control characters or surrounding spaces",
+            u.escape_debug()
+        ));
+    }
+    Ok(())
+}
+
 /// A CSV number: integers (step counts, exact zeros) as integers, everything else in
 /// shortest round-trip exponent form (`1.25e-3`).
 pub fn format_number(v: f64) -> String {

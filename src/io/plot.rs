@@ -11,9 +11,11 @@
 //!   breaks the line there); a series of more than [`DECIMATE_FACTOR`] × width points is
 //!   reduced to the first, smallest, largest and last point of each of `width` equal runs of
 //!   samples, so peaks survive and the file stays small;
-//! - axis labels with units: an axis of a known SI unit is scaled by an SI prefix
-//!   (`time [ms]`, `energy [kJ]`); one without a recorded unit says so (`platen_force (unit
-//!   not recorded)`), scaled by a power of ten written in the label when needed;
+//! - axis labels with units: time, the energy terms and a monitor's `unit` (its CSV header
+//!   says `name [unit]`) are scaled by an SI prefix where the unit takes one (`time [ms]`,
+//!   `energy [kJ]`, `force [kN]`), else by a power of ten written in the label
+//!   (`stress [×10³ MPa]`); a monitor given no unit says so (`platen_force (unit not
+//!   recorded)`);
 //! - the same figure gives the same bytes: the SVG is a deterministic function of the data.
 //!
 //! CSV histories are read by [`read_csv`]; [`plot_dir`] makes the standard figures of an
@@ -50,8 +52,10 @@ pub enum Unit {
     Si(String),
     /// A pure number (a count, a ratio).
     None,
-    /// Not recorded where the data came from (a monitor's CSV carries only its name).
+    /// Not recorded where the data came from (a monitor given no `unit`).
     Unknown,
+    /// Several series of different units on one axis: each legend entry carries its own.
+    Mixed,
     /// The label is given whole by the user: drawn as given, numbers unscaled.
     Given,
 }
@@ -404,6 +408,18 @@ fn power_of_ten(e: i32) -> String {
     s
 }
 
+/// Units an SI prefix may be put in front of: coherent SI units without a prefix of their own.
+const PREFIXABLE: [&str; 10] = ["s", "m", "N", "J", "Pa", "W", "Hz", "rad", "V", "A"];
+
+/// Whether an SI prefix can go in front of unit `u`: its first symbol is one of
+/// [`PREFIXABLE`], not raised to a power (`N` → `kN`, `m/s` → `mm/s`, `N·m` → `kN·m`; not
+/// `kg`, `MPa`, `g` or `m²`, where `mm²` would mean 10⁻⁶ m²).
+fn takes_prefix(u: &str) -> bool {
+    let end = u.find(|c: char| !c.is_alphabetic()).unwrap_or(u.len());
+    let (symbol, rest) = u.split_at(end);
+    PREFIXABLE.contains(&symbol) && (rest.is_empty() || rest.starts_with(['/', '·', '*', '.', ' ']))
+}
+
 /// The label of an axis whose numbers are divided by 10^e, and the e used (0 for a label the
 /// user gave: numbers are drawn as they are).
 fn axis_label(a: &Axis, e: i32) -> (String, i32) {
@@ -411,8 +427,7 @@ fn axis_label(a: &Axis, e: i32) -> (String, i32) {
     match &a.unit {
         Unit::Given => (a.name.clone(), 0),
         Unit::Si(u) if e == 0 => (format!("{} [{u}]", a.name), 0),
-        // A prefix on a unit that does not already start with one ("kg" stays "×10³ kg").
-        Unit::Si(u) if prefix.is_some() && u != "kg" => {
+        Unit::Si(u) if prefix.is_some() && takes_prefix(u) => {
             (format!("{} [{}{u}]", a.name, prefix.unwrap()), e)
         }
         Unit::Si(u) => (format!("{} [×{} {u}]", a.name, power_of_ten(e)), e),
@@ -423,6 +438,39 @@ fn axis_label(a: &Axis, e: i32) -> (String, i32) {
             format!("{} (×{}, unit not recorded)", a.name, power_of_ten(e)),
             e,
         ),
+        Unit::Mixed if e == 0 => (format!("{} (units in the legend)", a.name), 0),
+        Unit::Mixed => (
+            format!("{} (×{}, units in the legend)", a.name, power_of_ten(e)),
+            e,
+        ),
+    }
+}
+
+/// The unit a monitor or CSV header records: `"-"` is a pure number, anything else a unit.
+pub fn unit_of(u: &str) -> Unit {
+    if u == "-" {
+        Unit::None
+    } else {
+        Unit::Si(u.to_string())
+    }
+}
+
+/// One y axis named `name` for series on `axes`: their common unit, or [`Unit::Mixed`]
+/// when they differ (label the series with [`legend_label`] then).
+pub fn shared_axis(name: &str, axes: &[Axis]) -> Axis {
+    let unit = match axes.first() {
+        Some(a) if axes.iter().all(|b| b.unit == a.unit) => a.unit.clone(),
+        _ => Unit::Mixed,
+    };
+    Axis::new(name, unit)
+}
+
+/// A legend entry for a series on `a`: its name, with its unit when the y axis is
+/// [`Unit::Mixed`] (`force [N]`).
+pub fn legend_label(a: &Axis, y: &Axis) -> String {
+    match (&y.unit, &a.unit) {
+        (Unit::Mixed, Unit::Si(u)) => format!("{} [{u}]", a.name),
+        _ => a.name.clone(),
     }
 }
 
@@ -637,11 +685,14 @@ fn draw<DB: DrawingBackend>(fig: &Figure, root: &DrawingArea<DB, Shift>) -> Resu
     Ok(())
 }
 
-/// A CSV file of numbers: its column names and rows.
+/// A CSV file of numbers: its column names, their units and rows. A header `name [unit]`
+/// is read as the column `name` in `unit` ([`super::split_unit`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Table {
     pub path: PathBuf,
     pub columns: Vec<String>,
+    /// The unit of each column as its header gives it (None: the header gives none).
+    pub units: Vec<Option<String>>,
     pub rows: Vec<Vec<f64>>,
 }
 
@@ -650,6 +701,16 @@ impl Table {
     pub fn column(&self, name: &str) -> Option<Vec<f64>> {
         let i = self.columns.iter().position(|c| c == name)?;
         Some(self.rows.iter().map(|r| r[i]).collect())
+    }
+
+    /// The axis of column `name`: its unit from the header, else as [`column_axis`] knows it.
+    pub fn axis(&self, name: &str) -> Axis {
+        let unit = self
+            .columns
+            .iter()
+            .position(|c| c == name)
+            .and_then(|i| self.units[i].as_deref());
+        column_axis(&stem_of(&self.path), name, unit)
     }
 }
 
@@ -686,10 +747,10 @@ pub fn read_csv(path: &Path) -> Result<Table, String> {
     let Some((_, header)) = lines.next() else {
         return Err(format!("{}: empty file (no header row)", path.display()));
     };
-    let columns: Vec<String> = split_csv_line(header)
+    let (columns, units): (Vec<String>, Vec<Option<String>>) = split_csv_line(header)
         .into_iter()
-        .map(|c| c.trim().to_string())
-        .collect();
+        .map(|c| super::split_unit(c.trim()))
+        .unzip();
     let mut rows = Vec::new();
     for (i, line) in lines {
         let cells: Vec<&str> = line.split(',').collect();
@@ -719,17 +780,17 @@ pub fn read_csv(path: &Path) -> Result<Table, String> {
     Ok(Table {
         path: path.to_path_buf(),
         columns,
+        units,
         rows,
     })
 }
 
-/// The unit of a column of fdem's own CSV files, by name ("time" s, energy terms J, "step"
-/// and counts none); a header `name [unit]` carries its own; anything else is not recorded.
-pub fn column_axis(file: &str, column: &str) -> Axis {
-    if let Some((name, rest)) = column.rsplit_once(" [") {
-        if let Some(u) = rest.strip_suffix(']') {
-            return Axis::new(name, Unit::Si(u.to_string()));
-        }
+/// The axis of column `column` of file `file` (its stem): in `unit` when one was recorded
+/// (a monitor's `unit`, a header `name [unit]`); else fdem's own columns by name ("time" s,
+/// energy terms J, "step" and counts none); anything else is not recorded.
+pub fn column_axis(file: &str, column: &str, unit: Option<&str>) -> Axis {
+    if let Some(u) = unit {
+        return Axis::new(column, unit_of(u));
     }
     match (file, column) {
         (_, "time") => Axis::new("time", Unit::Si("s".into())),
@@ -891,31 +952,27 @@ pub fn table_figure(t: &Table, width: u32, height: u32) -> Option<Figure> {
     if ys.is_empty() {
         return None;
     }
+    let axes: Vec<Axis> = ys.iter().map(|c| t.axis(c)).collect();
     let y_axis = if ys.len() == 1 {
-        column_axis(&file, ys[0])
+        axes[0].clone()
     } else {
         // One axis for several columns: their common unit, if all have the same.
-        let units: Vec<Unit> = ys.iter().map(|c| column_axis(&file, c).unit).collect();
-        let unit = if units.iter().all(|u| *u == units[0]) {
-            units[0].clone()
-        } else {
-            Unit::Unknown
-        };
-        Axis::new(&file, unit)
+        shared_axis(&file, &axes)
     };
     Some(Figure {
         title: file.clone(),
-        x: column_axis(&file, &xname),
+        x: t.axis(&xname),
         panels: vec![Panel {
-            y: y_axis,
             series: ys
                 .iter()
-                .map(|c| Series {
-                    label: column_axis(&file, c).name,
+                .zip(&axes)
+                .map(|(c, a)| Series {
+                    label: legend_label(a, &y_axis),
                     x: x.clone(),
                     y: t.column(c).unwrap(),
                 })
                 .collect(),
+            y: y_axis,
         }],
         width,
         height,
@@ -1069,8 +1126,7 @@ fn chosen_figure(tables: &[Table], o: &PlotOptions) -> Result<Figure, String> {
         find_column(tables, &xspec)?
     };
     let base = &tables[xi];
-    let file_of = |i: usize| stem_of(&tables[i].path);
-    let x_axis = column_axis(&file_of(xi), &xname);
+    let x_axis = base.axis(&xname);
     let x = base.column(&xname).ok_or_else(|| {
         format!(
             "{} has no '{xname}' column; its columns are: {}",
@@ -1079,8 +1135,18 @@ fn chosen_figure(tables: &[Table], o: &PlotOptions) -> Result<Figure, String> {
         )
     })?;
     let same = yi.iter().all(|&i| i == xi);
+    let axes: Vec<Axis> = ynames
+        .iter()
+        .zip(&yi)
+        .map(|(c, &i)| tables[i].axis(c))
+        .collect();
+    let y_axis = if ynames.len() == 1 {
+        axes[0].clone()
+    } else {
+        shared_axis(&ynames.join(", "), &axes)
+    };
     let mut series = Vec::new();
-    for (name, &i) in ynames.iter().zip(&yi) {
+    for ((name, &i), axis) in ynames.iter().zip(&yi).zip(&axes) {
         let (xs, ys): (Vec<f64>, Vec<f64>) = if same {
             (x.clone(), base.column(name).unwrap())
         } else {
@@ -1104,26 +1170,11 @@ fn chosen_figure(tables: &[Table], o: &PlotOptions) -> Result<Figure, String> {
             ));
         }
         series.push(Series {
-            label: name.clone(),
+            label: legend_label(axis, &y_axis),
             x: xs,
             y: ys,
         });
     }
-    let y_axis = if ynames.len() == 1 {
-        column_axis(&file_of(yi[0]), &ynames[0])
-    } else {
-        let axes: Vec<Axis> = ynames
-            .iter()
-            .zip(&yi)
-            .map(|(c, &i)| column_axis(&file_of(i), c))
-            .collect();
-        let unit = if axes.iter().all(|a| a.unit == axes[0].unit) {
-            axes[0].unit.clone()
-        } else {
-            Unit::Unknown
-        };
-        Axis::new(&ynames.join(", "), unit)
-    };
     Ok(Figure {
         title: o
             .title
@@ -1161,6 +1212,78 @@ mod tests {
             ("platen_force (unit not recorded)".into(), 0)
         );
         assert_eq!(axis_label(&Axis::new("my label", Unit::Given), 6).1, 0);
+    }
+
+    /// A monitor's unit on its axis: an SI prefix where the unit takes one (the first symbol
+    /// a coherent SI unit, not raised to a power), a power of ten otherwise; "-" a number.
+    #[test]
+    fn monitor_units_are_scaled_by_a_prefix_only_where_one_fits() {
+        let label = |name: &str, unit: &str, v: f64| {
+            axis_label(&Axis::new(name, unit_of(unit)), exponent([v].into_iter())).0
+        };
+        assert_eq!(label("force", "N", 2.5e4), "force [kN]");
+        assert_eq!(label("force", "N", 250.0), "force [N]");
+        assert_eq!(label("speed", "m/s", 2e-3), "speed [mm/s]");
+        assert_eq!(label("moment", "N·m", 3e6), "moment [MN·m]");
+        assert_eq!(label("stress", "MPa", 5e3), "stress [×10³ MPa]");
+        assert_eq!(label("area", "m²", 2e-4), "area [×10⁻⁶ m²]");
+        assert_eq!(label("mass", "kg", 2e3), "mass [×10³ kg]");
+        assert_eq!(label("deceleration", "g", 40.0), "deceleration [g]");
+        assert_eq!(label("broken", "-", 12.0), "broken");
+        assert_eq!(label("broken", "-", 1.2e4), "broken [×10³]");
+        // Several series: their common unit, or each unit in its legend entry.
+        let (f, d) = (Axis::new("f", unit_of("N")), Axis::new("d", unit_of("m")));
+        assert_eq!(
+            shared_axis("f, f", &[f.clone(), f.clone()]).unit,
+            Unit::Si("N".into())
+        );
+        let mixed = shared_axis("f, d", &[f.clone(), d.clone()]);
+        assert_eq!(axis_label(&mixed, 0).0, "f, d (units in the legend)");
+        assert_eq!(legend_label(&d, &mixed), "d [m]");
+        assert_eq!(legend_label(&d, &Axis::new("d", unit_of("m"))), "d");
+    }
+
+    /// The header of a monitor with a unit reads back as its name and unit; a header without
+    /// one (every CSV written before units, and `step`, `time`) reads as before.
+    #[test]
+    fn csv_headers_with_units_round_trip_and_old_headers_still_read() {
+        use crate::io::{column_header, split_unit};
+        for (name, unit) in [
+            ("force", Some("kN")),
+            ("a [b]", Some("m/s²")),
+            ("x,y", Some("-")),
+            ("load", None),
+            ("step", None),
+        ] {
+            let h = column_header(name, unit);
+            assert_eq!(
+                split_unit(&h),
+                (name.to_string(), unit.map(str::to_string)),
+                "{h}"
+            );
+        }
+        assert_eq!(
+            split_unit("q []"),
+            ("q []".to_string(), None),
+            "no empty unit"
+        );
+        let dir = std::env::temp_dir().join(format!("fdem-plot-units-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let new = dir.join("load.csv");
+        let header = crate::io::csv_header(&["step", "time", &column_header("load", Some("kN"))]);
+        std::fs::write(&new, format!("{header}0,0,1.5\n")).unwrap();
+        let t = read_csv(&new).unwrap();
+        assert_eq!(t.columns, ["step", "time", "load"]);
+        assert_eq!(t.units, [None, None, Some("kN".to_string())]);
+        assert_eq!(t.axis("load"), Axis::new("load", Unit::Si("kN".into())));
+        assert_eq!(t.axis("time"), Axis::new("time", Unit::Si("s".into())));
+        let old = dir.join("old.csv");
+        std::fs::write(&old, "step,time,load\n0,0,1.5\n").unwrap();
+        let t = read_csv(&old).unwrap();
+        assert_eq!(t.columns, ["step", "time", "load"]);
+        assert_eq!(t.units, [None, None, None]);
+        assert_eq!(t.axis("load"), Axis::new("load", Unit::Unknown));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -111,6 +111,9 @@ pub struct Energy {
     pub bond_slip: Real,
     /// Kinetic + strain energy at the first step.
     pub initial: Real,
+    /// The least scale of the relative balance error: the elastic energy of the whole model at
+    /// a strain of [`Energy::FLOOR_STRAIN`] ([`Energy::floor_of`]). Not a term of the balance.
+    pub floor: Real,
 }
 
 impl Energy {
@@ -119,6 +122,19 @@ impl Energy {
     /// summary. Sound runs close to 1e-4 or better (docs/validation.md); 1 % means some
     /// energy is created or lost that no term books.
     pub const WARNING_THRESHOLD: Real = 0.01;
+
+    /// The strain of [`Energy::floor_of`]: 1e-7, far below any strain a model is run for,
+    /// far above the roundoff of positions (1e-16 relative) a model at rest is left with.
+    pub const FLOOR_STRAIN: Real = 1e-7;
+
+    /// The floor of the relative balance error's scale, ½·Σ E·V₀·ε² with ε =
+    /// [`Energy::FLOOR_STRAIN`]: the elastic energy of the whole model at a uniform strain of
+    /// 1e-7, from `young_volume` = Σ E·V₀ over its deformable elements [N·m]. A model at rest
+    /// (or at its first samples) holds energies of roundoff size, and its balance error over
+    /// them is noise of order 1: against this floor it reads as the tiny number it is.
+    pub fn floor_of(young_volume: Real) -> Real {
+        0.5 * young_volume * Self::FLOOR_STRAIN * Self::FLOOR_STRAIN
+    }
 
     /// The relative balance error passes [`Energy::WARNING_THRESHOLD`].
     pub fn balance_is_off(&self) -> bool {
@@ -141,9 +157,10 @@ impl Energy {
         self.kinetic + self.strain + self.joint + self.contact + self.bond + self.dissipated()
             - (self.initial + self.external_work())
     }
-    /// Balance error relative to the largest energy in the account.
-    pub fn relative_balance_error(&self) -> Real {
-        let scale = [
+    /// The scale of the relative balance error: the largest energy in the account, or the
+    /// floor ([`Energy::floor_of`]) when that is larger.
+    pub fn balance_scale(&self) -> Real {
+        [
             self.kinetic,
             self.strain,
             self.joint,
@@ -155,9 +172,26 @@ impl Energy {
             self.reaction_work.abs(),
             self.ground_work.abs(),
             self.dissipated(),
+            self.floor,
         ]
         .into_iter()
-        .fold(0.0, Real::max);
+        .fold(0.0, Real::max)
+    }
+
+    /// What [`Energy::balance_scale`] is, for messages: "the largest term", or the floor when
+    /// every term is smaller.
+    pub fn scale_name(&self) -> &'static str {
+        if self.floor > 0.0 && self.balance_scale() == self.floor {
+            "the floor, the model's elastic energy at a strain of 1e-7"
+        } else {
+            "the largest term"
+        }
+    }
+
+    /// Balance error relative to [`Energy::balance_scale`] (the largest energy in the account,
+    /// at least the floor); 0 when every term is 0.
+    pub fn relative_balance_error(&self) -> Real {
+        let scale = self.balance_scale();
         if scale > 0.0 {
             self.balance_error() / scale
         } else {
@@ -180,7 +214,8 @@ pub struct TimeStepInfo {
     pub dt: Real,
     pub critical: Real,
     pub safety: Real,
-    /// Element that sets the critical step, its body and centroid.
+    /// Element that sets the critical step, its body and its centroid where it is when the
+    /// step is chosen (current positions).
     pub tet: usize,
     pub body: String,
     pub centroid: Vec3,
@@ -195,7 +230,7 @@ pub struct TimeStepInfo {
 
 impl std::fmt::Display for TimeStepInfo {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let c = self.centroid;
+        let at = crate::math::fmt_place(&self.centroid);
         let how = if self.fixed {
             "fixed by the script".to_string()
         } else {
@@ -204,8 +239,8 @@ impl std::fmt::Display for TimeStepInfo {
         match self.joints {
             None => write!(
                 f,
-                "dt = {:.4e} s ({how}); critical {:.4e} s set by tet {} of body '{}' at ({:.4}, {:.4}, {:.4})",
-                self.dt, self.critical, self.tet, self.body, c.x, c.y, c.z
+                "dt = {:.4e} s ({how}); critical {:.4e} s set by tet {} of body '{}' at {at}",
+                self.dt, self.critical, self.tet, self.body
             )?,
             Some((node, alone)) => {
                 let by = match (node == usize::MAX, self.contact) {
@@ -217,8 +252,8 @@ impl std::fmt::Display for TimeStepInfo {
                 };
                 write!(
                     f,
-                    "dt = {:.4e} s ({how}); critical {:.4e} s: tetrahedra alone {alone:.4e} s (tet {} of body '{}' at ({:.4}, {:.4}, {:.4})), lowered by {by}",
-                    self.dt, self.critical, self.tet, self.body, c.x, c.y, c.z
+                    "dt = {:.4e} s ({how}); critical {:.4e} s: tetrahedra alone {alone:.4e} s (tet {} of body '{}' at {at}), lowered by {by}",
+                    self.dt, self.critical, self.tet, self.body
                 )?
             }
         }
@@ -647,7 +682,7 @@ impl Simulation {
             return Err(SimError::Invalid("every body is rigid and contact is off: nothing limits the time step; set it with sim.integrator(\"central_difference\", #{ dt })".into()));
         }
         let body = &self.bodies[self.tets.body[tet] as usize];
-        let centroid = self.reference_centroid(tet);
+        let centroid = self.current_centroid(tet);
         let mut info = TimeStepInfo {
             dt: self.settings.safety * critical,
             critical,
@@ -662,8 +697,8 @@ impl Simulation {
         if let Some(dt) = self.settings.dt {
             if dt > critical {
                 return Err(SimError::Invalid(format!(
-                    "dt = {dt:.4e} s is larger than the critical time step {critical:.4e} s set by tet {tet} of body '{}' at ({:.4}, {:.4}, {:.4}); use dt ≤ {:.4e} s or leave dt unset for the automatic step",
-                    body.name, centroid.x, centroid.y, centroid.z, critical
+                    "dt = {dt:.4e} s is larger than the critical time step {critical:.4e} s set by tet {tet} of body '{}' at {}; use dt ≤ {:.4e} s or leave dt unset for the automatic step",
+                    body.name, crate::math::fmt_place(&centroid), critical
                 )));
             }
             info.dt = dt;
@@ -917,6 +952,7 @@ impl Simulation {
                 } else {
                     self.energy.initial
                 },
+                floor: self.energy_floor(),
             };
             self.energy_history.push(EnergySample {
                 step: self.step,
@@ -960,25 +996,21 @@ impl Simulation {
             };
             let p = self.nodes.x0[n];
             return format!(
-                "{} node(s) got a non-finite position or velocity in step {step} (stage 7, integration; t = {t:.6e} → {:.6e} s, dt = {dt:.4e} s); first: node {n} of {owner}, reference position ({:.4}, {:.4}, {:.4}). Likely cause: a non-finite force (a law or a table returned NaN or ∞), or a stiffness far above the one the time step was chosen for (a contact or joint penalty, a stiffening material); check the loads and laws acting there",
+                "{} node(s) got a non-finite position or velocity in step {step} (stage 7, integration; t = {t:.6e} → {:.6e} s, dt = {dt:.4e} s); first: node {n} of {owner}, reference position {}. Likely cause: a non-finite force (a law or a table returned NaN or ∞), or a stiffness far above the one the time step was chosen for (a contact or joint penalty, a stiffening material); check the loads and laws acting there",
                 (0..self.nodes.len()).filter(|&i| !self.node_is_finite(i)).count(),
                 t + dt,
-                p.x, p.y, p.z
+                crate::math::fmt_place(&p)
             );
         }
         if let Some(e) = (0..self.tets.len()).find(|&e| self.tet_is_inverted(e)) {
             let b = &self.bodies[self.tets.body[e] as usize].name;
-            let c = self.tets.nodes[e]
-                .iter()
-                .map(|&n| self.nodes.x[n as usize])
-                .sum::<Vec3>()
-                / 4.0;
+            let c = self.current_centroid(e);
             let j = elements::deformation_gradient(&self.tets, &self.nodes.x, e).determinant();
             return format!(
-                "{inverted} element(s) inverted (det F ≤ 0) in step {} (by its motion, t = {:.6e} → {t:.6e} s, dt = {dt:.4e} s), found by {found_by}; first: tet {e} of body '{b}' at ({:.4}, {:.4}, {:.4}) with det F = {j:.3e}. Likely cause: {}",
+                "{inverted} element(s) inverted (det F ≤ 0) in step {} (by its motion, t = {:.6e} → {t:.6e} s, dt = {dt:.4e} s), found by {found_by}; first: tet {e} of body '{b}' at {} with det F = {j:.3e}. Likely cause: {}",
                 step.saturating_sub(1),
                 t - self.dt_prev,
-                c.x, c.y, c.z,
+                crate::math::fmt_place(&c),
                 self.inversion_cause(e)
             );
         }
@@ -1063,7 +1095,7 @@ impl Simulation {
             .map(|(name, v)| format!("c.{name} = {v:.6e}"))
             .collect();
         format!(
-            "friction law '{}' returned friction = {} (μ must be finite and ≥ 0) in step {} (t = {:.6e} s) for the pair of tet {} (body '{}') and tet {} (body '{}') at ({:.4}, {:.4}, {:.4}); its inputs: {}",
+            "friction law '{}' returned friction = {} (μ must be finite and ≥ 0) in step {} (t = {:.6e} s) for the pair of tet {} (body '{}') and tet {} (body '{}') at {}; its inputs: {}",
             law.name,
             f.friction,
             self.step,
@@ -1072,9 +1104,7 @@ impl Simulation {
             body(f.tets[0]),
             f.tets[1],
             body(f.tets[1]),
-            f.point.x,
-            f.point.y,
-            f.point.z,
+            crate::math::fmt_place(&f.point),
             inputs.join(", ")
         )
     }

@@ -3,7 +3,7 @@
 //! script query of the same name computes, callable from Rust. Node and element sets are
 //! simulation ids (as `nodes_in`, `tets_in` return them).
 
-use super::Simulation;
+use super::{Energy, Simulation};
 use crate::elements;
 use crate::material::StressMeasure;
 use crate::math::{von_mises, Mat3, Real, Vec3};
@@ -33,8 +33,32 @@ impl Simulation {
     }
 
     /// Total mass of the model [kg] (valid after `prepare`).
+    /// [`Energy::floor_of`] this model: ½·Σ E·V₀·(1e-7)² over its deformable tetrahedra and
+    /// its bars (E·A·L₀) [J], summed in element order (the same bits for any thread count).
+    pub fn energy_floor(&self) -> Real {
+        let t = &self.tets;
+        let tets: Real = (0..t.len())
+            .filter(|&e| !t.rigid[e])
+            .map(|e| self.materials[t.material[e] as usize].young * t.vol0[e])
+            .sum();
+        let b = &self.bars;
+        let bars: Real = (0..b.len())
+            .map(|i| self.steels[b.steel[i] as usize].young * b.area[i] * b.length0[i])
+            .sum();
+        Energy::floor_of(tets + bars)
+    }
+
     pub fn total_mass(&self) -> Real {
         self.nodes.m.iter().sum()
+    }
+
+    /// Centroid of tet `e` at its current position [m].
+    pub fn current_centroid(&self, e: usize) -> Vec3 {
+        self.tets.nodes[e]
+            .iter()
+            .map(|&n| self.nodes.x[n as usize])
+            .sum::<Vec3>()
+            / 4.0
     }
 
     /// Centroid of tet `e` in the reference configuration [m].

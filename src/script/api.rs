@@ -464,8 +464,8 @@ pub const PLOT_KEYS: &[Key] = &[
     key("file", "string", "", "required", "Name of the figure's files, without extension: `<out_dir>/<file>.png` and `.svg` (replaced if there)."),
     key("y", "string|monitor|array", "", "required", "The monitors to plot: a name, a monitor, or an array of them (one line each, with a legend entry)."),
     key("x", "string|monitor", "", "\"time\"", "The x axis: \"time\" [s], \"step\", or a monitor (each y is paired with the x monitor's sample of the same step; give them the same `every`)."),
-    key("x_label", "string", "", "name and unit", "Label of the x axis, drawn as given (numbers unscaled). Default: `time [s]` scaled by an SI prefix (`time [ms]`), or the monitor's name followed by `(unit not recorded)`: a monitor does not know its unit."),
-    key("y_label", "string", "", "name", "Label of the y axis, drawn as given (numbers unscaled). Default as `x_label`: the monitor's name, `(unit not recorded)`, and the power of ten its numbers are divided by."),
+    key("x_label", "string", "", "name and unit", "Label of the x axis, drawn as given (numbers unscaled). Default: `time [s]` scaled by an SI prefix (`time [ms]`), or the monitor's name and its `unit` (`force [kN]`: an SI prefix where the unit takes one, else a power of ten, `stress [×10³ MPa]`; `(unit not recorded)` for a monitor without one)."),
+    key("y_label", "string", "", "name", "Label of the y axis, drawn as given (numbers unscaled). Default as `x_label`: the monitor's name and unit; for several monitors their names and their common unit, or each unit in its legend entry when they differ."),
     key("title", "string", "", "\"<y> against <x>\"", "Title above the plot."),
     key("format", "string", "", "\"both\"", "\"png\", \"svg\" or \"both\"."),
     key("width", "int", "px", "1000", "Width in pixels, in [200, 8000]."),
@@ -518,13 +518,22 @@ pub const EVERY_KEYS: &[Key] = &[
         "Call each time simulated time passes a multiple of this; at least the time step (shorter is an error at `run`: use `steps: 1`).",
     ),
 ];
-pub const MONITOR_KEYS: &[Key] = &[key(
-    "every",
-    "int",
-    "steps",
-    "1",
-    "Record every this many steps (and once when the run starts).",
-)];
+pub const MONITOR_KEYS: &[Key] = &[
+    key(
+        "every",
+        "int",
+        "steps",
+        "1",
+        "Record every this many steps (and once when the run starts).",
+    ),
+    key(
+        "unit",
+        "string",
+        "",
+        "none",
+        "Unit of the recorded number (\"N\", \"m\", \"J\", \"MPa\", \"m/s\"; \"-\" for a pure number such as a count or a ratio). Written into the CSV header as `name [unit]` and put on plot axes (`force [kN]`, scaled by an SI prefix where the unit takes one). Without it the axis says `(unit not recorded)`. Not empty, no brackets.",
+    ),
+];
 pub const RUN_KEYS: &[Key] = &[
     key("max_time", "float", "s", "-", "Stop when the simulated time reaches this value (absolute)."),
     key("duration", "float", "s", "-", "Run for this much simulated time from now."),
@@ -759,7 +768,7 @@ pub const API: &[FnDoc] = &[
     // ── Queries
     FnDoc { section: "Queries", name: "s.time", signature: "s.time, s.step, s.dt, s.n_nodes, s.n_tets", summary: "Simulated time [s], steps done, time step [s], sizes.", keys: &[], laws: &[] },
     FnDoc { section: "Queries", name: "s.kinetic_energy", signature: "s.kinetic_energy(), s.strain_energy()", summary: "Current kinetic and strain energy [J].", keys: &[], laws: &[] },
-    FnDoc { section: "Queries", name: "s.energy", signature: "s.energy() -> map", summary: "Energy account at the last sample [J]: kinetic, strain, joint (elastic energy of the joints), external_work, gravity_work, force_work, reaction_work, ground_work (relative-frame ground motion), damping (mass-proportional + viscous), fracture (dissipated by joints), initial, balance_error, relative_error.", keys: &[], laws: &[] },
+    FnDoc { section: "Queries", name: "s.energy", signature: "s.energy() -> map", summary: "Energy account at the last sample [J]: kinetic, strain, joint (elastic energy of the joints), external_work, gravity_work, force_work, reaction_work, ground_work (relative-frame ground motion), damping (mass-proportional + viscous), fracture (dissipated by joints), initial, balance_error, relative_error (balance_error over the largest term, or over `floor` when every term is smaller), floor (½·Σ E·V₀·(1e-7)²: the model's elastic energy at a strain of 1e-7, so that a model at rest with energies of roundoff size does not read as unbalanced).", keys: &[], laws: &[] },
     FnDoc { section: "Queries", name: "s.displacement", signature: "s.displacement(nodes) -> [x, y, z]", summary: "Mean displacement of the nodes [m]. Also `s.position(nodes)` [m] and `s.velocity(nodes)` [m/s]. These are plain node means (every node counts once, whatever its mass): right for a face or a loading line; for the centre of mass of a part use `s.mass_position(nodes)` and `s.mass_velocity(nodes)`.", keys: &[], laws: &[] },
     FnDoc { section: "Queries", name: "s.mass_position", signature: "s.mass_position(nodes), s.mass_velocity(nodes) -> [x, y, z]", summary: "Mass-weighted means over the nodes with their lumped masses: their centre of mass now [m] and its velocity at the last half step [m/s] (= momentum / mass). For a whole body the same as `body.center_of_mass()` and `body.velocity()`.", keys: &[], laws: &[] },
     FnDoc { section: "Queries", name: "s.reaction", signature: "s.reaction(nodes) -> [x, y, z]", summary: "Sum of the constraint forces on the nodes in the last step [N]: the force the support or the driver exerts on the body, in global axes. A platen pushing down (−z) into a specimen reads a negative z reaction on the platen nodes, and the base that holds the specimen a positive one: `let f = sim.monitor(\"load\", #{ every: 20 }, |s| -s.reaction(top)[2]);` records compression as positive; `f.peak_abs()` is sign-proof.", keys: &[], laws: &[] },

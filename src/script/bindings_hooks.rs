@@ -48,6 +48,10 @@ pub fn register(engine: &mut Engine) {
         |s: &mut SimHandle, name: &str, m: Map, f: FnPtr| -> RhaiResult<MonitorHandle> {
             let o = Opts::new("monitor", m, keys_of("sim.monitor"))?;
             let every = o.positive_int("every")?.unwrap_or(1);
+            let unit = o.string("unit")?;
+            if let Some(u) = &unit {
+                crate::io::check_unit(u).map_err(|e| o.error(e))?;
+            }
             super::types::check_file_name("monitor()", "name", name)?;
             if ["energy", "cracks"].contains(&name) {
                 return err(format!(
@@ -69,6 +73,7 @@ pub fn register(engine: &mut Engine) {
             }
             let h = MonitorHandle(Rc::new(RefCell::new(MonitorData {
                 name: name.to_string(),
+                unit,
                 every,
                 f,
                 times: Vec::new(),

@@ -120,6 +120,7 @@ fn plot_monitors(s: &SimHandle, m: Map) -> RhaiResult<Array> {
     };
     let mut series = Vec::new();
     let mut names = Vec::new();
+    let mut axes = Vec::new();
     for v in &ys {
         let mh = monitor_of(s, &o, "y", v)?;
         let d = mh.0.borrow();
@@ -160,26 +161,33 @@ fn plot_monitors(s: &SimHandle, m: Map) -> RhaiResult<Array> {
             return err(format!("plot(): {why}"));
         }
         names.push(d.name.clone());
+        axes.push(plot::column_axis("", &d.name, d.unit.as_deref()));
         series.push(Series {
             label: d.name.clone(),
             x: xv,
             y: yv,
         });
     }
-    let x_name = match &x {
-        X::Time => "time".to_string(),
-        X::Step => "step".to_string(),
-        X::Monitor(m) => m.0.borrow().name.clone(),
+    let (x_name, x_unit) = match &x {
+        X::Time => ("time".to_string(), None),
+        X::Step => ("step".to_string(), None),
+        X::Monitor(m) => {
+            let d = m.0.borrow();
+            (d.name.clone(), d.unit.clone())
+        }
     };
     let x_axis = match o.string("x_label")? {
         Some(l) => Axis::new(&l, Unit::Given),
-        None => plot::column_axis("", &x_name),
+        None => plot::column_axis("", &x_name, x_unit.as_deref()),
     };
     let y_axis = match o.string("y_label")? {
         Some(l) => Axis::new(&l, Unit::Given),
-        None if names.len() == 1 => plot::column_axis("", &names[0]),
-        None => Axis::new(&names.join(", "), Unit::Unknown),
+        None if names.len() == 1 => axes[0].clone(),
+        None => plot::shared_axis(&names.join(", "), &axes),
     };
+    for (s, a) in series.iter_mut().zip(&axes) {
+        s.label = plot::legend_label(a, &y_axis);
+    }
     let fig = Figure {
         title: o
             .string("title")?
@@ -205,6 +213,7 @@ fn plot_energy(s: &SimHandle, m: Map) -> RhaiResult<Array> {
                 .iter()
                 .map(|c| c.to_string())
                 .collect(),
+            units: vec![None; super::runner::ENERGY_HEADER.len()],
             rows: st
                 .sim
                 .energy_history

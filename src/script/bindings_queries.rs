@@ -104,6 +104,7 @@ fn energy(s: &mut SimHandle) -> Map {
         ("initial", e.initial),
         ("balance_error", e.balance_error()),
         ("relative_error", e.relative_balance_error()),
+        ("floor", e.floor),
     ] {
         m.insert(k.into(), v.into());
     }

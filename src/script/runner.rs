@@ -280,15 +280,23 @@ fn prepare_run(ctx: &ScriptContext, s: &SimHandle) -> RhaiResult<()> {
             .map_err(|e| format!("run(): {e}"))?;
         warn_jointless_bodies(ctx, &st);
     }
-    let line = st
+    // Printed again when the step or what sets it changes, not when the element that sets
+    // it has only moved (its place is where it is now).
+    let (line, key) = st
         .sim
         .dt_info
         .as_ref()
-        .map(|i| i.to_string())
+        .map(|i| {
+            let unplaced = crate::pipeline::TimeStepInfo {
+                centroid: Default::default(),
+                ..i.clone()
+            };
+            (i.to_string(), unplaced.to_string())
+        })
         .unwrap_or_default();
-    if st.printed_dt.as_deref() != Some(line.as_str()) {
+    if st.printed_dt.as_deref() != Some(key.as_str()) {
         ctx.say(&format!("[{}] {line}", st.name));
-        st.printed_dt = Some(line);
+        st.printed_dt = Some(key);
     }
     Ok(())
 }
@@ -486,11 +494,12 @@ fn warn_balance(ctx: &ScriptContext, st: &mut SimState) {
     }
     st.balance_warned = true;
     ctx.say(&format!(
-        "[{}] WARNING: energy balance error {} J at t = {} s is {} of the largest term (over {} %): energy is created or lost that no term books. Check it before trusting the results: a time step near its limit (lower the integrator's safety), a friction or joint law out of its range, or a known limit (docs/theory/contact.md, Energy account)",
+        "[{}] WARNING: energy balance error {} J at t = {} s is {} of {} (over {} %): energy is created or lost that no term books. Check it before trusting the results: a time step near its limit (lower the integrator's safety), a friction or joint law out of its range, or a known limit (docs/theory/contact.md, Energy account)",
         st.name,
         sig(e.balance_error(), 4),
         sig(st.sim.time, 6),
         sig(e.relative_balance_error(), 3),
+        e.scale_name(),
         sig(100.0 * Energy::WARNING_THRESHOLD, 2)
     ));
 }
@@ -651,11 +660,12 @@ fn record(nc: &NativeCallContext, s: &SimHandle, m: &MonitorHandle) -> RhaiResul
     Ok(())
 }
 
-/// Create a monitor's CSV file (header `step,time,<name>`) unless it is open (or under
-/// `fdem check`, which writes nothing).
+/// Create a monitor's CSV file (header `step,time,<name>`, or `step,time,<name> [<unit>]`
+/// with a unit) unless it is open (or under `fdem check`, which writes nothing).
 fn open_monitor(d: &mut super::types::MonitorData) -> Result<(), String> {
     if d.csv.is_none() && !d.dry {
-        d.csv = Some(CsvStream::create(&d.path, &["step", "time", &d.name])?);
+        let value = crate::io::column_header(&d.name, d.unit.as_deref());
+        d.csv = Some(CsvStream::create(&d.path, &["step", "time", &value])?);
     }
     Ok(())
 }
@@ -952,12 +962,13 @@ fn stage_table(sim: &Simulation) -> String {
 fn balance_lines(sim: &Simulation) -> String {
     let e = &sim.energy;
     let mut s = format!(
-        "   {:<20} {:>12}\n   {:<20} {:>12}   ({} of the largest term)\n",
+        "   {:<20} {:>12}\n   {:<20} {:>12}   ({} of {})\n",
         "initial (kin+strain)",
         sig(e.initial, 5),
         "balance error",
         sig(e.balance_error(), 5),
-        sig(e.relative_balance_error(), 3)
+        sig(e.relative_balance_error(), 3),
+        e.scale_name()
     );
     if let Some(first) = sim
         .energy_history
@@ -965,8 +976,9 @@ fn balance_lines(sim: &Simulation) -> String {
         .find(|h| h.energy.balance_is_off())
     {
         s.push_str(&format!(
-            "   WARNING: the balance error passed {} % of the largest term (first at t = {} s); the energy account does not close\n",
+            "   WARNING: the balance error passed {} % of {} (first at t = {} s); the energy account does not close\n",
             sig(100.0 * Energy::WARNING_THRESHOLD, 2),
+            first.energy.scale_name(),
             sig(first.time, 6)
         ));
     }

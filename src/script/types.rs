@@ -36,7 +36,8 @@ pub struct SimState {
     pub material_ids: HashMap<u64, u32>,
     /// Number of completed `run` calls.
     pub runs: usize,
-    /// Last printed time-step line (printed again only when it changes).
+    /// The last time-step line printed, without the element's place: printed again only when
+    /// the rest changes (`runner::prepare_run`).
     pub printed_dt: Option<String>,
     /// Wall time spent inside runs [s].
     pub wall: f64,
@@ -121,6 +122,8 @@ pub struct MonitorHandle(pub Rc<RefCell<MonitorData>>);
 
 pub struct MonitorData {
     pub name: String,
+    /// The `unit` key: written into the CSV header as `name [unit]`, put on plot axes.
+    pub unit: Option<String>,
     pub every: u64,
     pub f: FnPtr,
     pub times: Vec<f64>,
