@@ -801,7 +801,6 @@ pub fn add_joint_forces(
         area0,
         state,
         anchor,
-        broken,
         handed_over,
         laws,
         rate,
@@ -847,10 +846,17 @@ pub fn add_joint_forces(
                     (lw, cs) = (&scaled.0, &scaled.1);
                 }
             }
-            // Fast path: an undamaged cohesive joint below its peak (energy not requested).
+            // Fast path: an undamaged cohesive joint below its peak (energy not requested),
+            // whose mid-surface has not collapsed (else the general path checks whether its
+            // faces parted).
             if let (JointLaw::Cohesive(c), false) = (lw, want_energy) {
                 let (n, area, dn, tj) = joint_jumps(&faces[j], x);
-                if let Some(t) = c.intact_tractions(cs, inv_h, &n, &dn, &tj, st) {
+                let fast = if area >= 0.25 * area0[j] {
+                    c.intact_tractions(cs, inv_h, &n, &dn, &tj, st)
+                } else {
+                    None
+                };
+                if let Some(t) = fast {
                     for p in 0..3 {
                         let on_b = -t[p] * (area / 3.0);
                         // SAFETY: as below.
