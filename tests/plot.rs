@@ -304,6 +304,19 @@ fn the_binary_links_no_font_library() {
     }
 }
 
+/// Run scripts/tension_bar.rhai in quick mode (the bar breaks in two) into `dir/tb`.
+fn quick_tension_bar(dir: &Path) -> std::path::PathBuf {
+    let out = dir.join("tb");
+    let o = fdem()
+        .args(["run", "--quiet", "--set", "quick=true", "--out"])
+        .arg(&out)
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/tension_bar.rhai"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    out
+}
+
 /// The headless picture of the cracked state: scripts/tension_bar.rhai in quick mode breaks
 /// the bar in two (8 joints of one section); the renderer draws its last frame with the crack
 /// surface.
@@ -312,14 +325,7 @@ fn the_binary_links_no_font_library() {
 fn render_frame_draws_the_cracked_state_headless() {
     let dir = temp_dir("render");
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let out = dir.join("tb");
-    let o = fdem()
-        .args(["run", "--quiet", "--set", "quick=true", "--out"])
-        .arg(&out)
-        .arg(root.join("scripts/tension_bar.rhai"))
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = quick_tension_bar(&dir);
     let broken = csv_rows(&out.join("cracks.csv"));
     assert!(broken > 0);
     let png = dir.join("frame.png");
@@ -523,14 +529,7 @@ fn monitor_keys_and_units_are_checked() {
 fn rc_beam_frame_draws_the_current_positions_once() {
     let dir = temp_dir("rc_frame");
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let out = dir.join("tb");
-    let o = fdem()
-        .args(["run", "--quiet", "--set", "quick=true", "--out"])
-        .arg(&out)
-        .arg(root.join("scripts/tension_bar.rhai"))
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = quick_tension_bar(&dir);
     let check = r#"
 import glob, sys
 import meshio, numpy as np

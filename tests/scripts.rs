@@ -423,10 +423,7 @@ sim.run(#{{ steps: 20 }});
         &model("sim.initial_velocity(b.nodes(), [1.0, 0.0, 0.0]);"),
     );
     assert!(ok, "{err}");
-    let warnings: Vec<&str> = out
-        .lines()
-        .filter(|l| l.contains("WARNING: energy balance error"))
-        .collect();
+    let warnings = balance_warnings(&out);
     assert_eq!(warnings.len(), 1, "warned once: {out}");
     assert!(warnings[0].starts_with("[kick] WARNING"), "{}", warnings[0]);
     assert!(
@@ -493,10 +490,7 @@ print(`floor ${{e.floor}} relative ${{e.relative_error}} largest ${{[e.kinetic, 
         &model("sim.initial_velocity(b.nodes(), [5.0e-5, 0.0, 0.0]);"),
     );
     assert!(ok, "{err}");
-    let warnings: Vec<&str> = out
-        .lines()
-        .filter(|l| l.contains("WARNING: energy balance error"))
-        .collect();
+    let warnings = balance_warnings(&out);
     assert_eq!(warnings.len(), 1, "warned once: {out}");
     assert!(warnings[0].contains("of the floor"), "{}", warnings[0]);
     let rel = number(&out, "relative");
@@ -920,4 +914,11 @@ fn red_blood_cells_sphere_check_runs_and_unknown_shapes_are_refused() {
         !ok && err.contains("\"cube\" is not \"cell\" or \"sphere\""),
         "{out}\n{err}"
     );
+}
+
+/// The run-time energy-balance warnings a run printed.
+fn balance_warnings(out: &str) -> Vec<&str> {
+    out.lines()
+        .filter(|l| l.contains("WARNING: energy balance error"))
+        .collect()
 }

@@ -693,6 +693,14 @@ fn faces_parted(
     normal(&faces[0]).dot(&normal(&faces[1])) < 0.0
 }
 
+/// A point's state for its law: its history, and its friction anchor where the law uses one
+/// (only cohesive laws read anchors; the others get zero).
+#[inline(always)]
+fn point_state(history: PointHistory, anchor: Vec3, uses_anchor: bool) -> PointState {
+    let anchor = if uses_anchor { anchor } else { Vec3::zeros() };
+    PointState::from_parts(history, anchor)
+}
+
 /// Kinematics of one integration point from [`joint_kinematics`]' (opening, slip, direction).
 #[inline(always)]
 fn point_kinematics(n: Vec3, size: Real, (dn, ds, dir): &(Real, Real, Vec3)) -> PointKinematics {
@@ -881,12 +889,7 @@ pub fn add_joint_forces(
                 // (as on re-opening, or as a fracture criterion's break), and it acts no more.
                 for (p, pt) in pts.iter().enumerate() {
                     let k = point_kinematics(n, size[j], pt);
-                    let anchor = if uses_anchor {
-                        anchors[p]
-                    } else {
-                        Vec3::zeros()
-                    };
-                    let mut ps = PointState::from_parts(st[p], anchor);
+                    let mut ps = point_state(st[p], anchors[p], uses_anchor);
                     let t = lw.evaluate_in(&mut frame, cs, &k, inv_h, &mut ps, true);
                     s.dissipated += (t.dissipated + t.energy) * area / 3.0;
                     st[p].damage = 1.0;
@@ -902,12 +905,7 @@ pub fn add_joint_forces(
             for (p, pt) in pts.iter().enumerate() {
                 let k = point_kinematics(n, size[j], pt);
                 let dir = pt.2;
-                let anchor = if uses_anchor {
-                    anchors[p]
-                } else {
-                    Vec3::zeros()
-                };
-                let mut ps = PointState::from_parts(st[p], anchor);
+                let mut ps = point_state(st[p], anchors[p], uses_anchor);
                 let t = lw.evaluate_in(&mut frame, cs, &k, inv_h, &mut ps, want_energy);
                 st[p] = ps.history();
                 if uses_anchor {

@@ -54,18 +54,19 @@ impl Simulation {
 
     /// Centroid of tet `e` at its current position [m].
     pub fn current_centroid(&self, e: usize) -> Vec3 {
-        self.tets.nodes[e]
-            .iter()
-            .map(|&n| self.nodes.x[n as usize])
-            .sum::<Vec3>()
-            / 4.0
+        self.centroid_in(e, &self.nodes.x)
     }
 
     /// Centroid of tet `e` in the reference configuration [m].
     pub fn reference_centroid(&self, e: usize) -> Vec3 {
+        self.centroid_in(e, &self.nodes.x0)
+    }
+
+    /// Centroid of tet `e` with its nodes at `places` [m].
+    fn centroid_in(&self, e: usize, places: &[Vec3]) -> Vec3 {
         self.tets.nodes[e]
             .iter()
-            .map(|&n| self.nodes.x0[n as usize])
+            .map(|&n| places[n as usize])
             .sum::<Vec3>()
             / 4.0
     }
