@@ -686,6 +686,7 @@ pub fn bench(
                 tangential_penalty: 3e11,
                 residual_friction: 0.6,
                 rate: crate::joints::law::RateEffects::None,
+                dilatancy: crate::joints::law::Dilatancy::NONE,
             };
             let joint = match joint_law {
                 "builtin" => crate::joints::JointLaw::Cohesive(cohesive),

@@ -620,6 +620,7 @@ fn impact_model() -> (Simulation, usize) {
         tangential_penalty: 10.0 * e,
         residual_friction: 0.5,
         rate: fdem::joints::law::RateEffects::None,
+        dilatancy: fdem::joints::law::Dilatancy::NONE,
     }));
     let body = sim.bodies[b].clone();
     let (tn, x0) = (sim.tets.nodes.clone(), sim.nodes.x0.clone());

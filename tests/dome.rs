@@ -497,6 +497,7 @@ fn masonry_dome_cracks_along_meridians_below_the_hoop_transition() {
         tangential_penalty: 10.0 * e,
         residual_friction: tan_phi,
         rate: fdem::joints::law::RateEffects::None,
+        dilatancy: fdem::joints::law::Dilatancy::NONE,
     }));
     let bodies = sim.bodies.clone();
     let refs: Vec<&fdem::state::Body> = bodies.iter().collect();

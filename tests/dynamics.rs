@@ -240,6 +240,7 @@ fn results_are_bit_identical_for_1_and_2_threads() {
                 tangential_penalty: 1e9,
                 residual_friction: 0.6,
                 rate: fdem::joints::law::RateEffects::None,
+                dilatancy: fdem::joints::law::Dilatancy::NONE,
             },
         ));
         let (body, tets, x0) = (

@@ -39,6 +39,7 @@ fn law(cal: Calibration) -> Cohesive {
         tangential_penalty: 1e13,
         residual_friction: 0.5,
         rate: fdem::joints::law::RateEffects::None,
+        dilatancy: fdem::joints::law::Dilatancy::NONE,
     }
 }
 
@@ -1187,4 +1188,248 @@ fn broken_joint_whose_faces_parted_is_retired_with_its_energy_booked() {
     assert!(force > 0.0 && force2 > 0.0, "it pushes the faces apart");
     assert!((first.energy - stored).abs() < 1e-9 * closed);
     assert_eq!(second.parted, 0);
+}
+
+/// A law with dilatancy ψ = 30° up to `u_max`.
+fn dilatant(u_max: Real) -> Cohesive {
+    Cohesive {
+        dilatancy: fdem::joints::law::Dilatancy {
+            tan_angle: 30f64.to_radians().tan(),
+            max_opening: u_max,
+        },
+        ..law(Calibration::Exact)
+    }
+}
+
+/// One broken point sliding under a constant compression σ₀ (the opening prescribed so that
+/// the gap's penalty gives σ₀: δn = u_d(ς) − σ₀/k_n). Reference: the dilatancy's potential
+/// (`Dilatancy` in src/joints/law.rs; Coulomb slip with dilation as in UDEC, with wear): the
+/// point slides at τ = (μ + u_d'(ς))σ₀, exact at every step (the return mapping is exact at
+/// constant σ, with u_d' at the step's start), falling from (μ + tan ψ)σ₀ to μσ₀ once it
+/// has slid ς_c = 2u_max/tan ψ and opened u_max; it dissipates μσ₀ per unit of plastic slip
+/// (1e-9); the work the faces did, ∫τ ds + ∫σ dδn (trapezoid), equals the stored change plus
+/// the dissipation within tan ψ·σ₀·Δs, the trapezoid's error on a traction that falls by
+/// tan ψ·σ₀ over the ride (and halves with Δs).
+#[test]
+fn dilatant_broken_point_slides_at_mu_plus_its_dilatancy_rate_until_worn() {
+    use fdem::joints::law::{PointKinematics, PointState};
+    let u_max = 20e-6;
+    let c = dilatant(u_max);
+    let tan_psi = c.dilatancy.tan_angle;
+    let (h, sigma0) = (0.05, 2e6);
+    let (kn, kt) = (c.normal_penalty / h, c.tangential_penalty / h);
+    let mu = c.residual_friction;
+    let slide = |n: usize| {
+        let mut s = PointState {
+            damage: 1.0,
+            ..Default::default()
+        };
+        let slip_end = 1.5 * c.dilatancy.wear_slip();
+        let (mut work, mut dissipated) = (0.0, 0.0);
+        let (mut prev, mut prev_dn, mut prev_s) = (None::<(Real, Real)>, 0.0, 0.0);
+        let mut first_energy = None;
+        let (mut riding, mut worn) = (0, 0);
+        for i in 0..=n {
+            let slip = slip_end * i as Real / n as Real;
+            let (u, rate) = c.dilatancy.opening(s.slid);
+            let dn = u - sigma0 / kn;
+            let k = PointKinematics {
+                opening: dn,
+                slip,
+                slip_vector: Vec3::new(slip, 0.0, 0.0),
+                normal: Vec3::z(),
+                size: h,
+            };
+            let was_sliding = s.slid > 0.0;
+            let t = c.evaluate(&k, &mut s);
+            assert!(
+                (t.normal + sigma0).abs() < 1e-9 * sigma0,
+                "σ = {}",
+                t.normal
+            );
+            let tau = t.friction.x;
+            if was_sliding {
+                let expected = (mu + rate) * sigma0;
+                assert!(
+                    (tau - expected).abs() < 1e-9 * sigma0,
+                    "τ {tau:e} vs {expected:e}"
+                );
+                if rate > 0.0 {
+                    riding += 1;
+                } else {
+                    worn += 1;
+                }
+            }
+            if let Some((t0, s0)) = prev {
+                work += 0.5 * (tau + t0) * (slip - prev_s) + 0.5 * (t.normal + s0) * (dn - prev_dn);
+            }
+            dissipated += t.dissipated;
+            first_energy.get_or_insert(t.energy);
+            (prev, prev_dn, prev_s) = (Some((tau, t.normal)), dn, slip);
+            if i == n {
+                let stored = t.energy - first_energy.unwrap();
+                let plastic_slip = slip - tau / kt;
+                let expected = mu * sigma0 * plastic_slip;
+                assert!(
+                    (dissipated - expected).abs() < 1e-9 * expected,
+                    "dissipated {dissipated:e} vs μσ₀·slip {expected:e}"
+                );
+                assert!((s.slid - plastic_slip).abs() < 1e-9 * plastic_slip);
+                assert!((dn - (u_max - sigma0 / kn)).abs() < 1e-15, "opened {dn:e}");
+                assert!(
+                    riding > n / 2 && worn > n / 10,
+                    "{riding} riding, {worn} worn"
+                );
+                return (
+                    work - stored - dissipated,
+                    tan_psi * sigma0 * slip_end / n as Real,
+                );
+            }
+        }
+        unreachable!()
+    };
+    let (err, bound) = slide(20_000);
+    assert!(err.abs() < bound, "balance {err:e} vs bound {bound:e}");
+    let (err2, _) = slide(40_000);
+    assert!(
+        (err2 / err - 0.5).abs() < 0.05,
+        "the error halves with the step: {err:e} → {err2:e}"
+    );
+}
+
+/// The same joint between two tets in the full pipeline with contact on: broken by opening,
+/// closed to an overlap δc and slid under fixed normal displacement (infinitely stiff
+/// confinement), it pushes the faces apart harder as it dilates: a quarter into the slide
+/// τ = (μ + u_d'(ς))|σ|, at its end (worn after two thirds) τ = μ|σ| with
+/// σ = −k_n(δc + u_max) (1 %); pulled open less than
+/// its reach (2 u_max past its dilation) it keeps its faces from contact (not handed over),
+/// pulled further it hands them over. The energy account closes through it (1e-3 of the
+/// dissipation: the explicit steps).
+#[test]
+fn dilatant_broken_joint_clamps_its_faces_and_holds_them_from_contact_within_reach() {
+    use fdem::contact_interaction::{ContactRule, PotentialContact};
+    let coh = law(Calibration::Exact);
+    let t_dir = Vec3::new(1.0, -1.0, 0.0).normalize();
+    let probe = rig(coh.clone(), constant(Vec3::zeros()));
+    let (dnp, (dnt, _)) = (
+        coh.peak_opening(probe.size),
+        coh.softening_lengths(coh.cohesion),
+    );
+    let dc = 3.0 * dnp;
+    let open = 1.2 * (dnp + dnt);
+    // Opened to break it, it stays within reach (2 u_max).
+    let u_max = open;
+    let c = dilatant(u_max);
+    let mut r = rig(c.clone(), constant(Vec3::zeros()));
+    r.sim
+        .contact
+        .laws
+        .rules
+        .push(ContactRule::from(PotentialContact::default()));
+    r.sim.prepare().unwrap();
+    let dt = r.sim.dt;
+    let slide = 1.5 * c.dilatancy.wear_slip();
+    let dilated = u_max; // reached by the end of the slide
+                         // Phases: open, close to −δc, slide, open to δc + u_max past the dilation (within reach),
+                         // open 3 u_max further (beyond).
+    let phases = [
+        (20_000.0, r.n * (open / (20_000.0 * dt))),
+        (2_000.0, -r.n * ((open + dc) / (2_000.0 * dt))),
+        (20_000.0, t_dir * (slide / (20_000.0 * dt))),
+        (2_000.0, r.n * ((dc + dilated + u_max) / (2_000.0 * dt))),
+        (2_000.0, r.n * ((3.0 * u_max) / (2_000.0 * dt))),
+    ];
+    let mut pts: [Vec<(Real, Real)>; 3] = Default::default();
+    let mut t0 = 0.0;
+    let mut ends = Vec::new();
+    for (n, v) in phases {
+        for k in 0..3 {
+            pts[k].push((t0 + 1e-6 * dt, v[k]));
+            pts[k].push((t0 + n * dt, v[k]));
+        }
+        t0 += n * dt;
+        ends.push(t0);
+    }
+    r.sim.loads.prescribed[1].components = pts.map(|p| Some(TimeFunction::table(p).unwrap()));
+    r.sim.invalidate();
+    let (mut riding, mut end_of_slide, mut held_within_reach) = (None, None, true);
+    let quarter = ends[1] + 0.25 * (ends[2] - ends[1]);
+    while r.sim.time < ends[4] - 0.5 * dt {
+        r.sim.step().unwrap();
+        if riding.is_none() && r.sim.time >= quarter {
+            let rate = c.dilatancy.opening(r.sim.joints.slid[0][0]).1;
+            riding = Some((r.traction(t_dir), rate));
+        }
+        if end_of_slide.is_none() && r.sim.time >= ends[2] - 0.5 * dt {
+            end_of_slide = Some(r.traction(t_dir));
+        }
+        if r.sim.time > ends[2] && r.sim.time < ends[3] {
+            held_within_reach &= !r.sim.joints.handed_over[0];
+        }
+    }
+    let (sigma, tau) = end_of_slide.unwrap();
+    let kn = c.normal_penalty / r.size;
+    let expected_sigma = -kn * (dc + u_max);
+    assert!(
+        (sigma - expected_sigma).abs() < 0.01 * expected_sigma.abs(),
+        "σ {sigma:e} vs k_n(δc + u_max) {expected_sigma:e}"
+    );
+    let mu = c.residual_friction;
+    assert!(
+        (tau / -sigma - mu).abs() < 0.01 * mu,
+        "flat: τ/|σ| = {}",
+        tau / -sigma
+    );
+    let ((sigma_q, tau_q), rate) = riding.unwrap();
+    assert!(rate > 0.5 * c.dilatancy.tan_angle, "u_d' = {rate}");
+    let ride = mu + rate;
+    assert!(
+        (tau_q / -sigma_q - ride).abs() < 0.01 * ride,
+        "riding: τ/|σ| = {} vs μ + tan ψ = {ride}",
+        tau_q / -sigma_q
+    );
+    assert!(
+        held_within_reach,
+        "handed over within the asperities' reach"
+    );
+    r.sim.sample_next = true;
+    r.sim.step().unwrap();
+    assert!(
+        r.sim.joints.handed_over[0],
+        "not handed over beyond its reach"
+    );
+    let en = r.sim.energy;
+    assert!(
+        en.balance_error().abs() < 1e-3 * en.fracture,
+        "balance {:e} J vs dissipated {:e} J",
+        en.balance_error(),
+        en.fracture
+    );
+}
+
+/// Dilatancy needs both its angle and its opening: one without the other is an error naming
+/// both; both give tan ψ and u_max.
+#[test]
+fn dilatancy_angle_and_opening_go_together() {
+    use fdem::params::Param;
+    let make = |angle: Option<Real>, opening: Option<Real>| {
+        let given = move |p: &Param| -> Result<Option<Real>, String> {
+            Ok(match p.name {
+                "tensile_strength" => Some(1e6),
+                "cohesion" => Some(2e6),
+                "g_i" => Some(100.0),
+                "g_ii" => Some(400.0),
+                "dilatancy_angle" => angle,
+                "dilatancy_opening" => opening,
+                _ => None,
+            })
+        };
+        Cohesive::from_params(Softening::Munjiza, Calibration::Exact, &given)
+    };
+    let e = make(Some(30.0), None).unwrap_err();
+    assert!(e.contains("dilatancy_angle") && e.contains("dilatancy_opening"), "{e}");
+    assert!(make(None, Some(1e-3)).is_err());
+    let c = make(Some(45.0), Some(1e-3)).unwrap().dilatancy;
+    assert!((c.tan_angle - 1.0).abs() < 1e-12 && c.max_opening == 1e-3);
+    assert!(!make(None, None).unwrap().dilatancy.is_active());
 }

@@ -129,12 +129,21 @@ impl PairState {
         s
     }
 
-    /// The elements do not overlap: release the friction spring and arm the pair (a broken
-    /// joint between the two is handed over to contact).
+    /// Whether the broken joint between the two elements still holds their faces (a dilatant
+    /// joint within its asperities' reach: `keeps` is stage 2's
+    /// [`crate::joints::Joints::keeps_faces`]); the pair does not arm until it lets go.
     #[inline]
-    fn apart(&mut self, sums: &mut ContactSums, handover: &mut Vec<u32>) {
+    fn joint_keeps_faces(&self, keeps: &[bool]) -> bool {
+        self.joint != u32::MAX && keeps.get(self.joint as usize).copied().unwrap_or(false)
+    }
+
+    /// The elements do not overlap: release the friction spring and arm the pair (a broken
+    /// joint between the two is handed over to contact), unless that joint still holds the
+    /// faces (`held`).
+    #[inline]
+    fn apart(&mut self, sums: &mut ContactSums, handover: &mut Vec<u32>, held: bool) {
         self.release(sums);
-        if !self.armed {
+        if !self.armed && !held {
             self.armed = true;
             if self.joint != u32::MAX {
                 handover.push(self.joint);
@@ -560,17 +569,22 @@ struct StepInputs<'a> {
     tet_nodes: &'a [[u32; 4]],
     tet_material: &'a [u32],
     v: &'a [Vec3],
+    /// Stage 2's broken joints that still hold their faces (indexed by joint).
+    joint_keeps: &'a [bool],
     dt_prev: Real,
     time: Real,
 }
 
 /// Stage 5: add the contact and friction forces of every touching candidate pair of stage 4
 /// to `nodes.f`. `dt_prev` is the last step (Δx = v·dt_prev for the friction springs).
+/// `joint_keeps`: the broken joints that still hold their faces
+/// ([`crate::joints::Joints::keeps_faces`]; their pairs do not arm).
 pub fn add_contact_forces(
     ci: &mut ContactInteraction,
     detection: &ContactDetection,
     nodes: &mut Nodes,
     tets: &Tets,
+    joint_keeps: &[bool],
     dt_prev: Real,
     time: Real,
 ) -> ContactSums {
@@ -601,6 +615,7 @@ pub fn add_contact_forces(
         tet_nodes: &tets.nodes,
         tet_material: &tets.material,
         v: &nodes.v,
+        joint_keeps,
         dt_prev,
         time,
     };
@@ -880,7 +895,8 @@ fn interact(
     match reject(inp, pi, ps.witness) {
         Rejection::Apart(axis) => {
             ps.witness = axis;
-            ps.apart(sums, handover);
+            let held = !ps.armed && ps.joint_keeps_faces(inp.joint_keeps);
+            ps.apart(sums, handover, held);
             return None;
         }
         Rejection::Degenerate => {
@@ -903,7 +919,7 @@ fn interact(
         // Armed once there is no overlap energy to release (exactly touching faces, e.g.
         // blocks that start face to face, arm at once).
         let scale = pr.penalty * gc.volume.abs().min(gt.volume.abs());
-        if !r.touching || r.energy <= 1e-12 * scale {
+        if (!r.touching || r.energy <= 1e-12 * scale) && !ps.joint_keeps_faces(inp.joint_keeps) {
             ps.armed = true;
             if ps.joint != u32::MAX {
                 handover.push(ps.joint);
@@ -1031,7 +1047,7 @@ mod tests {
                 fx.nodes.x[n] += d;
                 fx.nodes.v[n] = d / dt;
             }
-            add_contact_forces(&mut fx.ci, &fx.cd, &mut fx.nodes, &fx.tets, dt, 0.0);
+            add_contact_forces(&mut fx.ci, &fx.cd, &mut fx.nodes, &fx.tets, &[], dt, 0.0);
             fx.nodes.f.iter_mut().for_each(|f| *f = Vec3::zeros());
         }
     }

@@ -177,6 +177,8 @@ pub const COHESIVE_PARAMS: &[Param] = &[
     TANGENTIAL_PENALTY,
     Param::float("residual_friction", "-", DefaultValue::Text("tan(friction_angle)"), Range::NON_NEGATIVE, "Coulomb friction μ of broken joints in compression."),
     Param::other("calibration", "string", "", "\"exact\"", "\"exact\": softening length δt = G/(f·∫z), the joint dissipates G; \"y_compatible\": δt = 3G/f as in the Y codes (dissipates 1.159·G with Munjiza's curve)."),
+    Param::float("dilatancy_angle", "°", DefaultValue::Value(0.0), Range::new(0.0, 45.0, true, false), "ψ: a broken joint sliding under compression opens by tan ψ per unit of slip at first (its asperities ride up: aggregate interlock), less as they wear, until it has opened `dilatancy_opening` after a slip of 2·dilatancy_opening/tan ψ; while it dilates at rate u' it resists (μ + u')·|σ| (see docs/theory/joints.md). 0: broken joints slide flat."),
+    Param::float("dilatancy_opening", "m", DefaultValue::Value(0.0), Range::NON_NEGATIVE, "u_max: the opening dilatancy gives once the asperities are worn (for concrete, a fraction of the largest aggregate). Needed with dilatancy_angle > 0."),
     Param::other("rate_effects", "string", "", "\"none\"", "\"fib2010\": the strengths rise with the joint's loading rate as concrete's do with its strain rate (fib Model Code 2010 §5.1.11.2: f_t × DIF_t, c × DIF_c; the rate is the elastic traction over E divided by the time since the loading began), frozen once the joint is damaged; \"none\": rate-independent."),
 ];
 
@@ -237,6 +239,53 @@ pub struct Cohesive {
     pub residual_friction: Real,
     /// Strain-rate dependence of f_t and c.
     pub rate: RateEffects,
+    /// Dilatancy of broken joints in compression.
+    #[serde(default)]
+    pub dilatancy: Dilatancy,
+}
+
+/// Dilatancy of a broken joint (Coulomb slip with dilation, as in Itasca's UDEC joint model;
+/// for concrete, aggregate interlock): the faces are in contact when the opening δn is below
+/// u_d(ς), ς the slip the point has accumulated since it broke. The asperities wear as they
+/// ride: the dilatancy rate falls linearly from tan ψ to 0 at ς_c = 2u_max/tan ψ,
+/// u_d = u_max·(1 − (1 − ς/ς_c)²) up to ς_c and u_max beyond (smooth, so the friction limit
+/// never jumps). Stored energy ½k_n⟨u_d − δn⟩² + ½k_t|s − s_p|²; the force that moves the
+/// anchor s_p is the spring's k_t(s − s_p) less the dilatancy's |σ|·u_d'(ς) along the slip,
+/// bounded by μ|σ|, so a sliding point resists (μ + u_d')|σ|, dissipates μ|σ| per unit of
+/// slip, and stores the rest in the normal spring.
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, Default, PartialEq)]
+pub struct Dilatancy {
+    /// tan ψ [-] (0: none): the dilatancy rate dδn/dς of a fresh crack.
+    pub tan_angle: Real,
+    /// u_max [m]: the opening once the asperities are worn.
+    pub max_opening: Real,
+}
+
+impl Dilatancy {
+    pub const NONE: Dilatancy = Dilatancy {
+        tan_angle: 0.0,
+        max_opening: 0.0,
+    };
+
+    pub fn is_active(&self) -> bool {
+        self.tan_angle > 0.0 && self.max_opening > 0.0
+    }
+
+    /// Slip ς_c = 2u_max/tan ψ over which the asperities wear flat [m].
+    pub fn wear_slip(&self) -> Real {
+        2.0 * self.max_opening / self.tan_angle
+    }
+
+    /// The opening u_d [m] after an accumulated slip ς [m], and its rate u_d'(ς) [-].
+    #[inline]
+    pub fn opening(&self, slid: Real) -> (Real, Real) {
+        let x = slid / self.wear_slip();
+        if x < 1.0 {
+            (self.max_opening * x * (2.0 - x), self.tan_angle * (1.0 - x))
+        } else {
+            (self.max_opening, 0.0)
+        }
+    }
 }
 
 /// The part of a point's history that every step reads: damage and the maxima. Joints store
@@ -254,12 +303,13 @@ pub struct PointHistory {
 impl PointState {
     /// A point's full state from its history and its friction anchor.
     #[inline(always)]
-    pub fn from_parts(h: PointHistory, anchor: Vec3) -> Self {
+    pub fn from_parts(h: PointHistory, anchor: Vec3, slid: Real) -> Self {
         PointState {
             damage: h.damage,
             max_opening: h.max_opening,
             max_slip: h.max_slip,
             anchor,
+            slid,
         }
     }
 
@@ -285,6 +335,8 @@ pub struct PointState {
     /// accumulated plastic slip, a vector kept in the current tangent plane) [m]; NaN while
     /// the broken joint is open.
     pub anchor: Vec3,
+    /// Slip accumulated since the point broke, Σ|Δs_p| [m] (the dilatancy's measure).
+    pub slid: Real,
 }
 
 /// Kinematics of one integration point.
@@ -351,6 +403,18 @@ impl Cohesive {
             residual_friction: value(COHESIVE_PARAMS, "residual_friction", given, Real::NAN)?
                 .unwrap_or(tan_friction),
             rate: RateEffects::None,
+            dilatancy: {
+                let (angle, opening) = (v("dilatancy_angle")?, v("dilatancy_opening")?);
+                if (angle > 0.0) != (opening > 0.0) {
+                    return Err(format!(
+                        "dilatancy_angle ({angle}°) and dilatancy_opening ({opening} m) go together: give both > 0, or neither"
+                    ));
+                }
+                Dilatancy {
+                    tan_angle: angle.to_radians().tan(),
+                    max_opening: opening,
+                }
+            },
         })
     }
 
@@ -474,11 +538,14 @@ impl Cohesive {
         if k.slip > s.max_slip {
             s.max_slip = k.slip;
         }
+        if s.damage >= 1.0 {
+            return self.broken_point(k, kn, kt, s, dissipated, want_energy);
+        }
         let z = self.z_of(s.damage);
         let mut t = PointTraction {
             normal: if k.opening > 0.0 {
                 z * self.tensile_strength * prepeak(xn)
-            } else if s.damage < 1.0 {
+            } else {
                 // σ = ∂ψ/∂δn: the shear part z·f_s·δsp·Φ(x_s) depends on δn through the
                 // Mohr–Coulomb strength (∂f_s/∂δn = −k_n·tan φ), so slip under compression
                 // pushes the faces apart a little. Without this term the law created energy
@@ -486,25 +553,54 @@ impl Cohesive {
                 // the cycle of `tests/joints.rs`).
                 compression
                     - z * kn * self.tan_friction * (2.0 * fs / kt) * strength_sensitivity(xs)
-            } else {
-                compression
             },
             ..Default::default()
         };
         if want_energy {
             let (dnp, dsp) = peaks();
             t.energy = 0.5 * compression * k.opening.min(0.0)
-                + z * self.tensile_strength * dnp * prepeak_integral(xn);
-            if s.damage < 1.0 {
-                t.energy += z * fs * dsp * prepeak_integral(xs);
-            }
+                + z * self.tensile_strength * dnp * prepeak_integral(xn)
+                + z * fs * dsp * prepeak_integral(xs);
         }
-        if s.damage < 1.0 {
-            t.shear = z * fs * prepeak(xs);
-        } else if k.opening <= 0.0 {
-            // Broken and closed: Coulomb friction with an elastic tangential spring anchored at
-            // the accumulated plastic slip (projected on the current tangent plane).
-            let limit = self.residual_friction * (-compression);
+        t.shear = z * fs * prepeak(xs);
+        t.dissipated = dissipated;
+        t
+    }
+
+    /// A broken point (D = 1): the compression penalty on the gap δn − u_d (u_d the
+    /// [`Dilatancy`] opening, 0 without) and, closed, Coulomb friction with an elastic
+    /// tangential spring anchored at the accumulated plastic slip (projected on the current
+    /// tangent plane). `dissipated` is what the step has dissipated so far [J/m²].
+    #[inline]
+    fn broken_point(
+        &self,
+        k: &PointKinematics,
+        kn: Real,
+        kt: Real,
+        s: &mut PointState,
+        mut dissipated: Real,
+        want_energy: bool,
+    ) -> PointTraction {
+        let (dilation, rate) = if self.dilatancy.is_active() {
+            self.dilatancy.opening(s.slid)
+        } else {
+            (0.0, 0.0)
+        };
+        let gap = k.opening - dilation;
+        let compression = if gap < 0.0 { kn * gap } else { 0.0 };
+        let mut t = PointTraction {
+            normal: compression,
+            ..Default::default()
+        };
+        if want_energy {
+            t.energy = 0.5 * compression * gap.min(0.0);
+        }
+        if gap <= 0.0 {
+            let pressure = -compression;
+            // Sliding while it dilates, the point also lifts the normal spring: the anchor
+            // moves once the spring's force passes (μ + u_d')|σ|, and only μ|σ| of it is
+            // dissipated (the rest is stored in ½k_n·gap²).
+            let limit = (self.residual_friction + rate) * pressure;
             // Just closed (the anchor is unset while open): the spring starts unstretched.
             let a = if s.anchor.x.is_nan() {
                 k.slip_vector
@@ -517,7 +613,9 @@ impl Cohesive {
             let mut next = anchor;
             if trial > limit {
                 next = k.slip_vector - elastic * (limit / trial);
-                dissipated += limit * (next - anchor).norm();
+                let step = (next - anchor).norm();
+                dissipated += self.residual_friction * pressure * step;
+                s.slid += step;
             }
             s.anchor = next;
             t.friction = (k.slip_vector - next) * kt;
@@ -696,6 +794,7 @@ mod tests {
             tangential_penalty: 3e11,
             residual_friction: 0.6,
             rate: RateEffects::None,
+            dilatancy: Dilatancy::NONE,
         }
     }
 
@@ -853,6 +952,7 @@ mod tests {
                 max_opening: 1.0,
                 max_slip: 1.0,
                 anchor: Vec3::zeros(),
+                slid: 0.0,
             };
             let eval = |a: Real, b: Real| {
                 let mut s = state;

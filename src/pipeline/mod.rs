@@ -892,6 +892,7 @@ impl Simulation {
                 &self.contact_detection,
                 &mut self.nodes,
                 &self.tets,
+                &self.joints.keeps_faces,
                 self.dt_prev,
                 self.time,
             );
