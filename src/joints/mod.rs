@@ -90,6 +90,22 @@ impl JointLaw {
         }
     }
 
+    /// The stiffest of the law's springs per unit area × h [Pa], for the time step: max(p_n, p_t),
+    /// and for a dilatant law p_n·(1 + (μ + tan ψ)·tan ψ), the largest eigenvalue of a sliding,
+    /// dilating point's (non-symmetric) stiffness: σ = k_n(δn − u_d(ς)), |τ| = (μ + u_d')|σ|
+    /// with dς = |ds| give, in (δn, s), k_n·[[1, u_d'], [μ + u_d', (μ + u_d')u_d']], of
+    /// determinant 0 and trace k_n(1 + (μ + u_d')u_d').
+    pub fn stiffest_penalty(&self) -> Real {
+        let (pn, pt) = self.penalties();
+        match self {
+            JointLaw::Cohesive(c) if c.dilatancy.is_active() => {
+                let t = c.dilatancy.tan_angle;
+                pt.max(pn * (1.0 + (c.residual_friction + t) * t))
+            }
+            _ => pn.max(pt),
+        }
+    }
+
     /// Evaluate at one point (`consts` from [`Cohesive::consts`] for cohesive laws).
     #[inline]
     pub fn evaluate(
@@ -194,8 +210,8 @@ pub struct Joints {
     #[serde(default)]
     pub slid: Vec<[Real; 3]>,
     /// Broken joints of a dilatant law that still hold their faces (set by stage 2 each
-    /// step): their asperities are within reach (every point opened less than twice the
-    /// law's `dilatancy_opening` beyond its dilation), so stage 5 does not take them over.
+    /// step): a point's asperities are within reach (it opened less than twice the law's
+    /// `dilatancy_opening` beyond its dilation), so stage 5 does not take them over.
     #[serde(default)]
     pub keeps_faces: Vec<bool>,
     /// Set by stage 3 when every point is fully damaged.
@@ -612,13 +628,13 @@ impl Joints {
             .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a })
     }
 
-    /// Σ of the joint spring stiffnesses at every node, k = max(p_n, p_t)/h · A/3 per joint
-    /// node [N/m].
+    /// Σ of the joint spring stiffnesses at every node, k = p/h · A/3 per joint node with p
+    /// the law's [`JointLaw::stiffest_penalty`] (max(p_n, p_t) without dilatancy) [N/m].
     pub fn nodal_stiffness(&self, n_nodes: usize) -> Vec<Real> {
         let mut k = vec![0.0; n_nodes];
         for j in 0..self.len() {
-            let (pn, pt) = self.laws[self.law[j] as usize].penalties();
-            let kj = pn.max(pt) / self.size[j] * self.area0[j] / 3.0;
+            let p = self.laws[self.law[j] as usize].stiffest_penalty();
+            let kj = p / self.size[j] * self.area0[j] / 3.0;
             for side in &self.faces[j] {
                 for &n in side {
                     k[n as usize] += kj;
@@ -955,12 +971,15 @@ pub fn add_joint_forces(
             }
             if let (true, JointLaw::Cohesive(c)) = (failed, lw) {
                 if c.dilatancy.is_active() {
-                    // Within the asperities' reach the joint keeps its faces from contact.
+                    // While a point is within its asperities' reach the joint keeps its faces
+                    // from contact; it lets go once every point is open beyond it, holding
+                    // no energy then (a dilated point can be compressed with its faces apart,
+                    // so contact could otherwise take a joint over from under a loaded point).
                     let reach = 2.0 * c.dilatancy.max_opening;
                     *keeps = pts
                         .iter()
                         .zip(slids.iter())
-                        .all(|((dn, _, _), &slid)| *dn < c.dilatancy.opening(slid).0 + reach);
+                        .any(|((dn, _, _), &slid)| *dn < c.dilatancy.opening(slid).0 + reach);
                 }
             }
         }
