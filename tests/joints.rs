@@ -1408,7 +1408,7 @@ fn dilatant_broken_joint_clamps_its_faces_and_holds_them_from_contact_within_rea
 }
 
 /// Dilatancy needs both its angle and its opening: one without the other is an error naming
-/// both; both give tan ψ and u_max.
+/// both; both give tan ψ and u_max; ψ must be below 45°.
 #[test]
 fn dilatancy_angle_and_opening_go_together() {
     use fdem::params::Param;
@@ -1432,8 +1432,10 @@ fn dilatancy_angle_and_opening_go_together() {
         "{e}"
     );
     assert!(make(None, Some(1e-3)).is_err());
-    let c = make(Some(45.0), Some(1e-3)).unwrap().dilatancy;
-    assert!((c.tan_angle - 1.0).abs() < 1e-12 && c.max_opening == 1e-3);
+    let c = make(Some(40.0), Some(1e-3)).unwrap().dilatancy;
+    assert!((c.tan_angle - 40f64.to_radians().tan()).abs() < 1e-12 && c.max_opening == 1e-3);
+    // ψ < 45°: steeper, a sliding point's stiffness passes twice the normal penalty.
+    assert!(make(Some(45.0), Some(1e-3)).is_err());
     assert!(!make(None, None).unwrap().dilatancy.is_active());
 }
 
