@@ -594,7 +594,8 @@ mesh.rotate(#{ axis: [0.0, 0.0, 1.0], degrees: 0.0, center: [0.0, 0.0, 0.0] });
 let b = sim.add_body("b", mesh, m, #{ layout: "continuous" });
 let j = sim.add_body("j", box(#{ min: [0.0, 0.0, 5.0], max: [1.0, 0.5, 5.5] }).mesh(#{ size: 0.5 }), m, #{ layout: "jointed" });
 let glue = joint_law("cohesive/munjiza", #{ tensile_strength: 1e5, cohesion: 2e5, friction_angle: 30.0, g_i: 10.0, g_ii: 40.0,
-    normal_penalty: 1e7, tangential_penalty: 1e7, residual_friction: 0.5, calibration: "y_compatible", rate_effects: "fib2010" });
+    normal_penalty: 1e7, tangential_penalty: 1e7, residual_friction: 0.5, calibration: "y_compatible", rate_effects: "fib2010",
+    dilatancy_angle: 30.0, dilatancy_opening: 1e-3 });
 expect_within("joints", sim.insert_joints(#{ within: [j], law: glue, region: box(#{ min: [-1.0, -1.0, 4.0], max: [9.0, 9.0, 6.0] }) }), 1, 100);
 // A joint law written in this script, and one from the stdlib, both compiled to native code.
 let own = joint_law("script", #{ function: "spring", params: #{ k: 1.0e6 }, normal_penalty: 1e7, tangential_penalty: 1e7 });
