@@ -93,6 +93,27 @@ fn rig(cohesive: Cohesive, v: [TimeFunction; 3]) -> Rig {
 }
 
 impl Rig {
+    /// Drive B through `phases` of (steps, constant velocity) one after the other; returns
+    /// the time each phase ends [s].
+    fn drive_in_phases(&mut self, phases: &[(Real, Vec3)]) -> Vec<Real> {
+        let dt = self.sim.dt;
+        let mut pts: [Vec<(Real, Real)>; 3] = Default::default();
+        let mut t0 = 0.0;
+        let mut ends = Vec::new();
+        for &(n, v) in phases {
+            for k in 0..3 {
+                pts[k].push((t0 + 1e-6 * dt, v[k]));
+                pts[k].push((t0 + n * dt, v[k]));
+            }
+            t0 += n * dt;
+            ends.push(t0);
+        }
+        self.sim.loads.prescribed[1].components =
+            pts.map(|p| Some(TimeFunction::table(p).unwrap()));
+        self.sim.invalidate();
+        ends
+    }
+
     /// Normal and shear traction the joint transmits [Pa], from the reactions holding B.
     fn traction(&self, t_dir: Vec3) -> (Real, Real) {
         let r: Vec3 = self
@@ -497,19 +518,7 @@ fn broken_joint_has_coulomb_friction_both_ways() {
         (4_000.0, t_dir * (d / (4_000.0 * dt))),
         (8_000.0, -t_dir * (2.0 * d / (8_000.0 * dt))),
     ];
-    let mut pts: [Vec<(Real, Real)>; 3] = Default::default();
-    let mut t0 = 0.0;
-    let mut ends = Vec::new();
-    for (n, v) in phases {
-        for k in 0..3 {
-            pts[k].push((t0 + 1e-6 * dt, v[k]));
-            pts[k].push((t0 + n * dt, v[k]));
-        }
-        t0 += n * dt;
-        ends.push(t0);
-    }
-    r.sim.loads.prescribed[1].components = pts.map(|p| Some(TimeFunction::table(p).unwrap()));
-    r.sim.invalidate();
+    let ends = r.drive_in_phases(&phases);
     let mu_sigma = coh.residual_friction * coh.normal_penalty / r.size * dc;
     let (mut fwd, mut back, mut dissipated_before_slide) = (0.0 as Real, 0.0 as Real, 0.0);
     while r.sim.time < ends[3] - 0.5 * dt {
@@ -1339,19 +1348,7 @@ fn dilatant_broken_joint_clamps_its_faces_and_holds_them_from_contact_within_rea
         (2_000.0, r.n * ((dc + dilated + u_max) / (2_000.0 * dt))),
         (2_000.0, r.n * ((3.0 * u_max) / (2_000.0 * dt))),
     ];
-    let mut pts: [Vec<(Real, Real)>; 3] = Default::default();
-    let mut t0 = 0.0;
-    let mut ends = Vec::new();
-    for (n, v) in phases {
-        for k in 0..3 {
-            pts[k].push((t0 + 1e-6 * dt, v[k]));
-            pts[k].push((t0 + n * dt, v[k]));
-        }
-        t0 += n * dt;
-        ends.push(t0);
-    }
-    r.sim.loads.prescribed[1].components = pts.map(|p| Some(TimeFunction::table(p).unwrap()));
-    r.sim.invalidate();
+    let ends = r.drive_in_phases(&phases);
     let (mut riding, mut end_of_slide, mut held_within_reach) = (None, None, true);
     let quarter = ends[1] + 0.25 * (ends[2] - ends[1]);
     while r.sim.time < ends[4] - 0.5 * dt {
