@@ -17,6 +17,7 @@
 //! thread): every node receives its forces in a fixed order, with no atomics and no gather.
 
 use crate::compiled;
+pub mod audit;
 pub mod bond;
 pub mod law;
 
@@ -209,6 +210,10 @@ pub struct Joints {
     /// Slip each point has accumulated since it broke [m] (see [`PointState::slid`]).
     #[serde(default)]
     pub slid: Vec<[Real; 3]>,
+    /// Each softening point's undamaged stored energy at the last step [J/m²] (see
+    /// [`PointState::last_undamaged_energy`]; NaN when not softening).
+    #[serde(default)]
+    pub last_undamaged_energy: Vec<[Real; 3]>,
     /// Broken joints of a dilatant law that still hold their faces (set by stage 2 each
     /// step): a point's asperities are within reach (it opened less than twice the law's
     /// `dilatancy_opening` beyond its dilation), so stage 5 does not take them over.
@@ -396,6 +401,7 @@ impl Joints {
         self.state.push([PointHistory::default(); 3]);
         self.anchor.push([Vec3::zeros(); 3]);
         self.slid.push([0.0; 3]);
+        self.last_undamaged_energy.push([Real::NAN; 3]);
         self.keeps_faces.push(false);
         self.broken.push(false);
     }
@@ -516,6 +522,8 @@ impl Joints {
         self.handed_over.resize(self.len(), false);
         // (Checkpoints written before these existed.)
         self.slid.resize(self.len(), [0.0; 3]);
+        self.last_undamaged_energy
+            .resize(self.len(), [Real::NAN; 3]);
         self.keeps_faces.resize(self.len(), false);
         let rate_dependent = self
             .laws
@@ -592,7 +600,12 @@ impl Joints {
             }
         }
         let mut st: [PointState; 3] = std::array::from_fn(|p| {
-            PointState::from_parts(self.state[j][p], self.anchor[j][p], self.slid[j][p])
+            PointState::from_parts(
+                self.state[j][p],
+                self.anchor[j][p],
+                self.slid[j][p],
+                self.last_undamaged_energy[j][p],
+            )
         });
         pts.iter()
             .enumerate()
@@ -723,16 +736,20 @@ fn faces_parted(
     normal(&faces[0]).dot(&normal(&faces[1])) < 0.0
 }
 
-/// A point's state for its law: its history, and its friction anchor where the law uses one
-/// (only cohesive laws read anchors; the others get zero).
+/// A point's state for its law: its history, and where the law uses them (only cohesive
+/// laws do; the others get zero) its friction anchor, accumulated slip and last undamaged
+/// energy.
 #[inline(always)]
-fn point_state(history: PointHistory, anchor: Vec3, slid: Real, uses_anchor: bool) -> PointState {
-    let (anchor, slid) = if uses_anchor {
-        (anchor, slid)
+fn point_state(
+    history: PointHistory,
+    (anchor, slid, last_psi0): (Vec3, Real, Real),
+    cohesive: bool,
+) -> PointState {
+    if cohesive {
+        PointState::from_parts(history, anchor, slid, last_psi0)
     } else {
-        (Vec3::zeros(), 0.0)
-    };
-    PointState::from_parts(history, anchor, slid)
+        PointState::from_parts(history, Vec3::zeros(), 0.0, Real::NAN)
+    }
 }
 
 /// Kinematics of one integration point from [`joint_kinematics`]' (opening, slip, direction).
@@ -844,6 +861,7 @@ pub fn add_joint_forces(
         state,
         anchor,
         slid,
+        last_undamaged_energy,
         keeps_faces,
         handed_over,
         laws,
@@ -860,10 +878,12 @@ pub fn add_joint_forces(
     let sp = SyncPtr(state.as_mut_ptr());
     let ap = SyncPtr(anchor.as_mut_ptr());
     let slp = SyncPtr(slid.as_mut_ptr());
+    let lp = SyncPtr(last_undamaged_energy.as_mut_ptr());
     let kp = SyncPtr(keeps_faces.as_mut_ptr());
     let rp = SyncPtr(rate.as_mut_ptr());
     let has_rate = !rate.is_empty();
     let mut total = JointSums::default();
+    let audit = audit::on().then(|| audit::Recorder::begin(faces.len()));
     let run_block = |range: &std::ops::Range<usize>| {
         let mut s = JointSums::default();
         let mut frame = compiled::Frame::new();
@@ -884,7 +904,12 @@ pub fn add_joint_forces(
                     let r = unsafe { &mut *rp.get().add(j) };
                     if st.iter().all(|p| p.damage == 0.0) {
                         let pose = joint_kinematics(&faces[j], x);
-                        s.dissipated -= update_rate_factors(c, r, &pose, size[j], young, time);
+                        let dr = update_rate_factors(c, r, &pose, size[j], young, time);
+                        s.dissipated -= dr;
+                        if let Some(a) = audit {
+                            // SAFETY: joint j is this block's.
+                            unsafe { a.dissipated(j, -dr, false) };
+                        }
                     }
                     let c = c.scaled(r.dif_t, r.dif_c);
                     let consts = c.consts();
@@ -918,20 +943,26 @@ pub fn add_joint_forces(
             let was_failed = st.iter().all(|p| p.damage >= 1.0);
             // Only cohesive laws use the friction anchors (of broken joints): other laws
             // neither read nor write them.
-            let uses_anchor = matches!(lw, JointLaw::Cohesive(_));
+            let cohesive = matches!(lw, JointLaw::Cohesive(_));
             // SAFETY: as for the state.
             let anchors = unsafe { &mut *ap.get().add(j) };
             // SAFETY: as for the state.
             let (slids, keeps) = unsafe { (&mut *slp.get().add(j), &mut *kp.get().add(j)) };
+            // SAFETY: as for the state.
+            let lasts = unsafe { &mut *lp.get().add(j) };
             if j < n_handed && faces_parted(&faces[j], x, area, area0[j], size[j], &pts) {
                 // A joint whose faces no longer face each other breaks (if it has not) and
                 // lets go: what its springs hold at these kinematics is booked as dissipated
                 // (as on re-opening, or as a fracture criterion's break), and it acts no more.
                 for (p, pt) in pts.iter().enumerate() {
                     let k = point_kinematics(n, size[j], pt);
-                    let mut ps = point_state(st[p], anchors[p], slids[p], uses_anchor);
+                    let mut ps = point_state(st[p], (anchors[p], slids[p], lasts[p]), cohesive);
                     let t = lw.evaluate_in(&mut frame, cs, &k, inv_h, &mut ps, true);
                     s.dissipated += (t.dissipated + t.energy) * area / 3.0;
+                    if let Some(a) = audit {
+                        // SAFETY: joint j is this block's.
+                        unsafe { a.dissipated(j, (t.dissipated + t.energy) * area / 3.0, true) };
+                    }
                     st[p].damage = 1.0;
                 }
                 if !was_failed {
@@ -946,12 +977,13 @@ pub fn add_joint_forces(
             for (p, pt) in pts.iter().enumerate() {
                 let k = point_kinematics(n, size[j], pt);
                 let dir = pt.2;
-                let mut ps = point_state(st[p], anchors[p], slids[p], uses_anchor);
+                let mut ps = point_state(st[p], (anchors[p], slids[p], lasts[p]), cohesive);
                 let t = lw.evaluate_in(&mut frame, cs, &k, inv_h, &mut ps, want_energy);
                 st[p] = ps.history();
-                if uses_anchor {
+                if cohesive {
                     anchors[p] = ps.anchor;
                     slids[p] = ps.slid;
+                    lasts[p] = ps.last_undamaged_energy;
                 }
                 let on_b = -(n * t.normal + dir * t.shear + t.friction) * (area / 3.0);
                 // SAFETY: blocks of one colour share no node, and a block runs on
@@ -963,6 +995,19 @@ pub fn add_joint_forces(
                 s.dissipated += t.dissipated * area / 3.0;
                 if want_energy {
                     s.energy += t.energy * area / 3.0;
+                }
+                if let Some(a) = audit {
+                    let closed = t.normal < 0.0 || t.friction != Vec3::zeros();
+                    let regime = audit::Regime::of_point(st[p].damage, closed);
+                    let (e, d) = (t.energy * area / 3.0, t.dissipated * area / 3.0);
+                    // SAFETY: joint j is this block's.
+                    unsafe { a.point(j, p, on_b, e, d, regime) };
+                    if Some(j) == audit::traced() {
+                        eprintln!(
+                            "audit t={time:.6e} joint {j} point {p}: D {:.6} δn {:.4e} δs {:.4e} σ {:.4e} τ {:.4e} |f| {:.4e} Ψ {e:.4e} D {d:.4e}",
+                            st[p].damage, pt.0, pt.1, t.normal, t.shear, t.friction.norm()
+                        );
+                    }
                 }
             }
             let failed = st.iter().all(|p| p.damage >= 1.0);

@@ -713,7 +713,8 @@ impl Simulation {
         self.check_mass_damping()?;
         let sample = self.step == 0
             || self.sample_next
-            || self.step.is_multiple_of(self.settings.energy_every.max(1));
+            || self.step.is_multiple_of(self.settings.energy_every.max(1))
+            || crate::joints::audit::on();
         self.sample_next = false;
         let (dt, time) = (self.dt, self.time);
         let el = timed(&mut self.timers, Stage::Elements, || {
@@ -753,6 +754,9 @@ impl Simulation {
                 ),
             )
         });
+        if crate::joints::audit::on() {
+            crate::joints::audit::close_step(&self.joints.faces, &self.nodes.x, time);
+        }
         let released = timed(&mut self.timers, Stage::Fracture, || {
             crate::fracture::break_joints(
                 &mut self.joints,
