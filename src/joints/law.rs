@@ -337,9 +337,10 @@ pub struct PointState {
     /// Largest opening and slip so far [m].
     pub max_opening: Real,
     pub max_slip: Real,
-    /// Tangential jump at which the friction spring of a broken joint is anchored (the
-    /// accumulated plastic slip, a vector kept in the current tangent plane) [m]; NaN while
-    /// the broken joint is open.
+    /// Tangential jump at which the point's tangential spring is anchored [m], a vector kept
+    /// in the current tangent plane: while the point softens (0 < D < 1), the plastic slip of
+    /// its cohesive shear; once broken, the friction spring's accumulated plastic slip (NaN
+    /// while the broken point is open). Unused while undamaged.
     pub anchor: Vec3,
     /// Slip accumulated since the point broke, Σ|Δs_p| [m] (the dilatancy's measure).
     pub slid: Real,
@@ -381,9 +382,10 @@ pub struct PointTraction {
     pub normal: Real,
     /// τ ≥ 0 [Pa], opposing the slip (intact joints).
     pub shear: Real,
-    /// Friction traction of a broken, closed joint [Pa], a tangential vector resisting the
-    /// elastic part of the slip (in any direction).
-    pub friction: Vec3,
+    /// Tangential traction vector [Pa] resisting the elastic part of the slip (in any
+    /// direction): a softening point's cohesive shear (its `shear` is then 0), or a broken,
+    /// closed point's friction.
+    pub tangential: Vec3,
     /// Recoverable energy per unit area at this state [J/m²] (only when requested).
     pub energy: Real,
     /// Energy per unit area dissipated by this evaluation (damage growth, friction) [J/m²].
@@ -527,51 +529,26 @@ impl Cohesive {
         } else {
             (self.cohesion, c.half_inv_c)
         };
-        // Opening and slip relative to their peaks: x = δ/δp, δp = 2f/(p/h).
+        // Opening and slip relative to their peaks: x = δ/δp, δp = 2f/(p/h). The slip that
+        // loads the cohesive shear is the elastic one, e = δs − s_p: a softening point has
+        // slipped plastically by s_p (its anchor, kept in the current tangent plane); an
+        // undamaged one has not.
         let xn = k.opening.max(0.0) * kn * c.half_inv_ft;
-        let xs = k.slip * kt * half_inv_fs;
+        let softening = s.damage > 0.0 && s.damage < 1.0;
+        let mut elastic = k.slip_vector;
+        if softening {
+            elastic -= s.anchor - k.normal * s.anchor.dot(&k.normal);
+        }
+        let mut xs = if softening {
+            elastic.norm() * kt * half_inv_fs
+        } else {
+            k.slip * kt * half_inv_fs
+        };
         // Peak opening and slip δp = 2f/(p/h) (needed off the undamaged pre-peak path only).
         let peaks = || (2.0 * self.tensile_strength / kn, 2.0 * fs / kt);
         let mut dissipated = 0.0;
-        if s.damage < 1.0 && (s.damage > 0.0 || xn > 1.0 || xs > 1.0) {
-            let (dnp, dsp) = peaks();
-            // ψ₀: the undamaged stored energy at the current opening and slip.
-            let psi0 = self.tensile_strength * dnp * prepeak_integral(xn)
-                + fs * dsp * prepeak_integral(xs);
-            // Damage from the elliptical interaction of the excess opening and slip.
-            let en = (k.opening - dnp).max(0.0) * c.inv_dnt;
-            let es = (k.slip - dsp).max(0.0) * fs * c.inv_k_gii;
-            let d = (en * en + es * es).sqrt().min(1.0);
-            if d > s.damage {
-                // Growth from D to D' dissipates ∫ψ₀ d(−z) along the step: booked with the
-                // trapezoid ½(ψ₀ last + ψ₀ now)·(z(D) − z(D')), the rule that matches the
-                // central difference's work of the forces (z·∂ψ₀/∂δ at each end). ψ₀ now
-                // alone (the right end) over-books by ½|Δz|·σ₀·Δδ each step: first order in
-                // the step, 3–4 % of the fracture energy of a beam cracking under a drop
-                // weight (docs/theory/joints.md). The first growth from D = 0 has no last
-                // value (undamaged points are not tracked) and uses ψ₀ now.
-                let last = if s.last_undamaged_energy.is_nan() {
-                    psi0
-                } else {
-                    s.last_undamaged_energy
-                };
-                dissipated = (self.z_of(s.damage) - self.softening.z(d)) * 0.5 * (last + psi0);
-                s.damage = d;
-                if d >= 1.0 {
-                    // Broken: the friction spring starts unstretched at the current slip (the
-                    // cohesive shear traction has just gone to 0). Anchored at 0 instead, a
-                    // joint broken in compression after slipping δs jumped to the friction
-                    // limit and booked limit·δs of friction no force had worked for.
-                    s.anchor = k.slip_vector;
-                }
-            }
-            // Kept while the point softens (a softening point's joint takes this path every
-            // step, so the value is always the last step's).
-            s.last_undamaged_energy = if s.damage > 0.0 && s.damage < 1.0 {
-                psi0
-            } else {
-                Real::NAN
-            };
+        if s.damage < 1.0 && (softening || xn > 1.0 || xs > 1.0) {
+            dissipated = self.soften(c, k, (kn, kt, fs), xn, (&mut elastic, &mut xs), s);
         }
         if k.opening > s.max_opening {
             s.max_opening = k.opening;
@@ -592,6 +569,8 @@ impl Cohesive {
                 // pushes the faces apart a little. Without this term the law created energy
                 // on closed paths of slip and compression (0.33 of the stored shear energy on
                 // the cycle of `tests/joints.rs`).
+                // With x_s ≤ 1 (the slip beyond the peak is plastic) the term is at most
+                // ⅔·z·tan φ·f_s·k_n/k_t.
                 compression
                     - z * kn * self.tan_friction * (2.0 * fs / kt) * strength_sensitivity(xs)
             },
@@ -603,9 +582,93 @@ impl Cohesive {
                 + z * self.tensile_strength * dnp * prepeak_integral(xn)
                 + z * fs * dsp * prepeak_integral(xs);
         }
-        t.shear = z * fs * prepeak(xs);
+        let shear = z * fs * prepeak(xs);
+        if s.damage > 0.0 {
+            // Along the elastic slip (zero with it).
+            let e = elastic.norm();
+            if e > 0.0 {
+                t.tangential = elastic * (shear / e);
+            }
+        } else {
+            t.shear = shear;
+        }
         t.dissipated = dissipated;
         t
+    }
+
+    /// The softening update of a point not yet broken, at the current kinematics: plastic
+    /// slip beyond the shear peak (`elastic` and `xs` are returned to it), damage growth,
+    /// and the anchor and last ψ₀ of the point's history. Returns what the step dissipates
+    /// [J/m²].
+    #[inline]
+    fn soften(
+        &self,
+        c: &CohesiveConsts,
+        k: &PointKinematics,
+        (kn, kt, fs): (Real, Real, Real),
+        xn: Real,
+        (elastic, xs): (&mut Vec3, &mut Real),
+        s: &mut PointState,
+    ) -> Real {
+        let (dnp, dsp) = (2.0 * self.tensile_strength / kn, 2.0 * fs / kt);
+        let z_old = self.z_of(s.damage);
+        // Beyond the peak slip the shear slips plastically at z·f_s: the anchor moves
+        // until |e| = δsp (a return at fixed kinematics), releasing from the stored
+        // shear energy f_s·δsp·(Φ(x_s) − Φ(1)) = f_s·|Δs_p| (at z = 1). The stored shear
+        // energy, and the Mohr–Coulomb term it puts into σ, stay bounded (x_s ≤ 1).
+        let mut plastic = 0.0;
+        if *xs > 1.0 {
+            plastic = fs * dsp * (prepeak_integral(*xs) - prepeak_integral(1.0));
+            *elastic *= 1.0 / *xs;
+            *xs = 1.0;
+        }
+        let plastic_slip = k.slip_vector - *elastic;
+        // ψ₀: the undamaged stored energy at the current opening and elastic slip.
+        let psi0 =
+            self.tensile_strength * dnp * prepeak_integral(xn) + fs * dsp * prepeak_integral(*xs);
+        // Damage from the elliptical interaction of the opening beyond its peak and the
+        // plastic slip (on a monotonic path, the slip beyond its peak).
+        let en = (k.opening - dnp).max(0.0) * c.inv_dnt;
+        let es = plastic_slip.norm() * fs * c.inv_k_gii;
+        let d = (en * en + es * es).sqrt().min(1.0);
+        let mut z_new = z_old;
+        let mut dissipated = 0.0;
+        if d > s.damage {
+            z_new = self.softening.z(d);
+            // Growth from D to D' dissipates ∫ψ₀ d(−z) along the step: booked with the
+            // trapezoid ½(ψ₀ last + ψ₀ now)·(z(D) − z(D')), the rule that matches the
+            // central difference's work of the forces (z·∂ψ₀/∂δ at each end). ψ₀ now
+            // alone (the right end) over-books by ½|Δz|·σ₀·Δδ each step: first order in
+            // the step (docs/theory/joints.md). The first growth from D = 0 has no last
+            // value (undamaged points are not tracked) and uses ψ₀ now.
+            let last = if s.last_undamaged_energy.is_nan() {
+                psi0
+            } else {
+                s.last_undamaged_energy
+            };
+            dissipated = (z_old - z_new) * 0.5 * (last + psi0);
+            s.damage = d;
+        }
+        // The plastic slip's work at the plateau, with the step's mean z (the same
+        // trapezoid as the forces' work).
+        dissipated += 0.5 * (z_old + z_new) * plastic;
+        s.anchor = if d >= 1.0 {
+            // Broken: the friction spring starts unstretched at the current slip (the
+            // cohesive shear traction has just gone to 0). Anchored at 0 instead, a
+            // joint broken in compression after slipping δs jumped to the friction
+            // limit and booked limit·δs of friction no force had worked for.
+            k.slip_vector
+        } else {
+            plastic_slip
+        };
+        // Kept while the point softens (a softening point's joint takes this path every
+        // step, so the value is always the last step's).
+        s.last_undamaged_energy = if s.damage > 0.0 && s.damage < 1.0 {
+            psi0
+        } else {
+            Real::NAN
+        };
+        dissipated
     }
 
     /// A broken point (D = 1): the compression penalty on the gap δn − u_d (u_d the
@@ -659,7 +722,7 @@ impl Cohesive {
                 s.slid += step;
             }
             s.anchor = next;
-            t.friction = (k.slip_vector - next) * kt;
+            t.tangential = (k.slip_vector - next) * kt;
             if want_energy {
                 t.energy += 0.5 * kt * (k.slip_vector - next).norm_squared();
             }
@@ -884,7 +947,7 @@ mod tests {
             let ((o0, s0), (o1, s1)) = (w[0], w[1]);
             work += 0.5 * (prev.normal + t.normal) * (o1 - o0)
                 + 0.5 * (prev.shear + t.shear) * (s1.norm() - s0.norm())
-                + 0.5 * (prev.friction + t.friction).dot(&(s1 - s0));
+                + 0.5 * (prev.tangential + t.tangential).dot(&(s1 - s0));
             dissipated += t.dissipated;
             prev = t;
         }
@@ -936,7 +999,7 @@ mod tests {
                     size: h,
                 };
                 let t = law.evaluate_with(&c, &k, 1.0 / h, &mut s_gen[p], false);
-                n * t.normal + dir * t.shear + t.friction
+                n * t.normal + dir * t.shear + t.tangential
             });
             match fast {
                 Some(t) => {
@@ -988,11 +1051,19 @@ mod tests {
                 normal: Vec3::z(),
                 size: h,
             };
+            // A softening point beyond its peak slip has slipped plastically: its anchor
+            // leaves an elastic slip of 0.8·δsp, so the probes stay elastic.
+            let fs = law.shear_strength(law.normal_penalty / h * (dn * dnp).min(0.0));
+            let plastic = if damage > 0.0 {
+                (ds * dnp - 0.8 * law.peak_slip(h, fs)).max(0.0)
+            } else {
+                0.0
+            };
             let state = PointState {
                 damage,
                 max_opening: 1.0,
                 max_slip: 1.0,
-                anchor: Vec3::zeros(),
+                anchor: Vec3::new(plastic, 0.0, 0.0),
                 slid: 0.0,
                 last_undamaged_energy: Real::NAN,
             };
@@ -1020,13 +1091,102 @@ mod tests {
             }
             if d_ds.is_finite() {
                 assert!(
-                    (d_ds - t.shear).abs() <= 1e-6 * law.cohesion,
+                    (d_ds - (t.shear + t.tangential.x)).abs() <= 1e-6 * law.cohesion,
                     "τ at {dn},{ds},{damage}: {d_ds} vs {}",
-                    t.shear
+                    t.shear + t.tangential.x
                 );
             }
         }
         assert_eq!(coupled, 3, "every compressed state with slip probed");
+    }
+
+    /// Slip beyond the shear peak is plastic. Driven under fixed compression to 20 peak slips
+    /// (softening, not broken), a point carries τ = z·f_s along the slip, and its normal
+    /// traction's Mohr–Coulomb term stays within ⅔·z·tan φ·f_s·k_n/k_t (the elastic-damage
+    /// form gave z·k_n·tan φ·(δs − ⅔δsp), 59× that here); reversed, τ falls at once along the
+    /// elastic branch (by more than half within 0.8 δsp), vanishes at the plastic slip and
+    /// turns over to −z·f_s beyond it. Monotonic, the τ(δs) curve and the dissipation (G_II +
+    /// the peak's ⅔·f_s·δsp) are the elastic-damage form's.
+    #[test]
+    fn shear_beyond_the_peak_is_plastic_and_its_normal_term_bounded() {
+        // A tough joint, so that 20 peak slips soften it without breaking it.
+        let law = Cohesive {
+            g_ii: 2000.0,
+            ..rock()
+        };
+        let h = 0.01;
+        let (kn, kt) = (law.normal_penalty / h, law.tangential_penalty / h);
+        let dn = -2e-6;
+        let fs = law.shear_strength(kn * dn);
+        let dsp = law.peak_slip(h, fs);
+        let (_, dst) = law.softening_lengths(fs);
+        let kin = |ds: Real| PointKinematics {
+            opening: dn,
+            slip: ds.abs(),
+            slip_vector: Vec3::new(ds, 0.0, 0.0),
+            normal: Vec3::z(),
+            size: h,
+        };
+        let mut s = PointState::default();
+        let n = 4000;
+        let end = dsp + 0.5 * dst;
+        assert!(end > 19.0 * dsp, "{} peak slips", end / dsp);
+        let (mut work, mut booked, mut prev) = (0.0, 0.0, None::<(Real, Real)>);
+        let mut t = PointTraction::default();
+        for i in 1..=n {
+            let ds = end * i as Real / n as Real;
+            t = law.evaluate(&kin(ds), &mut s);
+            let tau = t.shear + t.tangential.x;
+            if let Some((tau0, e0)) = prev {
+                work += 0.5 * (tau0 + tau) * end / n as Real;
+                booked += t.energy - e0 + t.dissipated;
+            }
+            prev = Some((tau, t.energy));
+        }
+        let z = softening_z(s.damage);
+        assert!(s.damage > 0.1 && s.damage < 1.0, "D = {}", s.damage);
+        let tau = t.shear + t.tangential.x;
+        assert!(
+            (tau - z * fs).abs() < 1e-9 * fs,
+            "τ {tau} vs z·f_s {}",
+            z * fs
+        );
+        let term = t.normal - kn * dn;
+        let bound = 2.0 / 3.0 * z * law.tan_friction * fs * kn / kt;
+        assert!(
+            term < 0.0 && -term <= bound * (1.0 + 1e-9),
+            "term {term} vs bound {bound}"
+        );
+        let old_term = z * kn * law.tan_friction * (end - 2.0 / 3.0 * dsp);
+        assert!(
+            old_term > 50.0 * bound,
+            "the elastic-damage term was {old_term}"
+        );
+        assert!(
+            (work - booked).abs() < 1e-3 * work,
+            "work {work} vs ΔΨ + D {booked}"
+        );
+        // Reverse: elastic unloading, then plastic slip the other way.
+        let plastic = s.anchor.x;
+        assert!((plastic - (end - dsp)).abs() < 1e-9 * end, "s_p {plastic}");
+        let at = |ds: Real, s: &PointState| {
+            let mut s = *s;
+            let t = law.evaluate(&kin(ds), &mut s);
+            t.shear + t.tangential.x
+        };
+        assert!(
+            at(end - 0.8 * dsp, &s) < 0.5 * z * fs,
+            "τ falls at once on reversal"
+        );
+        assert!(
+            at(plastic, &s).abs() < 1e-9 * fs,
+            "zero at the plastic slip"
+        );
+        let back = at(plastic - 1.5 * dsp, &s);
+        assert!(
+            back < 0.0 && back >= -z * fs * (1.0 + 1e-9),
+            "τ {back} beyond, the other way"
+        );
     }
 
     /// Softening booked with the trapezoid: along a straight path through the whole softening
@@ -1078,7 +1238,7 @@ mod tests {
                         },
                         &mut s,
                     );
-                    let tau = t.shear + t.friction.x;
+                    let tau = t.shear + t.tangential.x;
                     if let Some((sig0, tau0, e0)) = prev {
                         work += 0.5 * (sig0 + t.normal) * (dn - dn_prev)
                             + 0.5 * (tau0 + tau) * (ds - ds_prev);

@@ -148,7 +148,7 @@ impl JointLaw {
                 PointTraction {
                     normal: kn * k.opening,
                     shear: kt * k.slip,
-                    friction: Vec3::zeros(),
+                    tangential: Vec3::zeros(),
                     energy: 0.5 * (kn * k.opening * k.opening + kt * k.slip * k.slip),
                     dissipated: 0.0,
                 }
@@ -172,7 +172,7 @@ impl JointLaw {
                 PointTraction {
                     normal,
                     shear,
-                    friction: Vec3::zeros(),
+                    tangential: Vec3::zeros(),
                     energy: 0.0,
                     dissipated: 0.0,
                 }
@@ -985,7 +985,7 @@ pub fn add_joint_forces(
                     slids[p] = ps.slid;
                     lasts[p] = ps.last_undamaged_energy;
                 }
-                let on_b = -(n * t.normal + dir * t.shear + t.friction) * (area / 3.0);
+                let on_b = -(n * t.normal + dir * t.shear + t.tangential) * (area / 3.0);
                 // SAFETY: blocks of one colour share no node, and a block runs on
                 // one thread, so no two concurrent writes alias; `f` outlives this.
                 unsafe {
@@ -997,7 +997,7 @@ pub fn add_joint_forces(
                     s.energy += t.energy * area / 3.0;
                 }
                 if let Some(a) = audit {
-                    let closed = t.normal < 0.0 || t.friction != Vec3::zeros();
+                    let closed = t.normal < 0.0 || t.tangential != Vec3::zeros();
                     let regime = audit::Regime::of_point(st[p].damage, closed);
                     let (e, d) = (t.energy * area / 3.0, t.dissipated * area / 3.0);
                     // SAFETY: joint j is this block's.
@@ -1005,7 +1005,7 @@ pub fn add_joint_forces(
                     if Some(j) == audit::traced() {
                         eprintln!(
                             "audit t={time:.6e} joint {j} point {p}: D {:.6} δn {:.4e} δs {:.4e} σ {:.4e} τ {:.4e} |f| {:.4e} Ψ {e:.4e} D {d:.4e}",
-                            st[p].damage, pt.0, pt.1, t.normal, t.shear, t.friction.norm()
+                            st[p].damage, pt.0, pt.1, t.normal, t.shear, t.tangential.norm()
                         );
                     }
                 }
