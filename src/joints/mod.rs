@@ -211,9 +211,9 @@ pub struct Joints {
     #[serde(default)]
     pub slid: Vec<[Real; 3]>,
     /// Each softening point's undamaged stored energy at the last step [J/m²] (see
-    /// [`PointState::last_undamaged_energy`]; NaN when not softening).
+    /// [`PointState::last_energy`]; NaN when not softening).
     #[serde(default)]
-    pub last_undamaged_energy: Vec<[Real; 3]>,
+    pub last_energy: Vec<[Real; 3]>,
     /// Broken joints of a dilatant law that still hold their faces (set by stage 2 each
     /// step): a point's asperities are within reach (it opened less than twice the law's
     /// `dilatancy_opening` beyond its dilation), so stage 5 does not take them over.
@@ -401,7 +401,7 @@ impl Joints {
         self.state.push([PointHistory::default(); 3]);
         self.anchor.push([Vec3::zeros(); 3]);
         self.slid.push([0.0; 3]);
-        self.last_undamaged_energy.push([Real::NAN; 3]);
+        self.last_energy.push([Real::NAN; 3]);
         self.keeps_faces.push(false);
         self.broken.push(false);
     }
@@ -522,8 +522,7 @@ impl Joints {
         self.handed_over.resize(self.len(), false);
         // (Checkpoints written before these existed.)
         self.slid.resize(self.len(), [0.0; 3]);
-        self.last_undamaged_energy
-            .resize(self.len(), [Real::NAN; 3]);
+        self.last_energy.resize(self.len(), [Real::NAN; 3]);
         self.keeps_faces.resize(self.len(), false);
         let rate_dependent = self
             .laws
@@ -604,7 +603,7 @@ impl Joints {
                 self.state[j][p],
                 self.anchor[j][p],
                 self.slid[j][p],
-                self.last_undamaged_energy[j][p],
+                self.last_energy[j][p],
             )
         });
         pts.iter()
@@ -861,7 +860,7 @@ pub fn add_joint_forces(
         state,
         anchor,
         slid,
-        last_undamaged_energy,
+        last_energy,
         keeps_faces,
         handed_over,
         laws,
@@ -878,7 +877,7 @@ pub fn add_joint_forces(
     let sp = SyncPtr(state.as_mut_ptr());
     let ap = SyncPtr(anchor.as_mut_ptr());
     let slp = SyncPtr(slid.as_mut_ptr());
-    let lp = SyncPtr(last_undamaged_energy.as_mut_ptr());
+    let lp = SyncPtr(last_energy.as_mut_ptr());
     let kp = SyncPtr(keeps_faces.as_mut_ptr());
     let rp = SyncPtr(rate.as_mut_ptr());
     let has_rate = !rate.is_empty();
@@ -983,7 +982,7 @@ pub fn add_joint_forces(
                 if cohesive {
                     anchors[p] = ps.anchor;
                     slids[p] = ps.slid;
-                    lasts[p] = ps.last_undamaged_energy;
+                    lasts[p] = ps.last_energy;
                 }
                 let on_b = -(n * t.normal + dir * t.shear + t.tangential) * (area / 3.0);
                 // SAFETY: blocks of one colour share no node, and a block runs on
