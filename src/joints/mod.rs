@@ -210,8 +210,9 @@ pub struct Joints {
     /// Slip each point has accumulated since it broke [m] (see [`PointState::slid`]).
     #[serde(default)]
     pub slid: Vec<[Real; 3]>,
-    /// Each softening point's undamaged stored energy at the last step [J/m²] (see
-    /// [`PointState::last_energy`]; NaN when not softening).
+    /// Each point's energy at the last step [J/m²]: ψ₀ while softening, the friction
+    /// spring's ½k_t|e|² once broken and closed, NaN otherwise (see
+    /// [`PointState::last_energy`]).
     #[serde(default)]
     pub last_energy: Vec<[Real; 3]>,
     /// Broken joints of a dilatant law that still hold their faces (set by stage 2 each
@@ -736,16 +737,15 @@ fn faces_parted(
 }
 
 /// A point's state for its law: its history, and where the law uses them (only cohesive
-/// laws do; the others get zero) its friction anchor, accumulated slip and last undamaged
-/// energy.
+/// laws do; the others get zero) its anchor, accumulated slip and last energy.
 #[inline(always)]
 fn point_state(
     history: PointHistory,
-    (anchor, slid, last_psi0): (Vec3, Real, Real),
+    (anchor, slid, last_energy): (Vec3, Real, Real),
     cohesive: bool,
 ) -> PointState {
     if cohesive {
-        PointState::from_parts(history, anchor, slid, last_psi0)
+        PointState::from_parts(history, anchor, slid, last_energy)
     } else {
         PointState::from_parts(history, Vec3::zeros(), 0.0, Real::NAN)
     }
