@@ -77,12 +77,38 @@ pub fn overlapping_tets(
     tol: Real,
     limit: usize,
 ) -> (usize, Vec<(usize, usize)>) {
+    let mut pairs = Vec::new();
+    let count = visit_overlaps(a, b, tol, |ea, eb| {
+        if pairs.len() < limit {
+            pairs.push((ea, eb));
+        }
+        true
+    });
+    pairs.sort_unstable();
+    (count, pairs)
+}
+
+/// True if some tetrahedron of `a` intersects one of `b` by more than `tol`: the test of
+/// [`overlapping_tets`], stopping at the first overlapping pair (a random packing's
+/// rejections, most of which overlap in many pairs).
+pub fn meshes_overlap(a: &Mesh, b: &Mesh, tol: Real) -> bool {
+    visit_overlaps(a, b, tol, |_, _| false) > 0
+}
+
+/// Calls `found(tet of a, tet of b)` for each intersecting pair, in an order fixed by the
+/// meshes, until it returns false; the number of pairs found.
+fn visit_overlaps(
+    a: &Mesh,
+    b: &Mesh,
+    tol: Real,
+    mut found: impl FnMut(usize, usize) -> bool,
+) -> usize {
     let (alo, ahi) = a.bounds();
     let (blo, bhi) = b.bounds();
     let lo = alo.sup(&blo);
     let hi = ahi.inf(&bhi);
     if (0..3).any(|k| hi[k] - lo[k] <= tol) {
-        return (0, Vec::new());
+        return 0;
     }
     // Tets of each mesh whose box reaches into the common box.
     let near = |m: &Mesh| -> Vec<(usize, [Vec3; 4], Vec3, Vec3)> {
@@ -97,7 +123,7 @@ pub fn overlapping_tets(
     let na = near(a);
     let nb = near(b);
     if na.is_empty() || nb.is_empty() {
-        return (0, Vec::new());
+        return 0;
     }
     let mean_extent = nb.iter().map(|(_, _, l, h)| (h - l).max()).sum::<Real>() / nb.len() as Real;
     let cell = (2.0 * mean_extent).max(1e-300);
@@ -117,7 +143,6 @@ pub fn overlapping_tets(
     }
     let mut stamp = vec![usize::MAX; nb.len()];
     let mut count = 0;
-    let mut pairs = Vec::new();
     for (ia, (ea, pa, la, ha)) in na.iter().enumerate() {
         let (k0, k1) = (key(la), key(ha));
         for x in k0[0]..=k1[0] {
@@ -138,8 +163,8 @@ pub fn overlapping_tets(
                         }
                         if tets_intersect(pa, pb, tol) {
                             count += 1;
-                            if pairs.len() < limit {
-                                pairs.push((*ea, *eb));
+                            if !found(*ea, *eb) {
+                                return count;
                             }
                         }
                     }
@@ -147,8 +172,7 @@ pub fn overlapping_tets(
             }
         }
     }
-    pairs.sort_unstable();
-    (count, pairs)
+    count
 }
 
 #[cfg(test)]

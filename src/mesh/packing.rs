@@ -15,7 +15,7 @@
 //! the same inputs give the same packing on every machine and thread count.
 
 use super::masonry::{Assembly, Block};
-use super::overlap::overlapping_tets;
+use super::overlap::meshes_overlap;
 use super::solids::need_reasonable;
 use super::Mesh;
 use crate::math::{Real, Vec3};
@@ -192,7 +192,7 @@ fn place(mesh: &Mesh, p: &Placement) -> Result<Placed, String> {
                             clear = false;
                             break 'search;
                         }
-                        if overlapping_tets(&copy, other, -p.gap, 1).0 > 0 {
+                        if meshes_overlap(&copy, other, -p.gap) {
                             clear = false;
                             break 'search;
                         }
@@ -235,6 +235,7 @@ fn inscribed_radius(mesh: &Mesh, centre: &Vec3) -> Real {
 mod tests {
     use super::*;
     use crate::mesh::cells::{biconcave_cell, EvansFung};
+    use crate::mesh::overlap::overlapping_tets;
     use crate::mesh::solids::sphere;
 
     fn placement(count: usize, side: Real, seed: u64) -> Placement {
