@@ -4,6 +4,8 @@
 //! counts, and coincident faces between neighbouring masonry blocks (mortar joints found by
 //! `insert_between`, one per shared triangle).
 
+mod common;
+
 use fdem::joints::JointLaw;
 use fdem::material::{Formulation, Material};
 use fdem::math::{Real, Vec3};
@@ -731,7 +733,7 @@ expect_near("vault volume, webs", vw.volume, @WEBS_VOLUME@, 1.0e-12);
         text = text.replace(tag, &format!("{volume:e}"));
     }
     let text = text.as_str();
-    let dir = std::env::temp_dir().join(format!("fdem-gen-script-{}", std::process::id()));
+    let dir = common::temp_dir("gen-script");
     let path = dir.join("gen.rhai");
     let report = fdem::script::run_source(
         &path,

@@ -332,16 +332,16 @@ fn integration_and_interpolation_are_exact_for_simple_records() {
     }
 }
 
-fn temp(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("fdem_gm_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+/// `text` written as `name` in a fresh directory of its own (removed when the guard drops).
+fn temp(name: &str, text: &str) -> (common::TestDir, PathBuf) {
+    let dir = common::temp_dir(&format!("gm-{name}"));
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
-    p
+    (dir, p)
 }
 
 fn read_err(name: &str, text: &str, opts: ReadOptions) -> String {
-    let p = temp(name, text);
+    let (_dir, p) = temp(name, text);
     let e = GroundMotion::read(&p, &opts).unwrap_err();
     assert!(e.contains(name), "the error names the file: {e}");
     e
@@ -418,7 +418,7 @@ fn formats_units_scale_pga_and_window() {
         .enumerate()
         .map(|(k, a)| format!("{:.2},{:.12e}\n", k as f64 * 0.01, a * 100.0))
         .collect();
-    let p = temp("ielc.csv", &format!("time,acc\n{csv}"));
+    let (_csv_dir, p) = temp("ielc.csv", &format!("time,acc\n{csv}"));
     let two = GroundMotion::read(
         &p,
         &ReadOptions {
@@ -428,7 +428,7 @@ fn formats_units_scale_pga_and_window() {
     )
     .unwrap();
     let col: String = r.acc.iter().map(|a| format!("{a:.12e}\n")).collect();
-    let p = temp("ielc.txt", &col);
+    let (_txt_dir, p) = temp("ielc.txt", &col);
     let one = GroundMotion::read(
         &p,
         &ReadOptions {
@@ -511,9 +511,9 @@ expect_within("no drift", bc.displacement_at(60.0), -1e-12, 1e-12);
 expect_within("at rest", bc.velocity_at(60.0), -1e-12, 1e-12);
 expect_within("pgd", bc.pgd, -1.0, 1.0);
 "#;
-    fdem::script::run_source(&script, text, script_options()).unwrap();
+    common::run_source_in_temp("ground_motion_script", &script, text).unwrap();
     let bad = r#"let eq = ground_motion("IELC180.AT2", #{ unit: "g" });"#;
-    let e = fdem::script::run_source(&script, bad, script_options())
+    let e = common::run_source_in_temp("ground_motion_script", &script, bad)
         .err()
         .unwrap()
         .to_string();
@@ -522,23 +522,9 @@ expect_within("pgd", bc.pgd, -1.0, 1.0);
         "{e}"
     );
     let missing = r#"let eq = ground_motion("nope.AT2");"#;
-    let e = fdem::script::run_source(&script, missing, script_options())
+    let e = common::run_source_in_temp("ground_motion_script", &script, missing)
         .err()
         .unwrap()
         .to_string();
     assert!(e.contains("nope.AT2"), "{e}");
-}
-
-/// Options for the scripts this file runs: output in a fresh temporary directory (not the
-/// working directory's out/, which the no-overwrite policy would refuse on a second run).
-fn script_options() -> fdem::script::RunOptions {
-    // A directory per call: tests of one binary run in parallel in one process.
-    static RUN: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    fdem::script::RunOptions {
-        out_dir: Some(common::temp_dir(&format!(
-            "ground_motion_script{}",
-            RUN.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-        ))),
-        ..Default::default()
-    }
 }

@@ -6,10 +6,10 @@
 
 mod common;
 
-use common::temp_dir;
+use common::{temp_dir, TestDir};
 use fdem::material::StressMeasure;
 use fdem::script::{run_source, RunOptions};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// A small model with both layouts, stress and motion, run a few steps, with one frame
 /// written at the end (so the frame holds exactly the final state).
@@ -30,10 +30,10 @@ sim.write_vtk();
     )
 }
 
-fn run(encoding: &str, test: &str) -> (PathBuf, fdem::script::ScriptReport) {
+fn run(encoding: &str, test: &str) -> (TestDir, fdem::script::ScriptReport) {
     let dir = temp_dir(&format!("{test}-{encoding}"));
     let opts = RunOptions {
-        out_dir: Some(dir.clone()),
+        out_dir: Some(dir.to_path_buf()),
         quiet: true,
         ..Default::default()
     };
@@ -701,7 +701,7 @@ fn hexf(s: &str) -> f64 {
 }
 
 /// A jointed bar pulled apart until it breaks, with one frame (and crack surface) at the end.
-fn run_bar(encoding: &str, test: &str) -> (PathBuf, fdem::script::ScriptReport) {
+fn run_bar(encoding: &str, test: &str) -> (TestDir, fdem::script::ScriptReport) {
     let dir = temp_dir(&format!("{test}-{encoding}"));
     let script = r#"let sim = simulation(#{ name: "bar", vtk_encoding: "ENCODING" });
 let m = material("elastic/munjiza", #{ density: 2500.0, young: 1.0e10, poisson: 0.0 });
@@ -714,7 +714,7 @@ sim.write_vtk();
 "#
     .replace("ENCODING", encoding);
     let opts = RunOptions {
-        out_dir: Some(dir.clone()),
+        out_dir: Some(dir.to_path_buf()),
         quiet: true,
         ..Default::default()
     };

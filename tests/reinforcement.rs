@@ -401,7 +401,7 @@ let b = bond_law("fib2010", #{ fcm: 47.0e6 });
             "rebar 'in_plate': the host body 'plate' is rigid",
         ),
     ] {
-        let e = fdem::script::run_source(&script, &format!("{head}{call}"), script_options())
+        let e = common::run_source_in_temp("reinforcement_script", &script, &format!("{head}{call}"))
             .err()
             .unwrap_or_else(|| panic!("{call} was accepted"))
             .to_string();
@@ -438,18 +438,4 @@ fn reinforced_runs_are_bit_identical_for_1_and_2_threads() {
     };
     let (a, b) = (common::on_threads(1, run), common::on_threads(2, run));
     assert!(a == b, "positions differ between 1 and 2 threads");
-}
-
-/// Options for the scripts this file runs: output in a fresh temporary directory (not the
-/// working directory's out/, which the no-overwrite policy would refuse on a second run).
-fn script_options() -> fdem::script::RunOptions {
-    // A directory per call: tests of one binary run in parallel in one process.
-    static RUN: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    fdem::script::RunOptions {
-        out_dir: Some(common::temp_dir(&format!(
-            "reinforcement_script{}",
-            RUN.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-        ))),
-        ..Default::default()
-    }
 }

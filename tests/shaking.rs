@@ -491,7 +491,7 @@ let e = sim2.energy();
 expect_within("ground work booked", abs(e.ground_work), 1e-12, 1.0e9);
 expect_within("balance", abs(e.relative_error), 0.0, 1e-6);
 "#;
-    fdem::script::run_source(&script, text, script_options()).unwrap();
+    common::run_source_in_temp("shaking_script", &script, text).unwrap();
     let head = r#"
 let eq = ground_motion("IELC180.AT2");
 let sim = simulation(#{ name: "bad" });
@@ -514,7 +514,7 @@ let b = sim.add_body("b", box(#{ min: [0.0, 0.0, 0.0], max: [0.1, 0.1, 0.3] }).m
         ),
         ("sim.ground();", "not shaken"),
     ] {
-        let e = fdem::script::run_source(&script, &format!("{head}{call}"), script_options())
+        let e = common::run_source_in_temp("shaking_script", &script, &format!("{head}{call}"))
             .err()
             .unwrap_or_else(|| panic!("{call} was accepted"))
             .to_string();
@@ -598,18 +598,4 @@ fn a_slender_block_rocks_only_above_the_tipping_acceleration() {
         "seated block slid {slide_below:.3e} m"
     );
     assert!(above > 1e-3, "block did not rock: {above:.3e} m");
-}
-
-/// Options for the scripts this file runs: output in a fresh temporary directory (not the
-/// working directory's out/, which the no-overwrite policy would refuse on a second run).
-fn script_options() -> fdem::script::RunOptions {
-    // A directory per call: tests of one binary run in parallel in one process.
-    static RUN: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    fdem::script::RunOptions {
-        out_dir: Some(common::temp_dir(&format!(
-            "shaking_script{}",
-            RUN.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-        ))),
-        ..Default::default()
-    }
 }

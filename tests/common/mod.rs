@@ -35,8 +35,10 @@ pub fn fdem() -> std::process::Command {
     std::process::Command::new(env!("CARGO_BIN_EXE_fdem"))
 }
 
-/// A fresh, empty directory for one test (named by test crate, process and `name`).
-pub fn temp_dir(name: &str) -> std::path::PathBuf {
+/// A fresh, empty directory for one test (named by test crate, process and `name`), removed
+/// when the value is dropped unless the test is panicking (a failed test leaves its files to
+/// look at). Derefs to its path.
+pub fn temp_dir(name: &str) -> TestDir {
     let d = std::env::temp_dir().join(format!(
         "fdem-{}-{}-{name}",
         env!("CARGO_CRATE_NAME"),
@@ -44,7 +46,37 @@ pub fn temp_dir(name: &str) -> std::path::PathBuf {
     ));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
-    d
+    TestDir(d)
+}
+
+/// See [`temp_dir`].
+pub struct TestDir(std::path::PathBuf);
+
+impl std::ops::Deref for TestDir {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::path::Path> for TestDir {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::ffi::OsStr> for TestDir {
+    fn as_ref(&self) -> &std::ffi::OsStr {
+        self.0.as_os_str()
+    }
+}
+
+impl Drop for TestDir {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
 }
 
 /// Write `text` as `dir/name.rhai` and `fdem run` it quietly with `extra` arguments;
@@ -94,4 +126,24 @@ pub fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
         .build()
         .unwrap()
         .install(f)
+}
+
+/// `fdem::script::run_source` with its output in a fresh temporary directory (not the working
+/// directory's out/, which the no-overwrite policy would refuse on a second run), removed
+/// afterwards. `prefix` names the directories; a counter keeps parallel tests apart.
+pub fn run_source_in_temp(
+    prefix: &str,
+    script: &std::path::Path,
+    text: &str,
+) -> Result<fdem::script::ScriptReport, fdem::script::ScriptError> {
+    static RUN: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let dir = temp_dir(&format!(
+        "{prefix}{}",
+        RUN.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+    ));
+    let options = fdem::script::RunOptions {
+        out_dir: Some(dir.to_path_buf()),
+        ..Default::default()
+    };
+    fdem::script::run_source(script, text, options)
 }
