@@ -1116,7 +1116,7 @@ fn broken_joint_whose_faces_parted_is_retired_with_its_energy_booked() {
         if broken {
             for (p, (_, ds, dir)) in pts.iter().enumerate() {
                 r.sim.joints.state[0][p].damage = 1.0;
-                r.sim.joints.anchor[0][p] = dir * *ds;
+                r.sim.joints.set_anchor_global(0, p, &x, dir * *ds);
             }
             r.sim.joints.broken[0] = true;
         }
@@ -1508,4 +1508,105 @@ fn dilatant_joint_in_explicit_dynamics_conserves_energy() {
         (fine / coarse - 0.5).abs() < 0.1,
         "the error halves with the step: {coarse:e} → {fine:e}"
     );
+}
+
+/// Objectivity of the anchors (reference: a rigid rotation of both faces changes no jump in
+/// the joint's own axes, so it must change no traction in them and dissipate nothing). The
+/// joint is sheared under compression to 3 peak slips, so its points soften with a plastic
+/// slip s_p ≈ 2 δsp; then the whole pair is spun about the joint normal by 30° and tilted
+/// by 30° about an in-plane axis, in 1° increments, each evaluated by stage 2. The force on B
+/// must turn with the pair (1e-7 of its size: round-off of the rotated positions against the
+/// springs' small stretch) and no energy be
+/// dissipated (1e-9 of what the shearing dissipated). Anchors kept in global coordinates and
+/// only projected on the turning plane gave |e| = δsp·θ·(|s_p|/δsp) of spurious stretch: at
+/// 30° the force turned by a different angle and grew, and the spin itself dissipated
+/// (plastic return). Then the same after the joint breaks: the friction anchor turns too.
+#[test]
+fn anchors_turn_with_the_joint() {
+    use fdem::joints::add_joint_forces;
+    use nalgebra::{Rotation3, Unit};
+    let coh = law(Calibration::Exact);
+    for broken in [false, true] {
+        let mut r = rig(coh.clone(), constant(Vec3::zeros()));
+        r.sim.prepare().unwrap();
+        let t_dir = Vec3::new(1.0, -1.0, 0.0).normalize();
+        // Compression: σ ≈ −0.5 f_t, to give friction and a Mohr–Coulomb term.
+        let squeeze = 0.5 * coh.tensile_strength / (coh.normal_penalty / r.size);
+        let f_s = coh.cohesion + 0.5 * coh.tensile_strength * coh.tan_friction;
+        let dsp = coh.peak_slip(r.size, f_s);
+        if broken {
+            // Broken beforehand (as a fracture criterion breaks it): friction from the start.
+            r.sim.joints.state[0]
+                .iter_mut()
+                .for_each(|p| p.damage = 1.0);
+            r.sim.joints.last_energy[0] = [0.0; 3];
+            r.sim.joints.broken[0] = true;
+        }
+        let target = 3.0;
+        let b_nodes = r.b_nodes.clone();
+        let x0 = r.sim.nodes.x.clone();
+        let steps = 400;
+        let mut shear_dissipated = 0.0;
+        for k in 1..=steps {
+            let slip = target * dsp * k as Real / steps as Real;
+            for &i in &b_nodes {
+                r.sim.nodes.x[i as usize] = x0[i as usize] - r.n * squeeze + t_dir * slip;
+            }
+            r.sim.nodes.f.iter_mut().for_each(|f| *f = Vec3::zeros());
+            shear_dissipated +=
+                add_joint_forces(&mut r.sim.joints, &mut r.sim.nodes, 0.0, true).dissipated;
+        }
+        let d = r.sim.joints.state[0].map(|p| p.damage);
+        if broken {
+            assert!(d.iter().all(|&d| d >= 1.0), "not broken: D = {d:?}");
+        } else {
+            assert!(
+                d.iter().all(|&d| d > 0.0 && d < 1.0),
+                "not softening: D = {d:?}"
+            );
+        }
+        let force_on_b =
+            |r: &Rig| -> Vec3 { b_nodes.iter().map(|&i| r.sim.nodes.f[i as usize]).sum() };
+        let f0 = force_on_b(&r);
+        assert!(f0.norm() > 0.0);
+        let centre: Vec3 = r.sim.joints.faces[0][0]
+            .iter()
+            .map(|&i| r.sim.nodes.x[i as usize])
+            .sum::<Vec3>()
+            / 3.0;
+        let x_sheared = r.sim.nodes.x.clone();
+        for axis in [r.n, t_dir] {
+            // Start each rotation from the sheared state (the spin, then the tilt).
+            let mut rs = rig(coh.clone(), constant(Vec3::zeros()));
+            rs.sim.prepare().unwrap();
+            rs.sim.joints = r.sim.joints.clone();
+            let mut rotated_dissipation = 0.0;
+            let mut f = Vec3::zeros();
+            for deg in 1..=30 {
+                let rot = Rotation3::from_axis_angle(
+                    &Unit::new_normalize(axis),
+                    (deg as Real).to_radians(),
+                );
+                for (x, x_s) in rs.sim.nodes.x.iter_mut().zip(&x_sheared) {
+                    *x = centre + rot * (x_s - centre);
+                }
+                rs.sim.nodes.f.iter_mut().for_each(|f| *f = Vec3::zeros());
+                rotated_dissipation +=
+                    add_joint_forces(&mut rs.sim.joints, &mut rs.sim.nodes, 0.0, true).dissipated;
+                f = force_on_b(&rs);
+                let want = rot * f0;
+                // Round-off: positions of order 1 m carry 1e-16 m, against a friction
+                // spring stretched by μ|σ|h/p_t = 2.5e-8 m (broken) or δsp (softening).
+                assert!(
+                    (f - want).norm() <= 1e-7 * f0.norm(),
+                    "broken {broken}, axis {axis:?}, {deg}°: force {f:?}, the sheared force turned {want:?}"
+                );
+            }
+            assert!(
+                rotated_dissipation.abs() <= 1e-9 * shear_dissipated.abs(),
+                "broken {broken}, axis {axis:?}: the rotation dissipated {rotated_dissipation:e} J (shearing {shear_dissipated:e} J)"
+            );
+            assert!(f.norm() > 0.0);
+        }
+    }
 }

@@ -185,11 +185,16 @@ pub fn break_joints(
                     for j in 0..joints.len() {
                         if !joints.broken[j] && c.says_break(joints, j, x, time) {
                             released += joints.stored_energy(j, x);
-                            // Fully damaged now; the friction springs start unstretched.
+                            // Fully damaged now; the friction springs start unstretched
+                            // and hold nothing (a softening point's last energy was its
+                            // cohesive ψ₀: left in place, the next opening would release it
+                            // as friction work no force did).
                             let (_, _, pts) = crate::joints::joint_kinematics(&joints.faces[j], x);
                             for (p, (_, ds, dir)) in pts.into_iter().enumerate() {
                                 joints.state[j][p].damage = 1.0;
-                                joints.anchor[j][p] = dir * ds;
+                                joints.set_anchor_global(j, p, x, dir * ds);
+                                joints.last_energy[j][p] = 0.0;
+                                joints.slid[j][p] = 0.0;
                             }
                             record(joints, j, x, tet_body, time, events);
                         }

@@ -332,12 +332,15 @@ pub struct PointState {
     /// Largest opening and slip so far [m].
     pub max_opening: Real,
     pub max_slip: Real,
-    /// Tangential jump at which the point's tangential spring is anchored [m], a vector kept
-    /// in the current tangent plane: while the point softens (0 < D < 1), the plastic slip of
+    /// Tangential jump at which the point's tangential spring is anchored [m], a vector
+    /// projected on the current tangent plane (stage 2 keeps it in the joint's own axes
+    /// between steps: [`super::Joints::anchor`]): while the point softens (0 < D < 1), the plastic slip of
     /// its cohesive shear; once broken, the friction spring's accumulated plastic slip (NaN
     /// while the broken point is open). Unused while undamaged.
     pub anchor: Vec3,
-    /// Slip accumulated since the point broke, Σ|Δs_p| [m] (the dilatancy's measure).
+    /// Accumulated plastic slip Σ|Δs_p| [m]: while the point softens, of its cohesive shear
+    /// (it drives the damage); once broken, of its friction since the break (the
+    /// dilatancy's measure).
     pub slid: Real,
     /// The point's energy at the last evaluation [J/m²], the left end of the trapezoids that
     /// book the next step's dissipation: while the point softens (0 < D < 1) its undamaged
@@ -619,13 +622,19 @@ impl Cohesive {
             *xs = 1.0;
         }
         let plastic_slip = k.slip_vector - *elastic;
+        // The plastic slip's path, Σ|Δs_p| (on a monotonic path |s_p|): cycles of shear
+        // accumulate damage, so the plateau's plastic work is bounded by the damage reaching
+        // 1 (with the net |s_p| a joint sheared back and forth never broke and dissipated
+        // z·f_s per unit of slip for ever). Undamaged points have s_p = 0 and no path.
+        let old_plastic = s.anchor - k.normal * s.anchor.dot(&k.normal);
+        let path = s.slid + (plastic_slip - old_plastic).norm();
         // ψ₀: the undamaged stored energy at the current opening and elastic slip.
         let psi0 =
             self.tensile_strength * dnp * prepeak_integral(xn) + fs * dsp * prepeak_integral(*xs);
         // Damage from the elliptical interaction of the opening beyond its peak and the
-        // plastic slip (on a monotonic path, the slip beyond its peak).
+        // plastic slip's path (on a monotonic path, the slip beyond its peak).
         let en = (k.opening - dnp).max(0.0) * c.inv_dnt;
-        let es = plastic_slip.norm() * fs * c.inv_k_gii;
+        let es = path * fs * c.inv_k_gii;
         let d = (en * en + es * es).sqrt().min(1.0);
         let mut z_new = z_old;
         let mut dissipated = 0.0;
@@ -648,14 +657,15 @@ impl Cohesive {
         // The plastic slip's work at the plateau, with the step's mean z (the same
         // trapezoid as the forces' work).
         dissipated += 0.5 * (z_old + z_new) * plastic;
-        s.anchor = if d >= 1.0 {
+        (s.anchor, s.slid) = if d >= 1.0 {
             // Broken: the friction spring starts unstretched at the current slip (the
             // cohesive shear traction has just gone to 0). Anchored at 0 instead, a
             // joint broken in compression after slipping δs jumped to the friction
-            // limit and booked limit·δs of friction no force had worked for.
-            k.slip_vector
+            // limit and booked limit·δs of friction no force had worked for. The slip
+            // since the break (the dilatancy's measure) starts at 0.
+            (k.slip_vector, 0.0)
         } else {
-            plastic_slip
+            (plastic_slip, path)
         };
         // Kept while the point softens (a softening point's joint takes this path every
         // step, so the value is always the last step's).
@@ -1108,6 +1118,78 @@ mod tests {
             }
         }
         assert_eq!(coupled, 3, "every compressed state with slip probed");
+    }
+
+    /// Cycles of shear accumulate damage. Under fixed compression, a point sheared back and
+    /// forth between ±(δsp + δst/5) (each half-cycle slips plastically about 2δst/5) breaks
+    /// once its plastic slip's path reaches the monotonic break slip, and dissipates what a
+    /// monotonic slip to breaking does (1e-3: the step's trapezoids; the elastic branches at
+    /// the reversals store and return energy). With the net |s_p| as the damage measure the
+    /// point never broke (D stayed at its first half-cycle's value) and dissipated z·f_s per
+    /// unit of slip for ever. The work of the traction equals ΔΨ + dissipation (1e-3).
+    #[test]
+    fn cyclic_shear_accumulates_damage_and_dissipates_g_ii_once() {
+        let law = rock();
+        let h = 0.01;
+        let kn = law.normal_penalty / h;
+        let dn = -2e-6;
+        let fs = law.shear_strength(kn * dn);
+        let dsp = law.peak_slip(h, fs);
+        let (_, dst) = law.softening_lengths(fs);
+        let kin = |ds: Real| PointKinematics {
+            opening: dn,
+            slip: ds.abs(),
+            slip_vector: Vec3::new(ds, 0.0, 0.0),
+            normal: Vec3::z(),
+            size: h,
+        };
+        // Drive along `path` (a list of slip targets) in steps of `du`; returns (dissipated,
+        // work of the traction, ΔΨ + dissipation, state).
+        let drive = |targets: &[Real], du: Real| {
+            let mut s = PointState::default();
+            let (mut ds, mut work, mut booked, mut diss) = (0.0, 0.0, 0.0, 0.0);
+            // The start: compressed, no slip (the compression's energy is not the drive's).
+            let mut prev = (0.0, law.evaluate(&kin(0.0), &mut s).energy);
+            for &target in targets {
+                let n = ((target - ds).abs() / du).ceil().max(1.0) as usize;
+                let from = ds;
+                for i in 1..=n {
+                    let next = from + (target - from) * i as Real / n as Real;
+                    let t = law.evaluate(&kin(next), &mut s);
+                    let tau = t.shear + t.tangential.x;
+                    work += 0.5 * (prev.0 + tau) * (next - ds);
+                    booked += t.energy - prev.1 + t.dissipated;
+                    diss += t.dissipated;
+                    prev = (tau, t.energy);
+                    ds = next;
+                    if s.damage >= 1.0 {
+                        return (diss, work, booked, s);
+                    }
+                }
+            }
+            (diss, work, booked, s)
+        };
+        let du = dsp / 20.0;
+        let (mono, _, _, s_mono) = drive(&[2.0 * (dsp + dst)], du);
+        assert!(s_mono.damage >= 1.0);
+        let amp = dsp + 0.2 * dst;
+        let cycles: Vec<Real> = (0..40)
+            .map(|k| if k % 2 == 0 { amp } else { -amp })
+            .collect();
+        let (cyc, work, booked, s) = drive(&cycles, du);
+        assert!(
+            s.damage >= 1.0,
+            "cycles did not break the point: D = {}",
+            s.damage
+        );
+        assert!(
+            (cyc - mono).abs() < 1e-3 * mono,
+            "cyclic dissipation {cyc} vs monotonic {mono}"
+        );
+        assert!(
+            (work - booked).abs() < 1e-3 * work.abs(),
+            "work {work} vs ΔΨ + D {booked}"
+        );
     }
 
     /// Slip beyond the shear peak is plastic. Driven under fixed compression to 20 peak slips

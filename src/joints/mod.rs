@@ -204,10 +204,15 @@ pub struct Joints {
     pub area0: Vec<Real>,
     /// Damage and maxima of the three integration points.
     pub state: Vec<[PointHistory; 3]>,
-    /// Friction anchors of the three points (used once a joint is broken; see
-    /// [`PointState::anchor`]).
+    /// Anchors of the three points: a softening point's plastic slip, a broken point's
+    /// friction anchor ([`PointState::anchor`]). Stored in the joint's own axes
+    /// ([`joint_axes`]: components along t₁, t₂ and n), so that they turn with the joint: a
+    /// joint spun about its normal carries its anchors along instead of straining its springs
+    /// by the spin. Read and write them in global coordinates with [`Joints::anchor_global`]
+    /// and [`Joints::set_anchor_global`].
     pub anchor: Vec<[Vec3; 3]>,
-    /// Slip each point has accumulated since it broke [m] (see [`PointState::slid`]).
+    /// Each point's accumulated plastic slip [m]: of its cohesive shear while it softens, of
+    /// its friction since it broke (see [`PointState::slid`]).
     #[serde(default)]
     pub slid: Vec<[Real; 3]>,
     /// Each point's energy at the last step [J/m²]: ψ₀ while softening, the friction
@@ -582,9 +587,23 @@ impl Joints {
         blocks
     }
 
+    /// The anchor of point `p` of joint `j` in global coordinates at the positions `x`
+    /// (stored in the joint's axes: [`Joints::anchor`]).
+    pub fn anchor_global(&self, j: usize, p: usize, x: &[Vec3]) -> Vec3 {
+        let (n, _, _) = joint_kinematics(&self.faces[j], x);
+        anchor_to_global(&self.anchor[j][p], &joint_axes(&self.faces[j], x, &n), &n)
+    }
+
+    /// Set the anchor of point `p` of joint `j` to the global vector `a` at the positions `x`.
+    pub fn set_anchor_global(&mut self, j: usize, p: usize, x: &[Vec3], a: Vec3) {
+        let (n, _, _) = joint_kinematics(&self.faces[j], x);
+        self.anchor[j][p] = anchor_to_axes(&a, &joint_axes(&self.faces[j], x, &n), &n);
+    }
+
     /// Recoverable energy of joint `j` at the current positions [J] (its history unchanged).
     pub fn stored_energy(&self, j: usize, x: &[Vec3]) -> Real {
         let (n, area, pts) = joint_kinematics(&self.faces[j], x);
+        let axes = joint_axes(&self.faces[j], x, &n);
         let (mut law, mut consts) = (
             self.laws[self.law[j] as usize].clone(),
             self.consts
@@ -602,7 +621,7 @@ impl Joints {
         let mut st: [PointState; 3] = std::array::from_fn(|p| {
             PointState::from_parts(
                 self.state[j][p],
-                self.anchor[j][p],
+                anchor_to_global(&self.anchor[j][p], &axes, &n),
                 self.slid[j][p],
                 self.last_energy[j][p],
             )
@@ -675,6 +694,45 @@ pub fn joint_kinematics(
         (dn[i], ds, dir)
     });
     (n, area, pts)
+}
+
+/// The joint's in-plane axes (t₁, t₂) at the current positions, for its unit normal `n`
+/// ([`joint_kinematics`]): t₁ along the mid-surface's edge from its first to its second point,
+/// t₂ = n × t₁. They turn with the joint, so the anchors kept in them
+/// ([`Joints::anchor`]) are objective: a rigid rotation of the pair moves anchor and slip
+/// alike. (A degenerate mid-surface gets any axes normal to `n`.)
+#[inline(always)]
+pub fn joint_axes(faces: &[[u32; 3]; 2], x: &[Vec3], n: &Vec3) -> (Vec3, Vec3) {
+    let mid = |k: usize| (x[faces[0][k] as usize] + x[faces[1][k] as usize]) * 0.5;
+    let e = mid(1) - mid(0);
+    let e = e - n * e.dot(n);
+    let len = e.norm();
+    let t1 = if len > 0.0 {
+        e * (1.0 / len)
+    } else {
+        // Any unit vector normal to n.
+        let a = if n.x.abs() < 0.9 {
+            Vec3::x()
+        } else {
+            Vec3::y()
+        };
+        let t = a - n * a.dot(n);
+        t * (1.0 / t.norm().max(Real::MIN_POSITIVE))
+    };
+    (t1, n.cross(&t1))
+}
+
+/// An anchor kept in a joint's axes ([`joint_axes`]: components along t₁, t₂, n), in global
+/// coordinates.
+#[inline(always)]
+fn anchor_to_global(a: &Vec3, (t1, t2): &(Vec3, Vec3), n: &Vec3) -> Vec3 {
+    t1 * a.x + t2 * a.y + n * a.z
+}
+
+/// A global anchor in a joint's axes (the inverse of [`anchor_to_global`]).
+#[inline(always)]
+fn anchor_to_axes(a: &Vec3, (t1, t2): &(Vec3, Vec3), n: &Vec3) -> Vec3 {
+    Vec3::new(a.dot(t1), a.dot(t2), a.dot(n))
 }
 
 /// Unit normal, mid-surface area, openings and tangential jump vectors of a joint (the
@@ -940,7 +998,7 @@ pub fn add_joint_forces(
             }
             let (n, area, pts) = joint_kinematics(&faces[j], x);
             let was_failed = st.iter().all(|p| p.damage >= 1.0);
-            // Only cohesive laws use the friction anchors (of broken joints): other laws
+            // Only cohesive laws use the anchors (plastic slip, friction anchors): other laws
             // neither read nor write them.
             let cohesive = matches!(lw, JointLaw::Cohesive(_));
             // SAFETY: as for the state.
@@ -949,13 +1007,17 @@ pub fn add_joint_forces(
             let (slids, keeps) = unsafe { (&mut *slp.get().add(j), &mut *kp.get().add(j)) };
             // SAFETY: as for the state.
             let lasts = unsafe { &mut *lp.get().add(j) };
+            // The anchors in global coordinates for the law, and back into the joint's axes
+            // after it (objective: they turn with the joint).
+            let axes = joint_axes(&faces[j], x, &n);
+            let global = anchors.map(|a| anchor_to_global(&a, &axes, &n));
             if j < n_handed && faces_parted(&faces[j], x, area, area0[j], size[j], &pts) {
                 // A joint whose faces no longer face each other breaks (if it has not) and
                 // lets go: what its springs hold at these kinematics is booked as dissipated
                 // (as on re-opening, or as a fracture criterion's break), and it acts no more.
                 for (p, pt) in pts.iter().enumerate() {
                     let k = point_kinematics(n, size[j], pt);
-                    let mut ps = point_state(st[p], (anchors[p], slids[p], lasts[p]), cohesive);
+                    let mut ps = point_state(st[p], (global[p], slids[p], lasts[p]), cohesive);
                     let t = lw.evaluate_in(&mut frame, cs, &k, inv_h, &mut ps, true);
                     s.dissipated += (t.dissipated + t.energy) * area / 3.0;
                     if let Some(a) = audit {
@@ -976,11 +1038,11 @@ pub fn add_joint_forces(
             for (p, pt) in pts.iter().enumerate() {
                 let k = point_kinematics(n, size[j], pt);
                 let dir = pt.2;
-                let mut ps = point_state(st[p], (anchors[p], slids[p], lasts[p]), cohesive);
+                let mut ps = point_state(st[p], (global[p], slids[p], lasts[p]), cohesive);
                 let t = lw.evaluate_in(&mut frame, cs, &k, inv_h, &mut ps, want_energy);
                 st[p] = ps.history();
                 if cohesive {
-                    anchors[p] = ps.anchor;
+                    anchors[p] = anchor_to_axes(&ps.anchor, &axes, &n);
                     slids[p] = ps.slid;
                     lasts[p] = ps.last_energy;
                 }
