@@ -1120,6 +1120,18 @@ mod tests {
         assert_eq!(coupled, 3, "every compressed state with slip probed");
     }
 
+    /// A point opened by `dn` (negative: compressed) and slid by `ds` along x, on a joint of
+    /// size `h` with normal z.
+    fn slid_along_x(dn: Real, ds: Real, h: Real) -> PointKinematics {
+        PointKinematics {
+            opening: dn,
+            slip: ds.abs(),
+            slip_vector: Vec3::new(ds, 0.0, 0.0),
+            normal: Vec3::z(),
+            size: h,
+        }
+    }
+
     /// Cycles of shear accumulate damage. Under fixed compression, a point sheared back and
     /// forth between ±(δsp + δst/5) (each half-cycle slips plastically about 2δst/5) breaks
     /// once its plastic slip's path reaches the monotonic break slip, and dissipates what a
@@ -1136,13 +1148,7 @@ mod tests {
         let fs = law.shear_strength(kn * dn);
         let dsp = law.peak_slip(h, fs);
         let (_, dst) = law.softening_lengths(fs);
-        let kin = |ds: Real| PointKinematics {
-            opening: dn,
-            slip: ds.abs(),
-            slip_vector: Vec3::new(ds, 0.0, 0.0),
-            normal: Vec3::z(),
-            size: h,
-        };
+        let kin = |ds: Real| slid_along_x(dn, ds, h);
         // Drive along `path` (a list of slip targets) in steps of `du`; returns (dissipated,
         // work of the traction, ΔΨ + dissipation, state).
         let drive = |targets: &[Real], du: Real| {
@@ -1212,13 +1218,7 @@ mod tests {
         let fs = law.shear_strength(kn * dn);
         let dsp = law.peak_slip(h, fs);
         let (_, dst) = law.softening_lengths(fs);
-        let kin = |ds: Real| PointKinematics {
-            opening: dn,
-            slip: ds.abs(),
-            slip_vector: Vec3::new(ds, 0.0, 0.0),
-            normal: Vec3::z(),
-            size: h,
-        };
+        let kin = |ds: Real| slid_along_x(dn, ds, h);
         let mut s = PointState::default();
         let n = 4000;
         let end = dsp + 0.5 * dst;
