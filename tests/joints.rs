@@ -1212,11 +1212,11 @@ fn dilatant(u_max: Real) -> Cohesive {
 }
 
 /// One broken point sliding under a constant compression σ₀ (the opening prescribed so that
-/// the gap's penalty gives σ₀: δn = u_d(ς) − σ₀/k_n). Reference: the dilatancy's potential
-/// (`Dilatancy` in src/joints/law.rs; Coulomb slip with dilation as in UDEC, with wear): the
-/// point slides at τ = (μ + u_d'(ς))σ₀, exact at every step (the return mapping is exact at
+/// the gap's penalty gives σ₀: δn = u_d(|q|) − σ₀/k_n). Reference: the dilatancy's potential
+/// (`Dilatancy` in src/joints/law.rs; Coulomb slip with dilation as in UDEC): the
+/// point slides at τ = (μ + u_d'(|q|))σ₀, exact at every step (the return mapping is exact at
 /// constant σ, with u_d' at the step's start), falling from (μ + tan ψ)σ₀ to μσ₀ once it
-/// has slid ς_c = 2u_max/tan ψ and opened u_max; it dissipates μσ₀ per unit of plastic slip
+/// has slid q_c = 2u_max/tan ψ and opened u_max; it dissipates μσ₀ per unit of plastic slip
 /// (1e-9); the work the faces did, ∫τ ds + ∫σ dδn (trapezoid), equals the stored change plus
 /// the dissipation within tan ψ·σ₀·Δs, the trapezoid's error on a traction that falls by
 /// tan ψ·σ₀ over the ride (and halves with Δs).
@@ -1241,7 +1241,7 @@ fn dilatant_broken_point_slides_at_mu_plus_its_dilatancy_rate_until_worn() {
         let (mut riding, mut worn) = (0, 0);
         for i in 0..=n {
             let slip = slip_end * i as Real / n as Real;
-            let (u, rate) = c.dilatancy.opening(s.slid);
+            let (u, rate) = c.dilatancy.opening(s.offset.norm());
             let dn = u - sigma0 / kn;
             let k = PointKinematics {
                 opening: dn,
@@ -1307,10 +1307,131 @@ fn dilatant_broken_point_slides_at_mu_plus_its_dilatancy_rate_until_worn() {
     );
 }
 
+/// One broken point under a constant compression σ₀ slid forward to 0.75 q_c (riding up its
+/// asperities), back past where its faces mated to −0.25 q_c, and forward to 0 again.
+/// Reference: the dilatancy's potential u_d(|q|) (`Dilatancy` in src/joints/law.rs): the
+/// anchor's force X = k_t·e − σ₀u_d'·q̂ slides at |X| = μσ₀, so every sliding step has
+/// τ = μσ₀·sign(Δq) + u_d'(|q|)σ₀·sign(q) exactly (1e-9: the return mapping is exact at
+/// constant σ₀ with u_d' at the step's start); the offset q never jumps across the seat (it
+/// stops there, where the crack is closed: u_d = 0, and the corner holds it until
+/// k_t|e| > (μ + tan ψ)σ₀); it dissipates μσ₀ per unit of plastic slip both ways (1e-9); the
+/// work the faces did equals the stored change plus the dissipation within a step's slip
+/// times the largest traction at each corner of the path (and 1e-4 of the dissipation;
+/// 3e-5 measured). A path-driven dilatancy kept the crack open by
+/// u_d(Σ|Δq|) on the way back instead: the wedged cracks that held the drop-weight beam's
+/// residual sag.
+#[test]
+fn dilatant_broken_point_slid_back_closes_at_its_seat() {
+    use fdem::joints::law::{PointKinematics, PointState};
+    let u_max = 20e-6;
+    let c = dilatant(u_max);
+    let (tan_psi, qc) = (c.dilatancy.tan_angle, c.dilatancy.wear_slip());
+    let (h, sigma0) = (0.05, 2e6);
+    let kn = c.normal_penalty / h;
+    let mu = c.residual_friction;
+    assert!(
+        tan_psi > mu,
+        "the asperities push a point back to its seat: tan ψ > μ"
+    );
+    // Slip at step i of n along the path 0 → 0.75 q_c → −0.25 q_c → 0.
+    let path = |i: usize, n: usize| {
+        let u = 2.0 * i as Real / n as Real;
+        qc * if u < 0.75 {
+            u
+        } else if u < 1.75 {
+            1.5 - u
+        } else {
+            u - 2.0
+        }
+    };
+    let run = |n: usize| {
+        let mut s = PointState {
+            damage: 1.0,
+            ..Default::default()
+        };
+        let (mut work, mut dissipated) = (0.0, 0.0);
+        let (mut prev, mut first_energy, mut seated, mut checked) = (None, None, false, 0);
+        for i in 0..=n {
+            let slip = path(i, n);
+            let q_old = s.offset.x;
+            let (u, rate) = c.dilatancy.opening(q_old.abs());
+            let dn = u - sigma0 / kn;
+            let k = PointKinematics {
+                opening: dn,
+                slip: slip.abs(),
+                slip_vector: Vec3::new(slip, 0.0, 0.0),
+                normal: Vec3::z(),
+                size: h,
+            };
+            let was_closed = !s.anchor.x.is_nan() && i > 0;
+            let t = c.evaluate(&k, &mut s);
+            let (tau, q) = (t.tangential.x, s.offset.x);
+            assert!((t.normal + sigma0).abs() < 1e-9 * sigma0);
+            assert!(
+                q * q_old >= 0.0,
+                "q jumped across the seat: {q_old:e} → {q:e}"
+            );
+            if q == 0.0 && q_old != 0.0 {
+                seated = true;
+            }
+            let dq = q - q_old;
+            if was_closed && dq != 0.0 && q != 0.0 {
+                let expected = if q_old == 0.0 {
+                    dq.signum() * (mu + tan_psi) * sigma0
+                } else {
+                    mu * sigma0 * dq.signum() + rate * sigma0 * q_old.signum()
+                };
+                assert!(
+                    (tau - expected).abs() < 1e-9 * sigma0,
+                    "step {i}: q {q_old:e} → {q:e}: τ {tau:e} vs {expected:e}"
+                );
+                checked += 1;
+            }
+            if let Some((t0, s0, slip0, dn0)) = prev {
+                work += 0.5 * (tau + t0) * (slip - slip0) + 0.5 * (t.normal + s0) * (dn - dn0);
+            }
+            dissipated += t.dissipated;
+            first_energy.get_or_insert(t.energy);
+            prev = Some((tau, t.normal, slip, dn));
+            if i == n {
+                let expected = mu * sigma0 * s.slid;
+                assert!(
+                    (dissipated - expected).abs() < 1e-9 * expected,
+                    "dissipated {dissipated:e} vs μσ₀·Σ|Δq| {expected:e}"
+                );
+                assert!(
+                    s.slid > 1.9 * qc,
+                    "slid {:e}: forward, back and forward",
+                    s.slid
+                );
+                assert!(seated, "the point came back to its seat");
+                assert!(checked > n / 2, "{checked} sliding steps checked of {n}");
+                // Each of the path's six corners (the start, two reversals, two landings
+                // on the seat and one departure from it) happens within a step or two (the
+                // spring's elastic range is about a step's slip here) and may miss up to
+                // the largest traction times a step's slip.
+                return (
+                    work - (t.energy - first_energy.unwrap()) - dissipated,
+                    6.0 * (mu + tan_psi) * sigma0 * 2.0 * qc / n as Real,
+                    expected,
+                );
+            }
+        }
+        unreachable!()
+    };
+    for n in [20_000, 40_000] {
+        let (err, bound, dissipated) = run(n);
+        assert!(
+            err.abs() < bound && err.abs() < 1e-4 * dissipated,
+            "{n} steps: balance {err:e} vs bound {bound:e} ({dissipated:e} dissipated)"
+        );
+    }
+}
+
 /// The same joint between two tets in the full pipeline with contact on: broken by opening,
 /// closed to an overlap δc and slid under fixed normal displacement (infinitely stiff
 /// confinement), it pushes the faces apart harder as it dilates: a quarter into the slide
-/// τ = (μ + u_d'(ς))|σ|, at its end (worn after two thirds) τ = μ|σ| with
+/// τ = (μ + u_d'(|q|))|σ|, at its end (worn after two thirds) τ = μ|σ| with
 /// σ = −k_n(δc + u_max) (1 %); pulled open less than
 /// its reach (2 u_max past its dilation) it keeps its faces from contact (not handed over),
 /// pulled further it hands them over. The energy account closes through it (1e-3 of the
@@ -1355,7 +1476,7 @@ fn dilatant_broken_joint_clamps_its_faces_and_holds_them_from_contact_within_rea
     while r.sim.time < ends[4] - 0.5 * dt {
         r.sim.step().unwrap();
         if riding.is_none() && r.sim.time >= quarter {
-            let rate = c.dilatancy.opening(r.sim.joints.slid[0][0]).1;
+            let rate = c.dilatancy.opening(r.sim.joints.offset[0][0].norm()).1;
             riding = Some((r.traction(t_dir), rate));
         }
         if end_of_slide.is_none() && r.sim.time >= ends[2] - 0.5 * dt {

@@ -195,6 +195,7 @@ pub fn break_joints(
                                 joints.set_anchor_global(j, p, x, dir * ds);
                                 joints.last_energy[j][p] = 0.0;
                                 joints.slid[j][p] = 0.0;
+                                joints.offset[j][p] = Vec3::zeros();
                             }
                             record(joints, j, x, tet_body, time, events);
                         }

@@ -177,8 +177,8 @@ pub const COHESIVE_PARAMS: &[Param] = &[
     TANGENTIAL_PENALTY,
     Param::float("residual_friction", "-", DefaultValue::Text("tan(friction_angle)"), Range::NON_NEGATIVE, "Coulomb friction μ of broken joints in compression."),
     Param::other("calibration", "string", "", "\"exact\"", "\"exact\": softening length δt = G/(f·∫z), the joint dissipates G; \"y_compatible\": δt = 3G/f as in the Y codes (dissipates 1.159·G with Munjiza's curve)."),
-    Param::float("dilatancy_angle", "°", DefaultValue::Value(0.0), Range::new(0.0, 45.0, false, true), "ψ: a broken joint sliding under compression opens by tan ψ per unit of slip at first (its asperities ride up: aggregate interlock), less as they wear, until it has opened `dilatancy_opening` after a slip of 2·dilatancy_opening/tan ψ; while it dilates at rate u' it resists (μ + u')·|σ| (see docs/theory/joints.md). 0: broken joints slide flat."),
-    Param::float("dilatancy_opening", "m", DefaultValue::Value(0.0), Range::NON_NEGATIVE, "u_max: the opening dilatancy gives once the asperities are worn (for concrete, a fraction of the largest aggregate). Needed with dilatancy_angle > 0."),
+    Param::float("dilatancy_angle", "°", DefaultValue::Value(0.0), Range::new(0.0, 45.0, false, true), "ψ: a broken joint sliding under compression away from where its faces mated opens by tan ψ per unit of slip at first (its asperities ride up: aggregate interlock), less as they reach their tops, until it has opened `dilatancy_opening` at an offset of 2·dilatancy_opening/tan ψ; slid back, it closes again. While it dilates at rate u' it resists (μ + u')·|σ| (see docs/theory/joints.md). 0: broken joints slide flat."),
+    Param::float("dilatancy_opening", "m", DefaultValue::Value(0.0), Range::NON_NEGATIVE, "u_max: the opening dilatancy gives once the faces ride on the asperities' tops (for concrete, a fraction of the largest aggregate). Needed with dilatancy_angle > 0."),
     Param::other("rate_effects", "string", "", "\"none\"", "\"fib2010\": the strengths rise with the joint's loading rate as concrete's do with its strain rate (fib Model Code 2010 §5.1.11.2: f_t × DIF_t, c × DIF_c; the rate is the elastic traction over E divided by the time since the loading began), frozen once the joint is damaged; \"none\": rate-independent."),
 ];
 
@@ -246,18 +246,22 @@ pub struct Cohesive {
 
 /// Dilatancy of a broken joint (Coulomb slip with dilation, as in Itasca's UDEC joint model;
 /// for concrete, aggregate interlock): the faces are in contact when the opening δn is below
-/// u_d(ς), ς the slip the point has accumulated since it broke. The asperities wear as they
-/// ride: the dilatancy rate falls linearly from tan ψ to 0 at ς_c = 2u_max/tan ψ,
-/// u_d = u_max·(1 − (1 − ς/ς_c)²) up to ς_c and u_max beyond (smooth, so the friction limit
-/// never jumps). Stored energy ½k_n⟨u_d − δn⟩² + ½k_t|s − s_p|²; the force that moves the
-/// anchor s_p is the spring's k_t(s − s_p) less the dilatancy's |σ|·u_d'(ς) along the slip,
-/// bounded by μ|σ|, so a sliding point resists (μ + u_d')|σ|, dissipates μ|σ| per unit of
-/// slip, and stores the rest in the normal spring.
+/// u_d(|q|), q the point's plastic slip since it broke, a vector: how far its faces have
+/// moved from where they mated. Its asperities ride up at the rate tan ψ at first, less as
+/// they reach their tops: the rate falls linearly to 0 at |q| = q_c = 2u_max/tan ψ,
+/// u_d = u_max·(1 − (1 − |q|/q_c)²) up to q_c and u_max beyond (smooth, so the friction
+/// limit never jumps). The profile is reversible: slid back towards where they mated, the
+/// faces close again (rock joints contract when their slip reverses: Jing, Stephansson &
+/// Nordlund 1993, *Rock Mech. Rock Eng.* 26:215). Stored energy ½k_n⟨u_d − δn⟩² +
+/// ½k_t|s − s_a|²; the force on the anchor s_a is the spring's k_t(s − s_a) less the
+/// dilatancy's |σ|·∇u_d = |σ|·u_d'(|q|)·q̂, bounded by μ|σ|: a point sliding away from its
+/// seat resists (μ + u_d')|σ|, one sliding back (μ − u_d')|σ|, and each dissipates μ|σ| per
+/// unit of plastic slip (the rest goes into and out of the normal spring).
 #[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, Default, PartialEq)]
 pub struct Dilatancy {
-    /// tan ψ [-] (0: none): the dilatancy rate dδn/dς of a fresh crack.
+    /// tan ψ [-] (0: none): the dilatancy rate dδn/d|q| of a crack at its seat.
     pub tan_angle: Real,
-    /// u_max [m]: the opening once the asperities are worn.
+    /// u_max [m]: the opening once the faces ride on the asperities' tops.
     pub max_opening: Real,
 }
 
@@ -271,15 +275,15 @@ impl Dilatancy {
         self.tan_angle > 0.0 && self.max_opening > 0.0
     }
 
-    /// Slip ς_c = 2u_max/tan ψ over which the asperities wear flat [m].
+    /// Offset q_c = 2u_max/tan ψ at which the faces ride on the asperities' tops [m].
     pub fn wear_slip(&self) -> Real {
         2.0 * self.max_opening / self.tan_angle
     }
 
-    /// The opening u_d [m] after an accumulated slip ς [m], and its rate u_d'(ς) [-].
+    /// The opening u_d [m] at an offset |q| from the seat [m], and its rate u_d'(|q|) [-].
     #[inline]
-    pub fn opening(&self, slid: Real) -> (Real, Real) {
-        let x = slid / self.wear_slip();
+    pub fn opening(&self, offset: Real) -> (Real, Real) {
+        let x = offset / self.wear_slip();
         if x < 1.0 {
             (self.max_opening * x * (2.0 - x), self.tan_angle * (1.0 - x))
         } else {
@@ -303,13 +307,19 @@ pub struct PointHistory {
 impl PointState {
     /// A point's full state from its history and its friction anchor.
     #[inline(always)]
-    pub fn from_parts(h: PointHistory, anchor: Vec3, slid: Real, last_energy: Real) -> Self {
+    pub fn from_parts(
+        h: PointHistory,
+        anchor: Vec3,
+        (slid, offset): (Real, Vec3),
+        last_energy: Real,
+    ) -> Self {
         PointState {
             damage: h.damage,
             max_opening: h.max_opening,
             max_slip: h.max_slip,
             anchor,
             slid,
+            offset,
             last_energy,
         }
     }
@@ -339,9 +349,13 @@ pub struct PointState {
     /// while the broken point is open). Unused while undamaged.
     pub anchor: Vec3,
     /// Accumulated plastic slip Σ|Δs_p| [m]: while the point softens, of its cohesive shear
-    /// (it drives the damage); once broken, of its friction since the break (the
-    /// dilatancy's measure).
+    /// (it drives the damage); once broken, of its friction since the break.
     pub slid: Real,
+    /// A broken point's net plastic slip since it broke, q = Σ Δs_a [m]: its faces' offset
+    /// from where they mated, projected on the current tangent plane (stage 2 keeps it in the
+    /// joint's own axes, as the anchor), frozen while the point is open. The dilatancy's
+    /// measure ([`Dilatancy`]). Zero before the break.
+    pub offset: Vec3,
     /// The point's energy at the last evaluation [J/m²], the left end of the trapezoids that
     /// book the next step's dissipation: while the point softens (0 < D < 1) its undamaged
     /// stored energy ψ₀ (for damage growth); once broken and closed, its friction spring's
@@ -357,6 +371,7 @@ impl Default for PointState {
             max_slip: 0.0,
             anchor: Vec3::zeros(),
             slid: 0.0,
+            offset: Vec3::zeros(),
             last_energy: Real::NAN,
         }
     }
@@ -662,7 +677,8 @@ impl Cohesive {
             // cohesive shear traction has just gone to 0). Anchored at 0 instead, a
             // joint broken in compression after slipping δs jumped to the friction
             // limit and booked limit·δs of friction no force had worked for. The slip
-            // since the break (the dilatancy's measure) starts at 0.
+            // since the break and the faces' offset (the dilatancy's measure) start at 0.
+            s.offset = Vec3::zeros();
             (k.slip_vector, 0.0)
         } else {
             (plastic_slip, path)
@@ -691,8 +707,10 @@ impl Cohesive {
         mut dissipated: Real,
         want_energy: bool,
     ) -> PointTraction {
-        let (dilation, rate) = if self.dilatancy.is_active() {
-            self.dilatancy.opening(s.slid)
+        let dilatant = self.dilatancy.is_active();
+        let offset = s.offset - k.normal * s.offset.dot(&k.normal);
+        let (dilation, rate) = if dilatant {
+            self.dilatancy.opening(offset.norm())
         } else {
             (0.0, 0.0)
         };
@@ -707,10 +725,6 @@ impl Cohesive {
         }
         if gap <= 0.0 {
             let pressure = -compression;
-            // Sliding while it dilates, the point also lifts the normal spring: the anchor
-            // moves once the spring's force passes (μ + u_d')|σ|, and only μ|σ| of it is
-            // dissipated (the rest is stored in ½k_n·gap²).
-            let limit = (self.residual_friction + rate) * pressure;
             // Just closed (the anchor is unset while open): the spring starts unstretched.
             let a = if s.anchor.x.is_nan() {
                 k.slip_vector
@@ -719,13 +733,42 @@ impl Cohesive {
             };
             let anchor = a - k.normal * a.dot(&k.normal);
             let elastic = k.slip_vector - anchor;
-            let trial = kt * elastic.norm();
+            // The force on the anchor, X = k_t·e − |σ|·∇u_d (∇u_d = u_d'·q̂ at the step's
+            // start), slides it once |X| passes μ|σ|: away from the seat the point resists
+            // (μ + u_d')|σ|, back towards it (μ − u_d')|σ|. At the seat (q = 0) u_d has a
+            // corner: it holds until k_t|e| passes (μ + tan ψ)|σ|, then moves along e.
+            // Only μ|σ| per unit of slip is dissipated; the rest goes into (or comes out of)
+            // the normal spring ½k_n·gap².
+            let spring = elastic * kt;
+            let q = offset.norm();
+            let force = if q > 0.0 {
+                spring - offset * (pressure * rate / q)
+            } else {
+                let e = elastic.norm();
+                if e > 0.0 {
+                    elastic * ((kt * e - pressure * rate).max(0.0) / e)
+                } else {
+                    Vec3::zeros()
+                }
+            };
+            let trial = force.norm();
+            let limit = self.residual_friction * pressure;
             let mut next = anchor;
             if trial > limit {
-                next = k.slip_vector - elastic * (limit / trial);
-                let step = (next - anchor).norm();
-                dissipated += self.residual_friction * pressure * step;
-                s.slid += step;
+                let mut step = force * ((trial - limit) / (trial * kt));
+                // Back at the seat within the step: it stops there (the corner holds it
+                // until the spring passes (μ + tan ψ)|σ|; without the stop a point parked
+                // under pressure with tan ψ > μ would chatter across its seat).
+                if q > 0.0 && (offset + step).dot(&offset) <= 0.0 {
+                    step = -offset;
+                }
+                next = anchor + step;
+                let length = step.norm();
+                dissipated += limit * length;
+                s.slid += length;
+                s.offset = offset + step;
+            } else {
+                s.offset = offset;
             }
             s.anchor = next;
             t.tangential = (k.slip_vector - next) * kt;
@@ -1085,6 +1128,7 @@ mod tests {
                 max_slip: 1.0,
                 anchor: Vec3::new(plastic, 0.0, 0.0),
                 slid: 0.0,
+                offset: Vec3::zeros(),
                 last_energy: Real::NAN,
             };
             let eval = |a: Real, b: Real| {

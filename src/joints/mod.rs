@@ -93,8 +93,8 @@ impl JointLaw {
 
     /// The stiffest of the law's springs per unit area × h [Pa], for the time step: max(p_n, p_t),
     /// and for a dilatant law p_n·(1 + (μ + tan ψ)·tan ψ), the largest eigenvalue of a sliding,
-    /// dilating point's (non-symmetric) stiffness: σ = k_n(δn − u_d(ς)), |τ| = (μ + u_d')|σ|
-    /// with dς = |ds| give, in (δn, s), k_n·[[1, u_d'], [μ + u_d', (μ + u_d')u_d']], of
+    /// dilating point's (non-symmetric) stiffness: σ = k_n(δn − u_d(|q|)), |τ| = (μ + u_d')|σ|
+    /// with d|q| = |ds| give, in (δn, s), k_n·[[1, u_d'], [μ + u_d', (μ + u_d')u_d']], of
     /// determinant 0 and trace k_n(1 + (μ + u_d')u_d').
     pub fn stiffest_penalty(&self) -> Real {
         let (pn, pt) = self.penalties();
@@ -215,6 +215,10 @@ pub struct Joints {
     /// its friction since it broke (see [`PointState::slid`]).
     #[serde(default)]
     pub slid: Vec<[Real; 3]>,
+    /// Each broken point's net plastic slip since it broke ([`PointState::offset`], the
+    /// dilatancy's measure), in the joint's own axes as the anchors.
+    #[serde(default)]
+    pub offset: Vec<[Vec3; 3]>,
     /// Each point's energy at the last step [J/m²]: ψ₀ while softening, the friction
     /// spring's ½k_t|e|² once broken and closed, NaN otherwise (see
     /// [`PointState::last_energy`]).
@@ -407,6 +411,7 @@ impl Joints {
         self.state.push([PointHistory::default(); 3]);
         self.anchor.push([Vec3::zeros(); 3]);
         self.slid.push([0.0; 3]);
+        self.offset.push([Vec3::zeros(); 3]);
         self.last_energy.push([Real::NAN; 3]);
         self.keeps_faces.push(false);
         self.broken.push(false);
@@ -528,6 +533,7 @@ impl Joints {
         self.handed_over.resize(self.len(), false);
         // (Checkpoints written before these existed.)
         self.slid.resize(self.len(), [0.0; 3]);
+        self.offset.resize(self.len(), [Vec3::zeros(); 3]);
         self.last_energy.resize(self.len(), [Real::NAN; 3]);
         self.keeps_faces.resize(self.len(), false);
         let rate_dependent = self
@@ -622,7 +628,10 @@ impl Joints {
             PointState::from_parts(
                 self.state[j][p],
                 anchor_to_global(&self.anchor[j][p], &axes, &n),
-                self.slid[j][p],
+                (
+                    self.slid[j][p],
+                    anchor_to_global(&self.offset[j][p], &axes, &n),
+                ),
                 self.last_energy[j][p],
             )
         });
@@ -799,13 +808,13 @@ fn faces_parted(
 #[inline(always)]
 fn point_state(
     history: PointHistory,
-    (anchor, slid, last_energy): (Vec3, Real, Real),
+    (anchor, slid, offset, last_energy): (Vec3, Real, Vec3, Real),
     cohesive: bool,
 ) -> PointState {
     if cohesive {
-        PointState::from_parts(history, anchor, slid, last_energy)
+        PointState::from_parts(history, anchor, (slid, offset), last_energy)
     } else {
-        PointState::from_parts(history, Vec3::zeros(), 0.0, Real::NAN)
+        PointState::from_parts(history, Vec3::zeros(), (0.0, Vec3::zeros()), Real::NAN)
     }
 }
 
@@ -918,6 +927,7 @@ pub fn add_joint_forces(
         state,
         anchor,
         slid,
+        offset,
         last_energy,
         keeps_faces,
         handed_over,
@@ -935,6 +945,7 @@ pub fn add_joint_forces(
     let sp = SyncPtr(state.as_mut_ptr());
     let ap = SyncPtr(anchor.as_mut_ptr());
     let slp = SyncPtr(slid.as_mut_ptr());
+    let op = SyncPtr(offset.as_mut_ptr());
     let lp = SyncPtr(last_energy.as_mut_ptr());
     let kp = SyncPtr(keeps_faces.as_mut_ptr());
     let rp = SyncPtr(rate.as_mut_ptr());
@@ -1007,17 +1018,24 @@ pub fn add_joint_forces(
             let (slids, keeps) = unsafe { (&mut *slp.get().add(j), &mut *kp.get().add(j)) };
             // SAFETY: as for the state.
             let lasts = unsafe { &mut *lp.get().add(j) };
+            // SAFETY: as for the state.
+            let offsets = unsafe { &mut *op.get().add(j) };
             // The anchors in global coordinates for the law, and back into the joint's axes
             // after it (objective: they turn with the joint).
             let axes = joint_axes(&faces[j], x, &n);
             let global = anchors.map(|a| anchor_to_global(&a, &axes, &n));
+            let offsets_global = offsets.map(|q| anchor_to_global(&q, &axes, &n));
             if j < n_handed && faces_parted(&faces[j], x, area, area0[j], size[j], &pts) {
                 // A joint whose faces no longer face each other breaks (if it has not) and
                 // lets go: what its springs hold at these kinematics is booked as dissipated
                 // (as on re-opening, or as a fracture criterion's break), and it acts no more.
                 for (p, pt) in pts.iter().enumerate() {
                     let k = point_kinematics(n, size[j], pt);
-                    let mut ps = point_state(st[p], (global[p], slids[p], lasts[p]), cohesive);
+                    let mut ps = point_state(
+                        st[p],
+                        (global[p], slids[p], offsets_global[p], lasts[p]),
+                        cohesive,
+                    );
                     let t = lw.evaluate_in(&mut frame, cs, &k, inv_h, &mut ps, true);
                     s.dissipated += (t.dissipated + t.energy) * area / 3.0;
                     if let Some(a) = audit {
@@ -1038,12 +1056,17 @@ pub fn add_joint_forces(
             for (p, pt) in pts.iter().enumerate() {
                 let k = point_kinematics(n, size[j], pt);
                 let dir = pt.2;
-                let mut ps = point_state(st[p], (global[p], slids[p], lasts[p]), cohesive);
+                let mut ps = point_state(
+                    st[p],
+                    (global[p], slids[p], offsets_global[p], lasts[p]),
+                    cohesive,
+                );
                 let t = lw.evaluate_in(&mut frame, cs, &k, inv_h, &mut ps, want_energy);
                 st[p] = ps.history();
                 if cohesive {
                     anchors[p] = anchor_to_axes(&ps.anchor, &axes, &n);
                     slids[p] = ps.slid;
+                    offsets[p] = anchor_to_axes(&ps.offset, &axes, &n);
                     lasts[p] = ps.last_energy;
                 }
                 let on_b = -(n * t.normal + dir * t.shear + t.tangential) * (area / 3.0);
@@ -1084,8 +1107,8 @@ pub fn add_joint_forces(
                     let reach = 2.0 * c.dilatancy.max_opening;
                     *keeps = pts
                         .iter()
-                        .zip(slids.iter())
-                        .any(|((dn, _, _), &slid)| *dn < c.dilatancy.opening(slid).0 + reach);
+                        .zip(offsets.iter())
+                        .any(|((dn, _, _), q)| *dn < c.dilatancy.opening(q.xy().norm()).0 + reach);
                 }
             }
         }
