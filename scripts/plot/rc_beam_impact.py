@@ -79,7 +79,7 @@ def main(run, out, test, mass, peak, residual):
     frames = sorted(glob.glob(os.path.join(run, "rc_beam_impact_[0-9]*.vtu")))
     cracks = sorted(glob.glob(os.path.join(run, "rc_beam_impact_cracks_[0-9]*.vtu")))
     bars = sorted(glob.glob(os.path.join(run, "rc_beam_impact_bars_[0-9]*.vtu")))
-    fig, ax = plt.subplots(figsize=(11, 3.2))
+    fig, ax = plt.subplots(figsize=(11, 4.4))
     m = meshio.read(frames[-1])
     pts = m.points
     scale = 1.0
@@ -99,8 +99,9 @@ def main(run, out, test, mass, peak, residual):
         ax.add_collection(lc)
         fig.colorbar(lc, ax=ax, label="bar axial force [kN]", fraction=0.03)
     ax.plot(pts[:, 0] * scale, pts[:, 2] * scale, ",", color=(0.4, 0.4, 0.4, 0.3))
-    ax.set_xlim(pts[:, 0].min() - 0.05, pts[:, 0].max() + 0.05)
-    ax.set_ylim(pts[:, 2].min() - 0.1, pts[:, 2].max() + 0.05)
+    # The beam, the plate and the weight; spalled debris far below the soffit is left out.
+    ax.set_xlim(-0.05, pts[:, 0].max() + 0.05)
+    ax.set_ylim(-0.15, min(pts[:, 2].max(), 0.8) + 0.05)
     ax.set_aspect("equal")
     ax.set_xlabel("x from mid-span [m]")
     ax.set_ylabel("z [m]")
