@@ -756,10 +756,11 @@ impl Cohesive {
             let mut next = anchor;
             if trial > limit {
                 let mut step = force * ((trial - limit) / (trial * kt));
-                // Back at the seat within the step: it stops there (the corner holds it
-                // until the spring passes (μ + tan ψ)|σ|; without the stop a point parked
-                // under pressure with tan ψ > μ would chatter across its seat).
-                if q > 0.0 && (offset + step).dot(&offset) <= 0.0 {
+                // Back at the seat within the step: a dilatant point stops there (the corner
+                // holds it until the spring passes (μ + tan ψ)|σ|; without the stop a point
+                // parked under pressure with tan ψ > μ would chatter across its seat). A flat
+                // joint has no seat and slides on.
+                if dilatant && q > 0.0 && (offset + step).dot(&offset) <= 0.0 {
                     step = -offset;
                 }
                 next = anchor + step;
@@ -963,6 +964,40 @@ mod tests {
             rate: RateEffects::None,
             dilatancy: Dilatancy::NONE,
         }
+    }
+
+    /// A broken point of a flat law (no dilatancy) under compression slid forward by d and
+    /// back to −d in steps that jump across the point where it broke: reference Coulomb
+    /// friction, |τ| = μ|σ| on every sliding step (1e-9). A flat joint has no seat: the stop
+    /// a dilatant point makes on its seat (`Dilatancy`) must not hold it there for a step.
+    #[test]
+    fn flat_broken_point_slides_across_where_it_broke() {
+        let law = rock();
+        let (h, dn): (Real, Real) = (0.05, -1e-6);
+        let (kn, kt) = (law.normal_penalty / h, law.tangential_penalty / h);
+        let sigma = kn * dn.abs();
+        let mut s = PointState {
+            damage: 1.0,
+            ..Default::default()
+        };
+        let d = 200.0 * law.residual_friction * sigma / kt;
+        let n = 40; // steps of d/20 ≫ the spring's elastic range μσ/k_t = d/200
+        let mut sliding = 0;
+        for i in 0..=3 * n / 2 {
+            let x = if i <= n / 2 { i } else { n - i } as Real * (2.0 * d / n as Real);
+            let t = law.evaluate(&slid_along_x(dn, x, h), &mut s);
+            // Beyond the reversal's elastic part (a step), every step slides.
+            if i > n / 2 + 1 {
+                let tau = t.tangential.x;
+                assert!(
+                    (tau.abs() - law.residual_friction * sigma).abs() < 1e-9 * sigma,
+                    "step {i} at x = {x:e}: τ {tau:e}, μσ {:e}",
+                    law.residual_friction * sigma
+                );
+                sliding += 1;
+            }
+        }
+        assert!(sliding > n / 2, "{sliding} sliding steps checked");
     }
 
     /// A joint point that fails in shear under compression and keeps sliding, then is
