@@ -20,7 +20,7 @@ mod structured;
 mod topology;
 
 pub use checks::{MeshProblem, ProblemKind};
-pub use generators::{box_mesh, divisions_for};
+pub use generators::{box_mesh, box_mesh_with, divisions_for, BoxPattern};
 pub use quality::Quality;
 pub use region::Region;
 pub use topology::{boundary_faces, face_nodes, faces_area, BoundaryFace, FaceFilter, TET_FACES};

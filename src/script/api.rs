@@ -181,6 +181,13 @@ pub const MESH_KEYS: &[Key] = &[
         "-",
         "Cells along x, y, z instead of `size`.",
     ),
+    key(
+        "pattern",
+        "string",
+        "",
+        "\"kuhn\"",
+        "Boxes: how each cell is split into 6 tetrahedra. \"kuhn\": every cell alike, along its diagonal from the min to the max corner, so the inner faces lean one way and an inclined crack runs straight in one family of directions only (turned end for end, the same box has the other family). \"alternating\": cell (i, j, k) mirrored in each axis whose index is odd; inclined faces of both directions, and with even divisions the mesh is its own mirror image. For fracture along inclined planes (shear cracks, plugs) use \"alternating\" or an unstructured mesh.",
+    ),
 ];
 pub const DISC_KEYS: &[Key] = &[
     key("radius", "float", "m", "required", "Radius."),
@@ -458,7 +465,7 @@ pub const REST_KEYS: &[Key] = &[
     key("ratio", "float", "-", "1e-6", "At rest when the kinetic energy is at most ratio × the work W at two checks in a row; W = max(|external work|, strain energy)."),
     key("max_steps", "int", "steps", "200000", "Step cap: the stage ends there, with a warning, if not at rest."),
     key("check_every", "int", "steps", "50", "How often the kinetic energy is compared (and the adaptive α updated)."),
-    key("damping", "float", "1/s", "adaptive", "Mass-proportional α during the stage. Default: 2ω with ω² = 2U/Σm|u|², the Rayleigh quotient of the current displacement u (≈ the lowest mode once the model sags under its load), updated at every check; until something moved, the damping the model had."),
+    key("damping", "float", "1/s", "adaptive", "Mass-proportional α during the stage. Default: 2ω with ω² = 2U/Σm|u|², the Rayleigh quotient of the current displacement u (≈ the lowest mode once the model sags under its load), updated at every check; until something moved, the damping the model had. Rigid bodies are left out of u, but a deformable body's free travel is not: after a fall or a long slide (a poured bed) the estimate is far too low, so give α yourself (critical for the lowest mode ω₁: α = 2ω₁)."),
 ];
 pub const PLOT_KEYS: &[Key] = &[
     key("file", "string", "", "required", "Name of the figure's files, without extension: `<out_dir>/<file>.png` and `.svg` (replaced if there)."),

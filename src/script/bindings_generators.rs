@@ -140,11 +140,13 @@ fn count(o: &Opts, k: &str, min: i64) -> RhaiResult<usize> {
 
 /// Mesh a cylinder or sphere region (`shape.mesh(#{ size })`).
 pub fn mesh_region(region: &Region, o: &Opts) -> RhaiResult<MeshValue> {
-    if o.has("divisions") {
-        return err(format!(
-            "mesh(): 'divisions' applies to boxes; a {} takes 'size'",
-            region.kind()
-        ));
+    for k in ["divisions", "pattern"] {
+        if o.has(k) {
+            return err(format!(
+                "mesh(): '{k}' applies to boxes; a {} takes 'size'",
+                region.kind()
+            ));
+        }
     }
     let mesh = match region {
         Region::Cylinder {

@@ -6,7 +6,7 @@ use super::api::keys_of;
 use super::opts::{err, to_vec3, vec3_arg, Opts, RhaiResult};
 use super::types::{MeshValue, Shape};
 use crate::math::{Real, Vec3};
-use crate::mesh::{box_mesh, divisions_for, Mesh, Region};
+use crate::mesh::{box_mesh_with, divisions_for, BoxPattern, Mesh, Region};
 use rhai::{Array, Engine, Map};
 use std::rc::Rc;
 
@@ -126,7 +126,18 @@ fn mesh_shape(s: &mut Shape, m: Map) -> RhaiResult<MeshValue> {
         ));
     }
     crate::limits::check_tets(6.0 * cells).map_err(|e| format!("mesh(): {e}"))?;
-    Ok(MeshValue(Rc::new(box_mesh(min, max, divisions))))
+    let pattern = match o.string("pattern")?.as_deref() {
+        None | Some("kuhn") => BoxPattern::Kuhn,
+        Some("alternating") => BoxPattern::Alternating,
+        Some(other) => {
+            return err(format!(
+                "mesh(): 'pattern' must be \"kuhn\" or \"alternating\", got \"{other}\""
+            ))
+        }
+    };
+    Ok(MeshValue(Rc::new(box_mesh_with(
+        min, max, divisions, pattern,
+    ))))
 }
 
 /// `tet_mesh(#{ nodes, tets })`: a mesh from explicit nodes and tetrahedra.
