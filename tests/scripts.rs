@@ -589,7 +589,7 @@ let p = params(#{ n: 2 });
 let sim = simulation(#{ name: "all", out_dir: "ignored", energy_every: 3, stress_output: "pk2", vtk_encoding: "base64" });
 let m = material("elastic/neo_hookean", #{ density: 1000.0, young: 1e6, poisson: 0.3, viscosity: 1.0 });
 let mr = material("elastic/mooney_rivlin", #{ density: 1000.0, c10: 3e5, c01: 5e4, bulk: 1e7, viscosity: 1.0 });
-let mesh = box(#{ min: [0.0, 0.0, 0.0], max: [1.0, 0.5, 0.5] }).mesh(#{ divisions: [2, 1, 1] });
+let mesh = box(#{ min: [0.0, 0.0, 0.0], max: [1.0, 0.5, 0.5] }).mesh(#{ divisions: [2, 1, 1], pattern: "alternating" });
 mesh.rotate(#{ axis: [0.0, 0.0, 1.0], degrees: 0.0, center: [0.0, 0.0, 0.0] });
 let b = sim.add_body("b", mesh, m, #{ layout: "continuous" });
 let j = sim.add_body("j", box(#{ min: [0.0, 0.0, 5.0], max: [1.0, 0.5, 5.5] }).mesh(#{ size: 0.5 }), m, #{ layout: "jointed" });
