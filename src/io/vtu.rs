@@ -446,9 +446,8 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     name.push(".tmp");
     let tmp: PathBuf = path.with_file_name(name);
     // A second SIGINT exits at once and removes the temporary files noted here.
-    crate::limits::interrupt::begin_temp(&tmp);
     let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
+        let mut f = crate::limits::interrupt::create_temp(&tmp)?;
         f.write_all(bytes)?;
         drop(f);
         std::fs::rename(&tmp, path)

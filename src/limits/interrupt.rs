@@ -53,7 +53,11 @@ pub fn install() {
 /// The second signal: remove the temporary files of writes in flight and exit at once.
 fn hard_exit() -> ! {
     let sig = SIGNAL.load(Ordering::SeqCst);
-    if let Ok(list) = IN_FLIGHT.lock() {
+    // The lock is held until the process exits: a writer that has not yet created its
+    // temporary file blocks in [`create_temp`] and never creates it (creating it after the
+    // removal below is the race that left a `.tmp` behind).
+    let guard = IN_FLIGHT.lock();
+    if let Ok(list) = &guard {
         for p in list.iter() {
             let _ = std::fs::remove_file(p);
         }
@@ -90,11 +94,14 @@ pub fn clear() {
     SIGNAL.store(0, Ordering::SeqCst);
 }
 
-/// Note a temporary file while it is written (a hard exit removes it).
-pub fn begin_temp(path: &Path) {
-    if let Ok(mut l) = IN_FLIGHT.lock() {
-        l.push(path.to_path_buf());
-    }
+/// Create a temporary file and note it while it is written (a hard exit removes it).
+/// Creation and noting happen under one lock, which a hard exit holds until the process
+/// ends, so no temporary file can appear after the hard exit has cleaned up.
+pub fn create_temp(path: &Path) -> std::io::Result<std::fs::File> {
+    let mut list = IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner());
+    let file = std::fs::File::create(path)?;
+    list.push(path.to_path_buf());
+    Ok(file)
 }
 
 /// The temporary file was renamed into place or removed.
