@@ -816,6 +816,7 @@ pub fn bench_rebars(tets: usize, steps: u64) -> Result<serde_json::Value, String
                 steel,
                 bond_law: bond,
                 segment: None,
+                bending: true,
             })?;
         }
     }

@@ -55,6 +55,7 @@ fn block_with_bar(
         steel: s,
         bond_law: b,
         segment: Some((x1 - x0) / pieces as Real * 1.000001),
+        bending: true,
     };
     let r = sim.add_rebar(&spec).unwrap();
     let nodes = sim.rebars[r].nodes.clone();
@@ -371,13 +372,20 @@ expect_within("balance", abs(e.relative_error), 0.0, 1e-3);
 expect_within("bond energy booked", e.bond, 1e-12, 1.0e9);
 expect_within("stressed", r.max_stress(), 1.0, 464.0e6);
 expect_within("no rupture", r.ruptured(), 0, 0);
+// The cantilevered beam sags: its bar bends at its nodes, far below M_p = f_y d³/6 = 619 N·m.
+expect_within("bar bends", r.max_bending_moment(), 1e-6, 619.0);
 "#
     .replace("OUT", &dir.join("out").display().to_string().replace('\\', "/"));
     fdem::script::run_source(&script, &text, Default::default()).unwrap();
     let bars = dir.join("out/rc_bars_000000.vtu");
     let vtu = std::fs::read(&bars).unwrap_or_else(|e| panic!("{}: {e}", bars.display()));
     let vtu = String::from_utf8_lossy(&vtu);
-    assert!(vtu.contains("axial_force") && vtu.contains("bond_stress") && vtu.contains("UInt8"));
+    assert!(
+        vtu.contains("axial_force")
+            && vtu.contains("bond_stress")
+            && vtu.contains("bending_moment")
+            && vtu.contains("UInt8")
+    );
     let head = r#"
 let sim = simulation(#{ name: "bad" });
 let concrete = material("elastic/neo_hookean", #{ density: 2400.0, young: 30.0e9, poisson: 0.2 });

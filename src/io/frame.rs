@@ -293,7 +293,8 @@ pub fn encode_cracks(sim: &Simulation, encoding: Encoding) -> Result<Vec<u8>, St
 /// Encode the bars of every rebar as `.vtu` bytes: one line cell per bar at its current
 /// position, with cell data `axial_force` [N], `stress` [Pa], `strain`, `plastic_strain`,
 /// `rebar` (index) and `ruptured` (1 once broken), and point data `slip` [m] and
-/// `bond_stress` [Pa] of the bond point at each bar node.
+/// `bond_stress` [Pa] of the bond point at each bar node and `bending_moment` [N·m] of the
+/// hinge there (0 at a bar's ends).
 pub fn encode_bars(sim: &Simulation, encoding: Encoding) -> Result<Vec<u8>, String> {
     let bars = &sim.bars;
     let first = sim.rebars.first().map_or(0, |r| r.nodes.start);
@@ -322,6 +323,10 @@ pub fn encode_bars(sim: &Simulation, encoding: Encoding) -> Result<Vec<u8>, Stri
         slip[i] = sim.bonds.slip[p];
         bond_stress[i] = sim.bonds.stress[p];
     }
+    let mut moment = vec![0.0; points.len()];
+    for (h, n) in bars.hinges.nodes.iter().enumerate() {
+        moment[n[1] as usize - first] = bars.hinges.moment[h];
+    }
     let frame = VtuFrame {
         points: &points,
         tets: &[],
@@ -335,6 +340,10 @@ pub fn encode_bars(sim: &Simulation, encoding: Encoding) -> Result<Vec<u8>, Stri
             Field {
                 name: "bond_stress",
                 data: DataArray::ScalarF64(&bond_stress),
+            },
+            Field {
+                name: "bending_moment",
+                data: DataArray::ScalarF64(&moment),
             },
         ],
         cell_data: vec![

@@ -649,7 +649,8 @@ impl Simulation {
     pub fn stable_time_step(&self) -> Result<TimeStepInfo, SimError> {
         let (critical_tets, tet) = elements::critical_time_step(&self.tets, &self.materials);
         // Bars act on their own nodes: the elements' step is the smaller of the two families'.
-        let (critical_bars, _) = elements::bar2::critical_time_step(&self.bars, &self.steels);
+        let (critical_bars, _) =
+            elements::bar2::critical_time_step(&self.bars, &self.steels, &self.nodes.m);
         let critical_tets = critical_tets.min(critical_bars);
         // Joint springs add stiffness at their nodes: by Weyl's inequality and a Gershgorin
         // bound on the joint part, ω² ≤ ω_tets² + max_n 2·Σk_joint/m_n (bond springs alike).
@@ -949,7 +950,8 @@ impl Simulation {
                 contact: self.contact_energy,
                 friction: a.friction + self.contact_dissipated,
                 // Per-bar and per-point running sums, added in id order.
-                plastic: self.bars.dissipated.iter().sum(),
+                plastic: self.bars.dissipated.iter().sum::<Real>()
+                    + self.bars.hinges.dissipated.iter().sum::<Real>(),
                 bond: bond.energy,
                 bond_slip: self.bonds.dissipated.iter().sum(),
                 initial: if self.step == 0 {

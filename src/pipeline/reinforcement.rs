@@ -22,6 +22,8 @@ pub struct RebarSpec {
     pub bond_law: u32,
     /// Largest bar element length [m]; None: the host's mean element size.
     pub segment: Option<Real>,
+    /// Bending hinges at the bar nodes (dowel action); false: a chain of pins.
+    pub bending: bool,
 }
 
 impl Simulation {
@@ -111,6 +113,9 @@ impl Simulation {
             tributary[i] += 0.5 * l0;
             tributary[(i + 1) % n] += 0.5 * l0;
         }
+        if spec.bending {
+            self.add_hinges(spec, &points, closed, node_start, bar_start);
+        }
         let law = &self.bonds.laws[spec.bond_law as usize];
         let kt = law
             .transverse_stiffness
@@ -147,6 +152,43 @@ impl Simulation {
             steel: spec.steel,
         });
         Ok(id)
+    }
+
+    /// Bending hinges where two bars of the rebar just laid meet (all nodes of a closed one,
+    /// the interior ones of an open one): k = EI/L̄ (I = πd⁴/64), M_p = f_y d³/6.
+    fn add_hinges(
+        &mut self,
+        spec: &RebarSpec,
+        points: &[Vec3],
+        closed: bool,
+        node_start: usize,
+        bar_start: usize,
+    ) {
+        let steel = &self.steels[spec.steel as usize];
+        let d = spec.diameter;
+        let ei = steel.young * std::f64::consts::PI * d.powi(4) / 64.0;
+        let mp = steel.yield_stress * d.powi(3) / 6.0;
+        let n = points.len();
+        let node = |i: usize| (node_start + i) as u32;
+        let inner = if closed { 0..n } else { 1..n - 1 };
+        for i in inner {
+            let (prev, next) = ((i + n - 1) % n, (i + 1) % n);
+            // Bar k runs from point k to point k + 1.
+            let (b1, b2) = (bar_start + prev, bar_start + i);
+            let mean = 0.5 * (self.bars.length0[b1] + self.bars.length0[b2]);
+            let angle0 = crate::elements::bar2::hinge::turning_angle(
+                &points[prev],
+                &points[i],
+                &points[next],
+            );
+            self.bars.hinges.push(
+                [node(prev), node(i), node(next)],
+                [b1 as u32, b2 as u32],
+                ei / mean,
+                mp,
+                angle0,
+            );
+        }
     }
 }
 

@@ -145,7 +145,7 @@ fn fib2010(o: &Opts, d: Real) -> RhaiResult<BondLaw> {
     BondLaw::fib2010(&|p| o.given(p), &confinement, &bond, d).map_err(|e| o.error(e))
 }
 
-/// `sim.rebar(host, #{ points, diameter, area, steel, bond, segment, name })`.
+/// `sim.rebar(host, #{ points, diameter, area, steel, bond, segment, bending, name })`.
 fn rebar(s: &mut SimHandle, host: BodyHandle, m: Map) -> RhaiResult<RebarHandle> {
     let o = Opts::new("rebar", m, keys_of("sim.rebar"))?;
     s.body_of(&host, "rebar()")?;
@@ -191,6 +191,7 @@ fn rebar(s: &mut SimHandle, host: BodyHandle, m: Map) -> RhaiResult<RebarHandle>
         steel: steel_id,
         bond_law: bond_id,
         segment: o.float("segment")?,
+        bending: o.typed::<bool>("bending", "true or false")?.unwrap_or(true),
     };
     let id = st
         .sim
@@ -318,6 +319,15 @@ fn register_queries(engine: &mut Engine) {
         let st = r.sim.0.borrow();
         bars_of(r)
             .map(|b| st.sim.bars.plastic_strain[b].abs())
+            .fold(0.0, Real::max)
+    });
+    engine.register_fn("max_bending_moment", |r: &mut RebarHandle| -> Real {
+        let st = r.sim.0.borrow();
+        let nodes = st.sim.rebars[r.id].nodes.clone();
+        let h = &st.sim.bars.hinges;
+        (0..h.len())
+            .filter(|&k| nodes.contains(&(h.nodes[k][1] as usize)))
+            .map(|k| h.moment[k].abs())
             .fold(0.0, Real::max)
     });
     engine.register_fn("ruptured", move |r: &mut RebarHandle| -> i64 {

@@ -145,6 +145,60 @@ pub struct Bars {
     pub dissipated: Vec<Real>,
     /// Time of rupture [s]; NaN while the bar is intact.
     pub ruptured_at: Vec<Real>,
+    /// Bending hinges at the bar nodes where two bars of a rebar meet (dowel action).
+    pub hinges: BarHinges,
+}
+
+/// Bending hinges of the rebars (stage 1, [`crate::elements::bar2`]): at a node where two
+/// bars of one rebar meet, a rotational spring on the turning angle θ between them with an
+/// elastic–perfectly plastic moment. Indexed by hinge id.
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
+pub struct BarHinges {
+    /// [previous, hinge, next] bar nodes.
+    pub nodes: Vec<[u32; 3]>,
+    /// The bars [previous → hinge, hinge → next].
+    pub bars: Vec<[u32; 2]>,
+    /// k = E·I/L̄ [N·m/rad]: I = πd⁴/64, L̄ the mean reference length of the two bars.
+    pub stiffness: Vec<Real>,
+    /// Plastic moment M_p = f_y·d³/6 of the solid circular section [N·m].
+    pub plastic_moment: Vec<Real>,
+    /// Turning angle θ₀ of the reference placement [rad] (0 along a straight bar).
+    pub angle0: Vec<Real>,
+    /// Plastic turning angle θ_p [rad].
+    pub plastic_angle: Vec<Real>,
+    /// Bending moment M = k(θ − θ₀ − θ_p) of the last step [N·m] (0 once a bar is broken).
+    pub moment: Vec<Real>,
+    /// Plastic work ∫M dθ_p and the elastic energy lost when a bar of the hinge ruptured [J].
+    pub dissipated: Vec<Real>,
+    /// Stage scratch: the forces of each hinge on its three nodes.
+    #[serde(skip)]
+    pub force: Vec<[Vec3; 3]>,
+}
+
+impl BarHinges {
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+    pub(crate) fn push(
+        &mut self,
+        nodes: [u32; 3],
+        bars: [u32; 2],
+        stiffness: Real,
+        plastic_moment: Real,
+        angle0: Real,
+    ) {
+        self.nodes.push(nodes);
+        self.bars.push(bars);
+        self.stiffness.push(stiffness);
+        self.plastic_moment.push(plastic_moment);
+        self.angle0.push(angle0);
+        self.plastic_angle.push(0.0);
+        self.moment.push(0.0);
+        self.dissipated.push(0.0);
+    }
 }
 
 impl Bars {

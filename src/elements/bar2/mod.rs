@@ -20,6 +20,7 @@
 //! Guarantees: deterministic for any thread count (bars in parallel into a per-bar force,
 //! then added to the nodes in bar order).
 
+pub mod hinge;
 pub mod steel;
 
 use crate::math::{Real, Vec3};
@@ -46,15 +47,24 @@ pub fn lumped_masses(nodes: &mut Nodes, bars: &Bars, steels: &[Steel]) {
     }
 }
 
-/// The smallest critical step L₀/√(E/ρ) over the bars [s] and the bar that sets it (the lowest
-/// id among equals); (∞, 0) without bars.
-pub fn critical_time_step(bars: &Bars, steels: &[Steel]) -> (Real, usize) {
-    (0..bars.len())
+/// The smallest critical step over the bars [s] and the bar that sets it (the lowest id among
+/// equals); (∞, 0) without bars. Axially L₀/√(E/ρ); the bending hinges lower it by their
+/// ω² bound ([`hinge::max_omega2`], with the nodes' lumped masses `mass`):
+/// 2/√((2/Δt_axial)² + ω²_hinges).
+pub fn critical_time_step(bars: &Bars, steels: &[Steel], mass: &[Real]) -> (Real, usize) {
+    let (axial, bar) = (0..bars.len())
         .map(|b| {
             let s = &steels[bars.steel[b] as usize];
             (bars.length0[b] * (s.density / s.young).sqrt(), b)
         })
-        .fold((Real::INFINITY, 0), |a, c| if c.0 < a.0 { c } else { a })
+        .fold((Real::INFINITY, 0), |a, c| if c.0 < a.0 { c } else { a });
+    let w2 = hinge::max_omega2(&bars.hinges, &bars.length0, mass);
+    if w2 > 0.0 && w2.is_finite() {
+        let w = 2.0 / axial;
+        (2.0 / (w * w + w2).sqrt(), bar)
+    } else {
+        (axial, bar)
+    }
 }
 
 /// Stage 1 for bars: axial forces from the steel law (advancing its history), added to
@@ -121,16 +131,19 @@ pub fn add_bar_forces(
         nodes.f[nb[0] as usize] += force[b];
         nodes.f[nb[1] as usize] -= force[b];
     }
-    let strain_energy = if want_energy {
-        (0..bars.len())
-            .map(|b| {
-                let s = &steels[bars.steel[b] as usize];
-                s.elastic_energy_density(bars.stress[b]) * bars.area[b] * bars.length0[b]
-            })
-            .sum()
-    } else {
-        0.0
-    };
+    let bending_energy =
+        hinge::add_hinge_forces(nodes, &mut bars.hinges, &bars.ruptured_at, want_energy);
+    let strain_energy = bending_energy
+        + if want_energy {
+            (0..bars.len())
+                .map(|b| {
+                    let s = &steels[bars.steel[b] as usize];
+                    s.elastic_energy_density(bars.stress[b]) * bars.area[b] * bars.length0[b]
+                })
+                .sum()
+        } else {
+            0.0
+        };
     BarSums {
         strain_energy,
         ruptured,
