@@ -447,3 +447,65 @@ fn reinforced_runs_are_bit_identical_for_1_and_2_threads() {
     let (a, b) = (common::on_threads(1, run), common::on_threads(2, run));
     assert!(a == b, "positions differ between 1 and 2 threads");
 }
+
+/// A bar on an elastic foundation loaded at its free end: the bar bends at its nodes
+/// (hinges k = EI/L̄) and the host's transverse bond springs are a Winkler foundation of
+/// modulus k_f = π d k⊥ [N/m²]. Hetényi (1946, *Beams on Elastic Foundation*, §II.9): a
+/// semi-infinite beam with an end load P deflects y₀ = 2Pβ/k_f and turns θ₀ = 2Pβ²/k_f at
+/// the end, β = (k_f/4EI)^{1/4}. Here β = 25 /m over 0.28 m of bar (βL = 7: the far end
+/// changes y₀ by ~e^{−7}) in 56 bars (βℓ = 0.125: the chain's discretisation error is
+/// O((βℓ)²) ≈ 1 %), so 3 % on y₀ and 5 % on θ₀ (a difference quotient over the end bar).
+/// Measured: y₀ −0.39 %, θ₀ −0.78 %, largest moment 12.80 N·m against P/β·e^{−π/4}·sin(π/4)
+/// = 12.90. A chain of pins (bending off) would deflect P/(k_f ℓ/2) at its end node: 8× more.
+/// The host is held fixed; the static state is reached by mass damping at 2ω₁.
+#[test]
+fn a_bar_on_an_elastic_foundation_bends_as_hetenyi_says() {
+    let d: Real = 0.016;
+    let ei = E_S * std::f64::consts::PI * d.powi(4) / 64.0;
+    let beta: Real = 25.0;
+    let k_f = 4.0 * ei * beta.powi(4);
+    let fib = Fib2010::new(30e6, "confined", true, d).unwrap();
+    let bond = BondLaw {
+        envelope: Envelope::Fib2010(fib),
+        stiffness: fib.envelope(fib.s1 / 100.0) / (fib.s1 / 100.0),
+        transverse_stiffness: Some(k_f / (std::f64::consts::PI * d)),
+    };
+    let (x0, x1) = (0.01, 0.29);
+    let (mut sim, nodes) = block_with_bar(steel(0.0, Real::INFINITY), bond, x0, x1, 56, d);
+    let host: Vec<u32> = sim.bodies[0].nodes.clone().map(|n| n as u32).collect();
+    sim.loads.prescribed.push(fdem::loads::PrescribedVelocity {
+        nodes: host,
+        components: [(); 3].map(|_| Some(TimeFunction::Constant(0.0))),
+    });
+    let p = 1000.0;
+    // The free end is the bar's last node (x = x1), loaded across the bar (y).
+    let tip = (nodes.end - 1) as u32;
+    let before = (nodes.end - 2) as u32;
+    sim.loads.forces.push(fdem::loads::NodalForces::new(
+        vec![tip],
+        vec![Vec3::new(0.0, p, 0.0)],
+        TimeFunction::Constant(1.0),
+    ));
+    let rho_a = 7850.0 * std::f64::consts::PI * d * d / 4.0;
+    let omega1 = (k_f / rho_a).sqrt();
+    sim.settings.mass_damping = 2.0 * omega1;
+    sim.prepare().unwrap();
+    assert_eq!(sim.bars.hinges.len(), 55, "a hinge at every interior node");
+    while sim.time < 20.0 / omega1 {
+        sim.step().unwrap();
+    }
+    let y = |n: u32| sim.nodes.x[n as usize].y - sim.nodes.x0[n as usize].y;
+    let (y0, y1) = (y(tip), y(before));
+    let l = (x1 - x0) / 56.0;
+    let theta0 = (y0 - y1) / l;
+    let (y_ref, theta_ref) = (2.0 * p * beta / k_f, 2.0 * p * beta * beta / k_f);
+    println!(
+        "end deflection {y0:.4e} m (Hetényi {y_ref:.4e}), end rotation {theta0:.4e} (Hetényi {theta_ref:.4e}), largest moment {:.3} N·m",
+        sim.bars.hinges.moment.iter().fold(0.0, |a: Real, m| a.max(m.abs()))
+    );
+    assert!((y0 / y_ref - 1.0).abs() < 0.03, "y₀ {y0} against {y_ref}");
+    assert!(
+        (theta0 / theta_ref - 1.0).abs() < 0.05,
+        "θ₀ {theta0} against {theta_ref}"
+    );
+}
