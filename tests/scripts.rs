@@ -196,6 +196,24 @@ fn unknown_key_is_named_with_the_allowed_keys() {
     );
 }
 
+/// A key that names one of a few values (`Opts::choice`) refuses any other with the key,
+/// the value given and every allowed one, at the call's line.
+#[test]
+fn a_value_not_among_a_keys_choices_is_named_with_the_allowed_ones() {
+    let head = "let sim = simulation(#{});\nlet m = material(\"elastic/neo_hookean\", #{ density: 2500.0, young: 1e9, poisson: 0.2 });\nlet mesh = box(#{ min: [0.0, 0.0, 0.0], max: [1.0, 1.0, 1.0] }).mesh(#{ divisions: [2, 2, 2] });\n";
+    for (call, expect) in [
+        ("sim.add_body(\"b\", mesh, m, #{ layout: \"solid\" });", "add_body(): layout \"solid\" is not \"continuous\", \"jointed\" or \"rigid\""),
+        ("box(#{ min: [0.0, 0.0, 0.0], max: [1.0, 1.0, 1.0] }).mesh(#{ divisions: [2, 2, 2], pattern: \"zigzag\" });", "mesh(): pattern \"zigzag\" is not \"kuhn\" or \"alternating\""),
+        ("joint_law(\"cohesive/munjiza\", #{ tensile_strength: 1e6, cohesion: 2e6, friction_angle: 30.0, g_i: 10.0, g_ii: 50.0, calibration: \"y\" });", "calibration \"y\" is not \"exact\" or \"y_compatible\""),
+        ("simulation(#{ vtk_encoding: \"ascii\" });", "simulation(): vtk_encoding \"ascii\" is not \"raw\" or \"base64\""),
+        ("let b = sim.add_body(\"b\", mesh, m); straight_bar(b, #{ axis: \"w\", at: [0.5, 0.5] });", "straight_bar(): axis \"w\" is not \"x\", \"y\" or \"z\""),
+    ] {
+        let (ok, _, err) = run_text("choice", &format!("{head}{call}\n"), &[]);
+        assert!(!ok, "{call} was accepted");
+        assert!(err.contains(expect) && err.contains("choice.rhai:4:"), "{call}: {err}");
+    }
+}
+
 /// `elastic/mooney_rivlin` from a script: its constants read back (μ = 2(C₁₀ + C₀₁) = 1 MPa,
 /// K = 50 MPa give E = 9Kμ/(3K + μ) = 2.980 MPa), and a key of the other laws is refused
 /// with the laws that take it and the keys this one takes.

@@ -12,6 +12,13 @@ use crate::state::Layout;
 use rhai::{Array, Dynamic, Engine, Map};
 use std::rc::Rc;
 
+/// The values of a body's `layout` key.
+pub const LAYOUTS: &[(&str, Layout)] = &[
+    ("continuous", Layout::Continuous),
+    ("jointed", Layout::Jointed),
+    ("rigid", Layout::Rigid),
+];
+
 pub fn register(engine: &mut Engine) {
     engine.register_fn(
         "add_body",
@@ -121,19 +128,9 @@ fn add_body(
 ) -> RhaiResult<BodyHandle> {
     let layout = match o {
         None => Layout::Continuous,
-        Some(m) => {
-            let o = Opts::new("add_body", m, keys_of("sim.add_body"))?;
-            match o.string("layout")?.as_deref() {
-                None | Some("continuous") => Layout::Continuous,
-                Some("jointed") => Layout::Jointed,
-                Some("rigid") => Layout::Rigid,
-                Some(x) => {
-                    return err(format!(
-                        "add_body(): layout \"{x}\" is not \"continuous\", \"jointed\" or \"rigid\""
-                    ))
-                }
-            }
-        }
+        Some(m) => Opts::new("add_body", m, keys_of("sim.add_body"))?
+            .choice("layout", LAYOUTS)?
+            .unwrap_or(Layout::Continuous),
     };
     let per_tet = match layout {
         Layout::Jointed => crate::limits::JOINTED_BYTES_PER_TET,

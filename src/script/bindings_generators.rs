@@ -388,16 +388,9 @@ fn add_blocks(
         o.unwrap_or_default(),
         keys_of("sim.add_blocks"),
     )?;
-    let layout = match o.string("layout")?.as_deref() {
-        None | Some("continuous") => Layout::Continuous,
-        Some("jointed") => Layout::Jointed,
-        Some("rigid") => Layout::Rigid,
-        Some(x) => {
-            return err(format!(
-                "add_blocks(): layout \"{x}\" is not \"continuous\", \"jointed\" or \"rigid\""
-            ))
-        }
-    };
+    let layout = o
+        .choice("layout", super::bindings_bodies::LAYOUTS)?
+        .unwrap_or(Layout::Continuous);
     let prefix = o.string("prefix")?.unwrap_or_else(|| "block".into());
     let mut st = s.0.borrow_mut();
     if st.sim.step > 0 {

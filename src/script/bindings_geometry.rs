@@ -126,15 +126,15 @@ fn mesh_shape(s: &mut Shape, m: Map) -> RhaiResult<MeshValue> {
         ));
     }
     crate::limits::check_tets(6.0 * cells).map_err(|e| format!("mesh(): {e}"))?;
-    let pattern = match o.string("pattern")?.as_deref() {
-        None | Some("kuhn") => BoxPattern::Kuhn,
-        Some("alternating") => BoxPattern::Alternating,
-        Some(other) => {
-            return err(format!(
-                "mesh(): 'pattern' must be \"kuhn\" or \"alternating\", got \"{other}\""
-            ))
-        }
-    };
+    let pattern = o
+        .choice(
+            "pattern",
+            &[
+                ("kuhn", BoxPattern::Kuhn),
+                ("alternating", BoxPattern::Alternating),
+            ],
+        )?
+        .unwrap_or(BoxPattern::Kuhn);
     Ok(MeshValue(Rc::new(box_mesh_with(
         min, max, divisions, pattern,
     ))))

@@ -171,27 +171,27 @@ fn joint_law(ctx: &ScriptContext, kind: &str, m: Map) -> RhaiResult<JointLawValu
             })
         }
     };
-    let calibration = match o.string("calibration")?.as_deref() {
-        None | Some("exact") => Calibration::Exact,
-        Some("y_compatible") => Calibration::YCompatible,
-        Some(x) => {
-            return err(format!(
-                "joint_law(): calibration \"{x}\" is not \"exact\" or \"y_compatible\""
-            ))
-        }
-    };
+    let calibration = o
+        .choice(
+            "calibration",
+            &[
+                ("exact", Calibration::Exact),
+                ("y_compatible", Calibration::YCompatible),
+            ],
+        )?
+        .unwrap_or(Calibration::Exact);
     let mut cohesive =
         Cohesive::from_params(softening, calibration, &|p| o.given(p)).map_err(|e| o.error(e))?;
-    cohesive.rate = match o.string("rate_effects")?.as_deref() {
-        None | Some("none") => RateEffects::None,
-        // Young's modulus is the body's, set by insert_joints.
-        Some("fib2010") => RateEffects::Fib2010 { young: Real::NAN },
-        Some(x) => {
-            return err(format!(
-                "joint_law(): rate_effects \"{x}\" is not \"none\" or \"fib2010\""
-            ))
-        }
-    };
+    cohesive.rate = o
+        .choice(
+            "rate_effects",
+            // Young's modulus is the body's, set by insert_joints.
+            &[
+                ("none", RateEffects::None),
+                ("fib2010", RateEffects::Fib2010 { young: Real::NAN }),
+            ],
+        )?
+        .unwrap_or(RateEffects::None);
     Ok(JointLawValue {
         name: kind.into(),
         cohesive: Some(cohesive),

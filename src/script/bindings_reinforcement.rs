@@ -202,16 +202,11 @@ fn rebar(s: &mut SimHandle, host: BodyHandle, m: Map) -> RhaiResult<RebarHandle>
 
 /// Axis index of "x", "y" or "z".
 fn axis_of(o: &Opts) -> RhaiResult<usize> {
-    match o.string("axis")?.as_deref() {
-        Some("x") => Ok(0),
-        Some("y") => Ok(1),
-        Some("z") => Ok(2),
-        Some(a) => err(format!(
-            "{}: axis \"{a}\" is not \"x\", \"y\" or \"z\"",
-            o.at()
-        )),
-        None => err(format!("{}: missing required key 'axis'", o.at())),
-    }
+    o.choice("axis", &[("x", 0), ("y", 1), ("z", 2)])?
+        .map_or_else(
+            || err(format!("{}: missing required key 'axis'", o.at())),
+            Ok,
+        )
 }
 
 /// `straight_bar(host, #{ axis, at, cover })`: the end points of a straight bar along `axis`

@@ -101,16 +101,7 @@ fn prescribe(b: &mut BodyHandle, m: Map) -> RhaiResult<()> {
             c[k] = Some(time_fn(d, "prescribe_velocity()")?);
         }
     }
-    let rotation = match o.string("rotation")?.as_deref() {
-        None => None,
-        Some("fixed") => Some(true),
-        Some("free") => Some(false),
-        Some(x) => {
-            return err(format!(
-                "prescribe_velocity(): rotation \"{x}\" is not \"fixed\" or \"free\""
-            ))
-        }
-    };
+    let rotation = o.choice("rotation", &[("fixed", true), ("free", false)])?;
     if c.iter().all(|c| c.is_none()) && rotation.is_none() {
         return err("prescribe_velocity(): give at least one of x, y, z, rotation");
     }

@@ -51,15 +51,8 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
             }
             s.0.borrow_mut().sim.settings.mass_damping = a;
         }
-        match o.string("frame")?.as_deref() {
-            None => {}
-            Some("ground") => s.0.borrow_mut().sim.settings.damping_relative_to_body = false,
-            Some("body") => s.0.borrow_mut().sim.settings.damping_relative_to_body = true,
-            Some(x) => {
-                return err(format!(
-                    "damping(): frame \"{x}\" is not \"ground\" or \"body\""
-                ))
-            }
+        if let Some(body) = o.choice("frame", &[("ground", false), ("body", true)])? {
+            s.0.borrow_mut().sim.settings.damping_relative_to_body = body;
         }
         Ok(())
     });
@@ -109,15 +102,15 @@ fn simulation(c: &ScriptContext, m: Map) -> RhaiResult<SimHandle> {
             Ok,
         )?,
     };
-    let vtk_encoding = match o.string("vtk_encoding")?.as_deref() {
-        None | Some("raw") => crate::io::vtu::Encoding::Raw,
-        Some("base64") => crate::io::vtu::Encoding::Base64,
-        Some(x) => {
-            return err(format!(
-                "simulation(): vtk_encoding '{x}' is not \"raw\" or \"base64\""
-            ))
-        }
-    };
+    let vtk_encoding = o
+        .choice(
+            "vtk_encoding",
+            &[
+                ("raw", crate::io::vtu::Encoding::Raw),
+                ("base64", crate::io::vtu::Encoding::Base64),
+            ],
+        )?
+        .unwrap_or(crate::io::vtu::Encoding::Raw);
     let handle = SimHandle(Rc::new(RefCell::new(SimState {
         sim,
         owner: super::types::Owner::new(&name),

@@ -227,6 +227,24 @@ impl Opts {
             Some(v) => self.type_err(k, "a string", v),
         }
     }
+    /// The value of a key that names one of `options` (name, value); None when the key is
+    /// absent. Any other string is an error listing the names:
+    /// `func(): key "x" is not "a", "b" or "c"`.
+    pub fn choice<T: Clone>(&self, k: &str, options: &[(&str, T)]) -> RhaiResult<Option<T>> {
+        let Some(given) = self.string(k)? else {
+            return Ok(None);
+        };
+        if let Some((_, v)) = options.iter().find(|(name, _)| *name == given) {
+            return Ok(Some(v.clone()));
+        }
+        let names: Vec<String> = options.iter().map(|(n, _)| format!("\"{n}\"")).collect();
+        let list = match names.split_last() {
+            Some((last, [])) => last.clone(),
+            Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+            None => String::new(),
+        };
+        err(format!("{}: {k} \"{given}\" is not {list}", self.at()))
+    }
     pub fn vec3(&self, k: &str) -> RhaiResult<Option<Vec3>> {
         match self.map.get(k) {
             None => Ok(None),
