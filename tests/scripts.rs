@@ -641,7 +641,7 @@ let bl1 = bond_law("fib2010", #{ fcm: 3e7, confinement: "stirrups", bond: "other
 let bl2 = bond_law("script", #{ function: "flat_bond", params: #{ tau: 1e6 }, stiffness: 1e10, transverse_stiffness: 1e11 });
 let rb = sim.rebar(b, #{ points: straight_bar(b, #{ axis: "x", at: [0.25, 0.25], cover: 0.05 }), diameter: 0.01, area: 8e-5, steel: st1, bond: bl1, segment: 0.3, name: "rb" });
 sim.rebar(b, #{ points: stirrup(b, #{ axis: "x", at: 0.5, cover: 0.05, diameter: 0.01 }), diameter: 0.01, steel: st2, bond: bl2 });
-sim.rebar(b, #{ points: straight_bar(b, #{ axis: "x", at: [0.1, 0.1] }), diameter: 0.01, steel: st3, bond: bl1 });
+sim.rebar(b, #{ points: straight_bar(b, #{ axis: "x", at: [0.1, 0.1] }), diameter: 0.01, steel: st3, bond: bl1, bending: false });
 let rg = sim.add_body("rg", box(#{ min: [0.0, 0.0, 30.0], max: [1.0, 0.5, 30.5] }).mesh(#{ divisions: [2, 1, 1] }), m, #{ layout: "rigid" });
 rg.prescribe_velocity(#{ x: 0.0, y: table([[0.0, 0.0], [1.0, 1.0]]), z: 0.0, rotation: "fixed" });
 let c = b.copy("c");
