@@ -784,15 +784,23 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
     Ok(())
 }
 
-/// The summary line of the rebars (empty without them): bond energy, bars yielded and broken.
+/// The summary line of the rebars (empty without them): bond energy, bars yielded and broken,
+/// bending hinges that reached their plastic moment.
 fn reinforcement_line(sim: &Simulation) -> String {
     if sim.bars.is_empty() {
         return String::new();
     }
     let ruptured = sim.bars.ruptured_at.iter().filter(|t| !t.is_nan()).count();
     let yielded = sim.bars.history.iter().filter(|&&a| a > 0.0).count();
+    let hinges = &sim.bars.hinges;
+    let bending = if hinges.is_empty() {
+        String::new()
+    } else {
+        let kinked = hinges.plastic_angle.iter().filter(|&&a| a != 0.0).count();
+        format!("; {} hinges: {kinked} kinked past M_p", hinges.len())
+    };
     format!(
-        "   {:<20} {:>12}   ({} rebars, {} bars: {yielded} yielded, {ruptured} ruptured; {} bond points)\n",
+        "   {:<20} {:>12}   ({} rebars, {} bars: {yielded} yielded, {ruptured} ruptured{bending}; {} bond points)\n",
         "bond (elastic)",
         sig(sim.energy.bond, 5),
         sim.rebars.len(),
