@@ -40,14 +40,33 @@ compiled::law_signature! {
     pub const BOND_LAW = "bond law" -> ["stress"];
 }
 
-/// k⊥ of every bond law.
+/// k⊥ of the fib2010 law: by default the bearing stiffness of concrete under a bar.
 const TRANSVERSE_STIFFNESS: Param = Param::float(
+    "transverse_stiffness",
+    "Pa/m",
+    DefaultValue::Text("K_f/π: Soroushian et al. 1987, K_f = 127·0.8·√f_cm/d^(2/3) N/mm³ (f_cm in MPa, d in mm)"),
+    Range::POSITIVE,
+    "k⊥: stiffness of the host against the bar's transverse displacement, per unit of bond area πd·L (the foundation of a bar in dowel action: K_f·d = πd·k⊥ per unit length).",
+);
+
+/// k⊥ of a script bond law (no concrete strength to take the bearing stiffness from).
+const SCRIPT_TRANSVERSE_STIFFNESS: Param = Param::float(
     "transverse_stiffness",
     "Pa/m",
     DefaultValue::Text("E of the host / d"),
     Range::POSITIVE,
-    "k⊥: stiffness of the host against the bar's transverse displacement.",
+    "k⊥: stiffness of the host against the bar's transverse displacement, per unit of bond area.",
 );
+
+/// The bearing (dowel) stiffness of concrete under a bar as k⊥ per unit of bond area [Pa/m]:
+/// Soroushian, Obaseki & Rojas (1987, ACI Materials Journal 84(3)) measured the foundation
+/// modulus K_f = 127·c₁·√f_c / d^(2/3) [N/mm³; f_c in MPa, d in mm] with c₁ = 0.6 (bars
+/// 25 mm apart) to 1.0 (far apart); c₁ = 0.8 here. Per unit length the bar rests on K_f·d,
+/// which the bond points spread over the perimeter πd: k⊥ = K_f/π.
+pub fn dowel_transverse_stiffness(fcm: Real, diameter: Real) -> Real {
+    let kf_n_per_mm3 = 127.0 * 0.8 * (fcm / 1e6).sqrt() / (diameter * 1e3).powf(2.0 / 3.0);
+    kf_n_per_mm3 * 1e9 / std::f64::consts::PI
+}
 
 /// Parameters of `bond_law("fib2010", #{ … })`.
 pub const FIB2010_PARAMS: &[Param] = &[
@@ -101,7 +120,7 @@ pub const SCRIPT_BOND_PARAMS: &[Param] = &[
         Range::POSITIVE,
         "Unloading stiffness k (the elastic slope before the envelope is reached).",
     ),
-    TRANSVERSE_STIFFNESS,
+    SCRIPT_TRANSVERSE_STIFFNESS,
 ];
 
 /// The bond laws by registry name, with their parameters.
@@ -209,19 +228,18 @@ impl BondLaw {
         };
         let c_clear =
             value(FIB2010_PARAMS, "clear_rib_spacing", given, Real::NAN)?.unwrap_or(0.6 * diameter);
-        let fib = Fib2010::new(
-            value_of(FIB2010_PARAMS, "fcm", given)?,
-            confinement,
-            good,
-            c_clear,
-        )?;
+        let fcm = value_of(FIB2010_PARAMS, "fcm", given)?;
+        let fib = Fib2010::new(fcm, confinement, good, c_clear)?;
         let s_lin = fib.s1 / 100.0;
         let stiffness = value(FIB2010_PARAMS, "stiffness", given, Real::NAN)?
             .unwrap_or(fib.envelope(s_lin) / s_lin);
         Ok(BondLaw {
             envelope: Envelope::Fib2010(fib),
             stiffness,
-            transverse_stiffness: value(FIB2010_PARAMS, "transverse_stiffness", given, Real::NAN)?,
+            transverse_stiffness: Some(
+                value(FIB2010_PARAMS, "transverse_stiffness", given, Real::NAN)?
+                    .unwrap_or_else(|| dowel_transverse_stiffness(fcm, diameter)),
+            ),
         })
     }
 
@@ -494,6 +512,28 @@ mod tests {
         assert!((u.tau_max - 7.0 * (47.0f64 / 20.0).powf(0.25) * 1e6).abs() < 1.0);
         assert_eq!(u.envelope(1.3 * u.s1), 0.0);
         assert!(Fib2010::new(47e6, "loose", true, 1e-2).is_err());
+    }
+
+    /// Soroushian et al. (1987) for f_c = 30 MPa and a 20 mm bar: K_f = 127·0.8·√30/20^(2/3)
+    /// = 75.53 N/mm³ (by hand), so k⊥ = K_f/π = 2.404e10 Pa/m; and fib2010 takes it as its
+    /// default k⊥ for the rebar's diameter unless one is given.
+    #[test]
+    fn the_default_transverse_stiffness_is_the_dowel_bearing_stiffness() {
+        let k = dowel_transverse_stiffness(30e6, 0.020);
+        assert!((k / 2.404e10 - 1.0).abs() < 1e-3, "{k}");
+        let given =
+            |p: &Param| -> Result<Option<Real>, String> { Ok((p.name == "fcm").then_some(30e6)) };
+        let law = BondLaw::fib2010(&given, "confined", "good", 0.020).unwrap();
+        assert_eq!(law.transverse_stiffness, Some(k));
+        let given = |p: &Param| -> Result<Option<Real>, String> {
+            Ok(match p.name {
+                "fcm" => Some(30e6),
+                "transverse_stiffness" => Some(1e9),
+                _ => None,
+            })
+        };
+        let law = BondLaw::fib2010(&given, "confined", "good", 0.020).unwrap();
+        assert_eq!(law.transverse_stiffness, Some(1e9));
     }
 
     /// Unloading is elastic with slope k and reloading returns to the envelope.
