@@ -176,11 +176,14 @@ impl Simulation {
             // Bar k runs from point k to point k + 1.
             let (b1, b2) = (bar_start + prev, bar_start + i);
             let mean = 0.5 * (self.bars.length0[b1] + self.bars.length0[b2]);
+            // Along a straight leg the reference angle is rounding (~1e-16): take it as 0, so
+            // that the force factor M/sin θ has its limit k where the bar is straight.
             let angle0 = crate::elements::bar2::hinge::turning_angle(
                 &points[prev],
                 &points[i],
                 &points[next],
             );
+            let angle0 = if angle0 < 1e-9 { 0.0 } else { angle0 };
             self.bars.hinges.push(
                 [node(prev), node(i), node(next)],
                 [b1 as u32, b2 as u32],
