@@ -36,9 +36,16 @@
 //! </VTKFile>
 //! ```
 //!
-//! The binary blocks follow the same order as the `DataArray` elements, with
-//! `offset` attributes counted from the byte after the `_`. A newline follows
-//! the last block; meshio relies on it to find the end of the data.
+//! The binary blocks are in the **reverse** order of the `DataArray` elements
+//! (`types` first, the first point field last), with `offset` attributes counted
+//! from the byte after the `_`. Readers follow the offsets, so the order is free;
+//! reversed, meshio (5.3) reads every array right. It rewrites the offsets one
+//! block at a time in file order and looks each next block up by its old offset,
+//! taking the first element that has it: in document order a block already
+//! rewritten could carry that number and hand its name to the next block's data
+//! (a crack file's `joint` indices came back as `body`). Reversed, every block
+//! not yet rewritten comes before every rewritten one. A newline follows the
+//! last block; meshio relies on it to find the end of the data.
 
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -209,19 +216,20 @@ pub fn encode_vtu_into_with(
     out.extend_from_slice(header.xml.as_bytes());
     let binary_start = out.len();
 
-    for f in frame.point_data.iter().chain(frame.cell_data.iter()) {
-        put_header(out, f.data.byte_len());
-        f.data.put(out);
+    // Last element first (see the module docs).
+    put_types_and_offsets(out, &cells);
+    if let Err(e) = put_connectivity(out, &cells, n_points) {
+        out.clear();
+        return Err(e);
     }
 
     put_header(out, n_points * 24);
     put_f64s(out, frame.points.as_flattened());
 
-    if let Err(e) = put_connectivity(out, &cells, n_points) {
-        out.clear();
-        return Err(e);
+    for f in frame.point_data.iter().chain(frame.cell_data.iter()).rev() {
+        put_header(out, f.data.byte_len());
+        f.data.put(out);
     }
-    put_offsets_and_types(out, &cells);
 
     debug_assert_eq!(out.len() - binary_start, binary_len);
     if encoding == Encoding::Base64 {
@@ -280,10 +288,13 @@ impl<'a> Cells<'a> {
 struct XmlHeader {
     /// The XML text.
     xml: String,
-    /// Bytes of each appended block before encoding (8-byte header + data), in file order.
+    /// Bytes of each appended block before encoding (8-byte header + data), in file order
+    /// (the reverse of the `DataArray` elements').
     blocks: Vec<usize>,
     /// Bytes of all appended blocks after encoding.
     encoded_len: usize,
+    /// Encoded bytes of the blocks of the `DataArray` elements written so far.
+    written: usize,
 }
 
 impl XmlHeader {
@@ -305,13 +316,20 @@ impl XmlHeader {
         if ncomp != 1 {
             let _ = write!(xml, " NumberOfComponents=\"{ncomp}\"");
         }
-        let offset = self.encoded_len;
+        // Blocks are stored last element first: this one follows those of the elements
+        // after it.
+        self.written += encoded_block_len(encoding, nbytes);
+        let offset = self.encoded_len - self.written;
         let _ = writeln!(xml, " format=\"appended\" offset=\"{offset}\"/>");
         self.blocks.push(8 + nbytes);
-        self.encoded_len += match encoding {
-            Encoding::Raw => 8 + nbytes,
-            Encoding::Base64 => 4 * (8 + nbytes).div_ceil(3),
-        };
+    }
+}
+
+/// Encoded size of the appended block of an array of `nbytes` (with its 8-byte count).
+fn encoded_block_len(encoding: Encoding, nbytes: usize) -> usize {
+    match encoding {
+        Encoding::Raw => 8 + nbytes,
+        Encoding::Base64 => 4 * (8 + nbytes).div_ceil(3),
     }
 }
 
@@ -319,10 +337,18 @@ impl XmlHeader {
 fn xml_header(frame: &VtuFrame, cells: &Cells, encoding: Encoding) -> XmlHeader {
     let (n_points, n_cells) = (frame.points.len(), cells.count);
     let n_fields = frame.point_data.len() + frame.cell_data.len();
+    let connectivity_bytes = n_cells * cells.stride * 8;
+    let array_bytes = frame
+        .point_data
+        .iter()
+        .chain(frame.cell_data.iter())
+        .map(|f| f.data.byte_len())
+        .chain([n_points * 24, connectivity_bytes, n_cells * 8, n_cells]);
     let mut h = XmlHeader {
         xml: String::with_capacity(1024 + 160 * n_fields),
         blocks: Vec::with_capacity(4 + n_fields),
-        encoded_len: 0,
+        encoded_len: array_bytes.map(|n| encoded_block_len(encoding, n)).sum(),
+        written: 0,
     };
     h.xml.push_str("<?xml version=\"1.0\"?>\n");
     h.xml.push_str(
@@ -348,7 +374,6 @@ fn xml_header(frame: &VtuFrame, cells: &Cells, encoding: Encoding) -> XmlHeader 
     h.data_array(encoding, "Float64", "Points", 3, n_points * 24);
     h.xml.push_str("      </Points>\n");
     h.xml.push_str("      <Cells>\n");
-    let connectivity_bytes = n_cells * cells.stride * 8;
     h.data_array(encoding, "Int64", "connectivity", 1, connectivity_bytes);
     h.data_array(encoding, "Int64", "offsets", 1, n_cells * 8);
     h.data_array(encoding, "UInt8", "types", 1, n_cells);
@@ -360,6 +385,8 @@ fn xml_header(frame: &VtuFrame, cells: &Cells, encoding: Encoding) -> XmlHeader 
         "  <AppendedData encoding=\"{}\">\n   _",
         encoding.name()
     );
+    debug_assert_eq!(h.written, h.encoded_len);
+    h.blocks.reverse();
     h
 }
 
@@ -391,15 +418,15 @@ fn put_connectivity(out: &mut Vec<u8>, cells: &Cells, n_points: usize) -> Result
     Ok(())
 }
 
-/// Append the offsets block (`Int64`, end of each cell) and the types block (`UInt8`).
-fn put_offsets_and_types(out: &mut Vec<u8>, cells: &Cells) {
+/// Append the types block (`UInt8`) and the offsets block (`Int64`, end of each cell).
+fn put_types_and_offsets(out: &mut Vec<u8>, cells: &Cells) {
+    put_header(out, cells.count);
+    out.resize(out.len() + cells.count, cells.cell_type);
+
     put_header(out, cells.count * 8);
     for c in 1..=cells.count as i64 {
         out.extend_from_slice(&(cells.stride as i64 * c).to_le_bytes());
     }
-
-    put_header(out, cells.count);
-    out.resize(out.len() + cells.count, cells.cell_type);
 }
 
 /// Standard base64 (RFC 4648, with padding) of `bytes`, appended to `out`.
@@ -627,8 +654,10 @@ mod tests {
         let bytes = encode_vtu(&frame).unwrap();
         // The buffer was sized exactly.
         assert_eq!(bytes.capacity(), bytes.len());
-        let b = blocks(&bytes);
+        // In the file, the blocks run from the last DataArray element to the first.
+        let mut b = blocks(&bytes);
         assert_eq!(b.len(), 6);
+        b.reverse();
         let f64s = |b: &[u8]| -> Vec<u64> {
             b.chunks_exact(8)
                 .map(|c| u64::from_le_bytes(c.try_into().unwrap()))
@@ -650,14 +679,16 @@ mod tests {
         assert_eq!(f64s(b[3]), vec![0, 1, 2, 3, 1, 2, 3, 4]);
         assert_eq!(f64s(b[4]), vec![4, 8]);
         assert_eq!(b[5], [10, 10]);
-        // Offsets in the header point at the blocks.
+        // Offsets in the header point at the blocks: types (10 bytes with its count) at 0,
+        // offsets (24) at 10, connectivity (72) at 34, points (128) at 106, id (16) at 234,
+        // s (48) at 250.
         let text = String::from_utf8_lossy(&bytes[..find(&bytes, b"   _").unwrap()]).into_owned();
         let offsets: Vec<usize> = text
             .split("offset=\"")
             .skip(1)
             .map(|r| r[..r.find('"').unwrap()].parse().unwrap())
             .collect();
-        assert_eq!(offsets, vec![0, 48, 64, 192, 264, 288]);
+        assert_eq!(offsets, vec![250, 234, 106, 34, 10, 0]);
         assert!(text.contains("header_type=\"UInt64\""));
         assert!(text.contains("<Piece NumberOfPoints=\"5\" NumberOfCells=\"2\">"));
     }
