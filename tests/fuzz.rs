@@ -31,20 +31,16 @@ use std::time::{Duration, Instant};
 
 // ─── Harness ────────────────────────────────────────────────────────────────────
 
-/// A deterministic generator (SplitMix64): inputs are reproduced from their seed.
+/// A deterministic generator (fdem's SplitMix64): inputs are reproduced from their seed.
 #[derive(Clone)]
-struct Rng(u64);
+struct Rng(fdem::math::SplitMix64);
 
 impl Rng {
     fn new(seed: u64) -> Self {
-        Rng(seed)
+        Rng(fdem::math::SplitMix64(seed))
     }
     fn u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
     /// 0 ..= n − 1 (n > 0).
     fn below(&mut self, n: usize) -> usize {

@@ -18,7 +18,7 @@ use super::masonry::{Assembly, Block};
 use super::overlap::meshes_overlap;
 use super::solids::need_reasonable;
 use super::Mesh;
-use crate::math::{Real, Vec3};
+use crate::math::{Real, SplitMix64, Vec3};
 use nalgebra::{Quaternion, UnitQuaternion};
 use std::collections::HashMap;
 use std::f64::consts::PI;
@@ -38,23 +38,6 @@ pub struct Placement {
     pub seed: u64,
     /// Draws allowed in total before giving up.
     pub max_attempts: usize,
-}
-
-/// SplitMix64 (Steele, Lea & Flood 2014): a tiny, well-mixed, reproducible generator.
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1) with 53 random bits.
-    fn uniform(&mut self) -> Real {
-        (self.next_u64() >> 11) as Real * (1.0 / (1u64 << 53) as Real)
-    }
 }
 
 /// A uniformly distributed rotation (Shoemake 1992, *Graphics Gems III*: uniform random

@@ -304,13 +304,9 @@ impl Simulation {
 mod volume_in_box_tests {
     use super::*;
 
-    /// Deterministic pseudo-random numbers in [0, 1) (SplitMix64).
-    fn rng(seed: &mut u64) -> Real {
-        *seed = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = *seed;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as Real / (1u64 << 53) as Real
+    /// Deterministic pseudo-random numbers in [0, 1).
+    fn rng(seed: &mut crate::math::SplitMix64) -> Real {
+        seed.uniform()
     }
 
     /// Additivity, the one property an exact clipper must have and a wrong one hardly ever
@@ -318,7 +314,7 @@ mod volume_in_box_tests {
     /// that sum to the whole (1e-12 relative), and a box holding the tet gives its volume.
     #[test]
     fn clipped_volumes_add_up() {
-        let mut s = 5u64;
+        let mut s = crate::math::SplitMix64(5);
         for _ in 0..2000 {
             let p = [0; 4].map(|_| Vec3::new(rng(&mut s), rng(&mut s), rng(&mut s)));
             let v = ((p[1] - p[0]).cross(&(p[2] - p[0])))
