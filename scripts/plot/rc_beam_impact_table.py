@@ -59,6 +59,9 @@ def row(test, run):
     damped_from = te[np.argmax(damping > 0)] if (damping > 0).any() else np.inf
     up = np.nonzero((v >= 0) & (t < damped_from))[0]
     stopped = f"at {t[up[0]] * 1e3:.1f} ms" if len(up) else "no"
+    # The weight's displacement (the beam's top under the plate), integrated from its velocity.
+    z = np.concatenate(([0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))))
+    weight_peak = -z.min() * 1e3
     measured = "failed: shear plug" if test == "SS0b" else (
         f"— (force {SS3A_FORCE_KN:.0f} kN)" if test == "SS3a" else f"{peak_m} / {resid_m}")
     reaction, broken = num(r"largest support reaction ([\d.]+) kN"), num(r"(\d+) joints broken;")
@@ -67,6 +70,7 @@ def row(test, run):
     ref_force = SS3A_FORCE_KN if test == "SS3a" else None
     cells = [
         test, stirrups, mass, measured, f"{peak:.1f}{rel(peak, peak_m)}", f"{resid:.1f}{rel(resid, resid_m)}",
+        f"{weight_peak:.1f}",
         stopped, f"{force:.0f}{rel(force, ref_force)}", f"{reaction:.0f}", f"{broken:.0f}",
         f"{fragments:.0f}", f"{strain:.3g}", f"{balance:.1e}", f"{wall / 60:.0f} min",
     ]
@@ -75,9 +79,9 @@ def row(test, run):
 
 if __name__ == "__main__":
     print("| test | stirrups | mass | measured peak / residual [mm] | fdem peak [mm] | fdem at rest [mm] "
-          "| weight stopped (test: all but SS0b) | force, 0.1 ms [kN] | largest support reaction [kN] "
+          "| weight's peak [mm] | weight stopped (test: all but SS0b) | force, 0.1 ms [kN] | largest support reaction [kN] "
           "| joints broken | fragments | bars ε_p | balance | wall |")
-    print("|" + "---|" * 14)
+    print("|" + "---|" * 15)
     for arg in sys.argv[1:]:
         test, run = arg.split("=", 1)
         print(row(test, run))
