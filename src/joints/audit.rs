@@ -11,7 +11,9 @@
 //! energy the joint law creates or loses that the energy account does not book: this is how
 //! the drop-weight beam's balance error was traced to softening joints under compression
 //! (docs/theory/joints.md, "Known limit"). Off, it costs one branch per step and per joint
-//! on the general path; stage 2's fast path is not taken while auditing (it needs energies).
+//! on the general path; stage 2's fast path is not taken while auditing (the audit records every
+//! point), so an audited run follows the general path's rounding and is not bit-identical to an
+//! unaudited one.
 
 use crate::math::{Real, SyncPtr, Vec3};
 use std::sync::{Mutex, OnceLock};

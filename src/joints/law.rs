@@ -805,12 +805,15 @@ impl Cohesive {
     }
 
     /// The undamaged pre-peak path of [`Self::evaluate_with`] for the three points of a joint
-    /// at once, without the stored energy: the traction vectors σ·n + τ (τ along the slip)
-    /// [Pa], or None when a point has D > 0 or passes its peak (then the general path runs;
-    /// nothing has been written). `dn` are the openings, `st` the tangential jump vectors.
-    /// Same equations as the general path, without dividing by the slip: τ·(s/|s|) =
-    /// s·f_s·(p_t/h)/(2f_s)·(2 − x_s).
+    /// at once: the traction vectors σ·n + τ (τ along the slip) [Pa], and with `energy` the
+    /// points' stored energies ψ [J/m²] written into it; None when a point has D > 0 or
+    /// passes its peak (then the general path runs; nothing has been written). `dn` are the
+    /// openings, `st` the tangential jump vectors. Same equations as the general path,
+    /// without dividing by the slip: τ·(s/|s|) = s·f_s·(p_t/h)/(2f_s)·(2 − x_s). Stage 2
+    /// takes this path whether or not the step samples energies, so that sampling never
+    /// changes the motion (the general path agrees with it to rounding, not to the bit).
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     pub fn intact_tractions(
         &self,
         c: &CohesiveConsts,
@@ -819,6 +822,7 @@ impl Cohesive {
         dn: &[Real; 3],
         st: &[Vec3; 3],
         s: &mut [PointHistory; 3],
+        energy: Option<&mut [Real; 3]>,
     ) -> Option<[Vec3; 3]> {
         if s.iter().any(|p| p.damage > 0.0) {
             return None;
@@ -826,6 +830,8 @@ impl Cohesive {
         let (kn, kt) = (self.normal_penalty * inv_h, self.tangential_penalty * inv_h);
         let mut out = [Vec3::zeros(); 3];
         let mut ds = [0.0; 3];
+        let mut psi = [0.0; 3];
+        let want_energy = energy.is_some();
         for p in 0..3 {
             let compression = if dn[p] < 0.0 { kn * dn[p] } else { 0.0 };
             let (fs, half_inv_fs) = if compression < 0.0 {
@@ -847,6 +853,17 @@ impl Cohesive {
                 compression - kn * self.tan_friction * (2.0 * fs / kt) * xs * xs * xs / 3.0
             };
             out[p] = n * normal + st[p] * (fs * kt * half_inv_fs * (2.0 - xs));
+            if want_energy {
+                // As the general path: ½σ_c·δn + f_t·δnp·Φ(x_n) + f_s·δsp·Φ(x_s).
+                psi[p] = 0.5 * compression * dn[p].min(0.0)
+                    + self.tensile_strength
+                        * (2.0 * self.tensile_strength / kn)
+                        * prepeak_integral(xn)
+                    + fs * (2.0 * fs / kt) * prepeak_integral(xs);
+            }
+        }
+        if let Some(e) = energy {
+            *e = psi;
         }
         for p in 0..3 {
             if dn[p] > s[p].max_opening {
@@ -1085,7 +1102,10 @@ mod tests {
             let st = [(); 3].map(|_| (t1 * r() + t2 * r()) * 2.4 * dnp);
             let mut s_fast = [PointHistory::default(); 3];
             let mut s_gen = [PointState::default(); 3];
-            let fast = law.intact_tractions(&c, 1.0 / h, &n, &dn, &st, &mut s_fast);
+            let mut psi_fast = [0.0; 3];
+            let fast =
+                law.intact_tractions(&c, 1.0 / h, &n, &dn, &st, &mut s_fast, Some(&mut psi_fast));
+            let mut psi_general = [0.0; 3];
             let general: [Vec3; 3] = std::array::from_fn(|p| {
                 let ds = st[p].norm();
                 let dir = if ds > 0.0 { st[p] / ds } else { Vec3::zeros() };
@@ -1096,7 +1116,8 @@ mod tests {
                     normal: n,
                     size: h,
                 };
-                let t = law.evaluate_with(&c, &k, 1.0 / h, &mut s_gen[p], false);
+                let t = law.evaluate_with(&c, &k, 1.0 / h, &mut s_gen[p], true);
+                psi_general[p] = t.energy;
                 n * t.normal + dir * t.shear + t.tangential
             });
             match fast {
@@ -1104,6 +1125,10 @@ mod tests {
                     fast_cases += 1;
                     for p in 0..3 {
                         assert!((t[p] - general[p]).norm() <= 1e-12 * general[p].norm().max(1.0));
+                        assert!(
+                            (psi_fast[p] - psi_general[p]).abs()
+                                <= 1e-12 * psi_general[p].abs().max(1e-30)
+                        );
                         assert_eq!(s_fast[p].damage, s_gen[p].damage);
                         assert_eq!(s_fast[p].max_opening, s_gen[p].max_opening);
                         assert!((s_fast[p].max_slip - s_gen[p].max_slip).abs() <= 1e-18);

@@ -985,17 +985,22 @@ pub fn add_joint_forces(
                     (lw, cs) = (&scaled.0, &scaled.1);
                 }
             }
-            // Fast path: an undamaged cohesive joint below its peak (energy not requested),
-            // whose mid-surface has not collapsed (else the general path checks whether its
-            // faces parted).
-            if let (JointLaw::Cohesive(c), false) = (lw, want_energy) {
+            // Fast path: an undamaged cohesive joint below its peak whose mid-surface has
+            // not collapsed (else the general path checks whether its faces parted). Taken on
+            // sampled steps too (with the energies), so that the motion does not depend on
+            // how often energies are sampled; not while auditing (it records every point).
+            if let (JointLaw::Cohesive(c), true) = (lw, audit.is_none()) {
                 let (n, area, dn, tj) = joint_jumps(&faces[j], x);
+                let mut psi = [0.0; 3];
                 let fast = if area >= 0.25 * area0[j] {
-                    c.intact_tractions(cs, inv_h, &n, &dn, &tj, st)
+                    c.intact_tractions(cs, inv_h, &n, &dn, &tj, st, want_energy.then_some(&mut psi))
                 } else {
                     None
                 };
                 if let Some(t) = fast {
+                    if want_energy {
+                        s.energy += (psi[0] + psi[1] + psi[2]) * (area / 3.0);
+                    }
                     for p in 0..3 {
                         let on_b = -t[p] * (area / 3.0);
                         // SAFETY: as below.
