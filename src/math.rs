@@ -53,8 +53,6 @@ pub fn rotation_matrix(axis: &Vec3, angle: Real) -> Mat3 {
     nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_unchecked(a), angle).into_inner()
 }
 
-/// A raw pointer into an array that parallel workers write at disjoint entries (stage 1's
-/// body runs, stage 2's colour blocks). Each use states why its writes never alias.
 /// SplitMix64 (Steele, Lea & Flood 2014): a tiny, well-mixed, reproducible generator, the
 /// one stream behind every seeded draw (random packings, fuzz and property inputs).
 #[derive(Clone, Debug)]
@@ -74,6 +72,8 @@ impl SplitMix64 {
     }
 }
 
+/// A raw pointer into an array that parallel workers write at disjoint entries (stage 1's
+/// body runs, stage 2's colour blocks). Each use states why its writes never alias.
 pub(crate) struct SyncPtr<T>(pub(crate) *mut T);
 impl<T> Clone for SyncPtr<T> {
     fn clone(&self) -> Self {

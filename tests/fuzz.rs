@@ -52,7 +52,7 @@ impl Rng {
     }
     /// Uniform in [0, 1).
     fn unit(&mut self) -> f64 {
-        (self.u64() >> 11) as f64 / (1u64 << 53) as f64
+        self.0.uniform()
     }
     fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
         lo + (hi - lo) * self.unit()

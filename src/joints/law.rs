@@ -558,8 +558,6 @@ impl Cohesive {
         } else {
             k.slip * kt * half_inv_fs
         };
-        // Peak opening and slip δp = 2f/(p/h) (needed off the undamaged pre-peak path only).
-        let peaks = || (2.0 * self.tensile_strength / kn, 2.0 * fs / kt);
         let mut dissipated = 0.0;
         if s.damage < 1.0 && (softening || xn > 1.0 || xs > 1.0) {
             dissipated = self.soften(c, k, (kn, kt, fs), xn, (&mut elastic, &mut xs), s);
@@ -591,10 +589,7 @@ impl Cohesive {
             ..Default::default()
         };
         if want_energy {
-            let (dnp, dsp) = peaks();
-            t.energy = 0.5 * compression * k.opening.min(0.0)
-                + z * self.tensile_strength * dnp * prepeak_integral(xn)
-                + z * fs * dsp * prepeak_integral(xs);
+            t.energy = self.stored_energy(compression, k.opening, z, (kn, kt, fs), (xn, xs));
         }
         let shear = z * fs * prepeak(xs);
         if s.damage > 0.0 {
@@ -854,12 +849,7 @@ impl Cohesive {
             };
             out[p] = n * normal + st[p] * (fs * kt * half_inv_fs * (2.0 - xs));
             if want_energy {
-                // As the general path: ½σ_c·δn + f_t·δnp·Φ(x_n) + f_s·δsp·Φ(x_s).
-                psi[p] = 0.5 * compression * dn[p].min(0.0)
-                    + self.tensile_strength
-                        * (2.0 * self.tensile_strength / kn)
-                        * prepeak_integral(xn)
-                    + fs * (2.0 * fs / kt) * prepeak_integral(xs);
+                psi[p] = self.stored_energy(compression, dn[p], 1.0, (kn, kt, fs), (xn, xs));
             }
         }
         if let Some(e) = energy {
@@ -874,6 +864,24 @@ impl Cohesive {
             }
         }
         Some(out)
+    }
+
+    /// Stored energy of a point that has not broken [J/m²]: the compression penalty's
+    /// ½σ_c·δn and the cohesive parts z·f_t·δnp·Φ(x_n) + z·f_s·δsp·Φ(x_s), δp = 2f/(p/h).
+    /// One formula for the general path and the intact fast path.
+    #[inline(always)]
+    fn stored_energy(
+        &self,
+        compression: Real,
+        opening: Real,
+        z: Real,
+        (kn, kt, fs): (Real, Real, Real),
+        (xn, xs): (Real, Real),
+    ) -> Real {
+        let (dnp, dsp) = (2.0 * self.tensile_strength / kn, 2.0 * fs / kt);
+        0.5 * compression * opening.min(0.0)
+            + z * self.tensile_strength * dnp * prepeak_integral(xn)
+            + z * fs * dsp * prepeak_integral(xs)
     }
 
     /// z(D) with the undamaged case exact and free.

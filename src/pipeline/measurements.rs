@@ -304,11 +304,6 @@ impl Simulation {
 mod volume_in_box_tests {
     use super::*;
 
-    /// Deterministic pseudo-random numbers in [0, 1).
-    fn rng(seed: &mut crate::math::SplitMix64) -> Real {
-        seed.uniform()
-    }
-
     /// Additivity, the one property an exact clipper must have and a wrong one hardly ever
     /// has by chance: a box cut in two along each axis at a random place gives two volumes
     /// that sum to the whole (1e-12 relative), and a box holding the tet gives its volume.
@@ -316,16 +311,16 @@ mod volume_in_box_tests {
     fn clipped_volumes_add_up() {
         let mut s = crate::math::SplitMix64(5);
         for _ in 0..2000 {
-            let p = [0; 4].map(|_| Vec3::new(rng(&mut s), rng(&mut s), rng(&mut s)));
+            let p = [0; 4].map(|_| Vec3::new(s.uniform(), s.uniform(), s.uniform()));
             let v = ((p[1] - p[0]).cross(&(p[2] - p[0])))
                 .dot(&(p[3] - p[0]))
                 .abs()
                 / 6.0;
-            let lo = Vec3::new(rng(&mut s), rng(&mut s), rng(&mut s)) * 0.6 - Vec3::repeat(0.1);
-            let hi = lo + Vec3::new(rng(&mut s), rng(&mut s), rng(&mut s)) * 0.8;
+            let lo = Vec3::new(s.uniform(), s.uniform(), s.uniform()) * 0.6 - Vec3::repeat(0.1);
+            let hi = lo + Vec3::new(s.uniform(), s.uniform(), s.uniform()) * 0.8;
             let whole = tet_volume_in_box(&p, &lo, &hi);
             for k in 0..3 {
-                let cut = lo[k] + (hi[k] - lo[k]) * rng(&mut s);
+                let cut = lo[k] + (hi[k] - lo[k]) * s.uniform();
                 let (mut hi1, mut lo2) = (hi, lo);
                 hi1[k] = cut;
                 lo2[k] = cut;
