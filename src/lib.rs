@@ -33,6 +33,7 @@ pub mod loads;
 pub mod material;
 pub mod math;
 pub mod mesh;
+pub mod parallel;
 pub mod params;
 pub mod pipeline;
 pub mod script;

@@ -31,6 +31,7 @@ const ORDER: &[&str] = &[
     "contact_interaction",
     "loads",
     "integration",
+    "parallel",
     // the step, on top of the stages
     "pipeline",
     // around the engine

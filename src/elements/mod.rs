@@ -43,7 +43,12 @@ pub struct ElementSums {
 pub struct ElementsWorkspace {
     /// Per-body gather data for bodies that share nodes.
     pub shared: Vec<Option<SharedGather>>,
-    partials: Vec<ElementSums>,
+    /// The sums of the stage's work units, in unit order: one per run of small bodies, then
+    /// one per chunk of each large body (see [`ElementsWorkspace::units`]).
+    pub unit_partials: Vec<ElementSums>,
+    /// Which units this process computes (empty: all). A rank of a decomposed model computes
+    /// only the units with an element at one of its nodes (crate::parallel).
+    pub compute: Vec<bool>,
     /// Bodies with at least `BIG_BODY` tets, each split into parallel chunks.
     big: Vec<usize>,
     /// Runs of consecutive smaller bodies (≈ `GROUP_TETS` tets each), one thread per run.
@@ -128,18 +133,45 @@ impl ElementsWorkspace {
         if !run.is_empty() {
             groups.push(run);
         }
-        let max_chunks = bodies
-            .iter()
-            .map(|b| b.tets.len().div_ceil(CHUNK))
-            .max()
-            .unwrap_or(0)
-            .max(groups.len());
+        let n_units = groups.len()
+            + big
+                .iter()
+                .map(|&b| bodies[b].tets.len().div_ceil(CHUNK))
+                .sum::<usize>();
         ElementsWorkspace {
             shared,
-            partials: Vec::with_capacity(max_chunks),
+            unit_partials: vec![ElementSums::default(); n_units],
+            compute: Vec::new(),
             big,
             groups,
         }
+    }
+
+    /// The tets of each work unit, in unit order (the order of `unit_partials`): the runs of
+    /// small bodies (tets of rigid bodies among them included, though not computed), then the
+    /// chunks of `CHUNK` tets of each large body.
+    pub fn units(&self, bodies: &[Body]) -> Vec<std::ops::Range<usize>> {
+        let mut units: Vec<_> = self
+            .groups
+            .iter()
+            .map(|run| bodies[run.start].tets.start..bodies[run.end - 1].tets.end)
+            .collect();
+        for &bi in &self.big {
+            let t = bodies[bi].tets.clone();
+            units.extend(
+                (t.start..t.end)
+                    .step_by(CHUNK)
+                    .map(|s| s..(s + CHUNK).min(t.end)),
+            );
+        }
+        units
+    }
+
+    /// The stage's sums: the units' partial sums added in unit order.
+    pub fn total(&self) -> ElementSums {
+        let mut total = ElementSums::default();
+        add_partials(&mut total, &self.unit_partials);
+        total
     }
 }
 
@@ -185,27 +217,38 @@ pub fn add_internal_forces(
         v: &nodes.v,
         want_energy,
     };
-    let mut total = ElementSums::default();
+    let n_runs = ws.groups.len();
+    let n_units = n_runs
+        + ws.big
+            .iter()
+            .map(|&b| bodies[b].tets.len().div_ceil(CHUNK))
+            .sum::<usize>();
+    // (Sized at setup; only a caller that regrouped the bodies changes it.)
+    ws.unit_partials.resize(n_units, ElementSums::default());
     small_body_runs(&k, bodies, &mut nodes.f, ws);
-    add_partials(&mut total, &ws.partials);
     let ElementsWorkspace {
         shared,
-        partials,
+        unit_partials,
+        compute,
         big,
         ..
     } = ws;
+    let mut first = n_runs;
     for &bi in big.iter() {
         let b = &bodies[bi];
+        let n = b.tets.len().div_ceil(CHUNK);
+        let unit = first..first + n;
         large_body(
             &k,
             b,
             &mut nodes.f[b.nodes.clone()],
             &mut shared[bi],
-            partials,
+            &mut unit_partials[unit.clone()],
+            compute.get(unit).unwrap_or(&[]),
         );
-        add_partials(&mut total, partials);
+        first += n;
     }
-    total
+    ws.total()
 }
 
 /// What every element of one stage 1 pass reads.
@@ -239,16 +282,24 @@ fn add_partials(total: &mut ElementSums, partials: &[ElementSums]) {
     }
 }
 
-/// Runs of small bodies, one thread per run; their sums in `ws.partials` (one per run). Per
+/// Runs of small bodies, one thread per run; their sums in `ws.unit_partials` (one per run). Per
 /// node the arithmetic is the same as [`large_body`]'s (a body's forces, then its gather in
 /// slot order), so results do not depend on how bodies are scheduled.
 fn small_body_runs(k: &Kernel, bodies: &[Body], f: &mut [Vec3], ws: &mut ElementsWorkspace) {
     let f_ptr = SyncPtr(f.as_mut_ptr());
     let g_ptr = SyncPtr(ws.shared.as_mut_ptr());
+    let compute = &ws.compute;
+    let n_runs = ws.groups.len();
     ws.groups
         .par_iter()
-        .map(|run| {
+        .zip(ws.unit_partials[..n_runs].par_iter_mut())
+        .enumerate()
+        .for_each(|(u, (run, partial))| {
             let mut s = ElementSums::default();
+            if !compute.get(u).unwrap_or(&true) {
+                *partial = s;
+                return;
+            }
             for bi in run.clone() {
                 let b = &bodies[bi];
                 if b.layout == Layout::Rigid {
@@ -292,29 +343,37 @@ fn small_body_runs(k: &Kernel, bodies: &[Body], f: &mut [Vec3], ws: &mut Element
                     }
                 }
             }
-            s
-        })
-        .collect_into_vec(&mut ws.partials);
+            *partial = s;
+        });
 }
 
 /// One large body in parallel chunks of `CHUNK` tets (`f_body` its nodes' forces); the
-/// chunks' sums in `partials`. A body that owns its nodes adds each tet's forces directly;
-/// one that shares nodes writes slots, then gathers them per node in slot order.
+/// chunks' sums in `partials`, only the chunks marked in `compute` (empty: all) computed. A
+/// body that owns its nodes adds each tet's forces directly; one that shares nodes writes
+/// slots, then gathers them per node in slot order (a node's slots are all in computed
+/// chunks when the node is this rank's; the other nodes' forces are not used).
 fn large_body(
     k: &Kernel,
     b: &Body,
     f_body: &mut [Vec3],
     shared: &mut Option<SharedGather>,
-    partials: &mut Vec<ElementSums>,
+    partials: &mut [ElementSums],
+    compute: &[bool],
 ) {
     let e0 = b.tets.start;
+    let skip = |c: usize| !compute.get(c).unwrap_or(&true);
     match shared {
         None => {
             f_body
                 .par_chunks_mut(4 * CHUNK)
+                .zip(partials.par_iter_mut())
                 .enumerate()
-                .map(|(c, fs)| {
+                .for_each(|(c, (fs, partial))| {
                     let mut s = ElementSums::default();
+                    if skip(c) {
+                        *partial = s;
+                        return;
+                    }
                     for (i, f4) in fs.chunks_exact_mut(4).enumerate() {
                         let r = k.tet(e0 + c * CHUNK + i);
                         for (f, rf) in f4.iter_mut().zip(r.forces) {
@@ -322,24 +381,27 @@ fn large_body(
                         }
                         accumulate(&mut s, &r);
                     }
-                    s
-                })
-                .collect_into_vec(partials);
+                    *partial = s;
+                });
         }
         Some(g) => {
             g.slots
                 .par_chunks_mut(CHUNK)
+                .zip(partials.par_iter_mut())
                 .enumerate()
-                .map(|(c, slots)| {
+                .for_each(|(c, (slots, partial))| {
                     let mut s = ElementSums::default();
+                    if skip(c) {
+                        *partial = s;
+                        return;
+                    }
                     for (i, slot) in slots.iter_mut().enumerate() {
                         let r = k.tet(e0 + c * CHUNK + i);
                         *slot = r.forces;
                         accumulate(&mut s, &r);
                     }
-                    s
-                })
-                .collect_into_vec(partials);
+                    *partial = s;
+                });
             let (offsets, slot_ids, slots) = (&g.offsets, &g.slot_ids, &g.slots);
             f_body
                 .par_iter_mut()

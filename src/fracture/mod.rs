@@ -129,9 +129,20 @@ impl FractureCriterion {
     }
 }
 
+/// The joints a rank of a decomposed model works on (crate::parallel): `relevant`, those at
+/// one of its nodes (their state is current on this rank); `designated`, those whose sums it
+/// reports (each joint on exactly one rank).
+#[derive(Clone, Debug, Default)]
+pub struct JointMask {
+    pub relevant: Vec<bool>,
+    pub designated: Vec<bool>,
+}
+
 /// Stage 3: break the joints whose points all reached D = 1 (subject to a user criterion, if
 /// any) and record the events. Returns the energy released by joints a criterion broke before
 /// they were fully damaged [J] (their stored energy, counted as fracture dissipation).
+/// With `mask`, only the relevant joints are looked at, and only the designated ones' energy
+/// is returned.
 #[allow(clippy::too_many_arguments)]
 pub fn break_joints(
     joints: &mut Joints,
@@ -142,9 +153,11 @@ pub fn break_joints(
     newly_failed: usize,
     criterion: Option<&mut FractureCriterion>,
     events: &mut Vec<BreakEvent>,
+    mask: Option<&JointMask>,
 ) -> Real {
+    let relevant = |j: usize| mask.is_none_or(|m| m.relevant[j]);
     let failed = |joints: &Joints, j: usize| {
-        !joints.broken[j] && joints.state[j].iter().all(|p| p.damage >= 1.0)
+        relevant(j) && !joints.broken[j] && joints.state[j].iter().all(|p| p.damage >= 1.0)
     };
     let mut released = 0.0;
     match criterion {
@@ -183,8 +196,10 @@ pub fn break_joints(
             if let CriterionWhen::Always { every } = c.when {
                 if step.is_multiple_of(every.max(1)) {
                     for j in 0..joints.len() {
-                        if !joints.broken[j] && c.says_break(joints, j, x, time) {
-                            released += joints.stored_energy(j, x);
+                        if relevant(j) && !joints.broken[j] && c.says_break(joints, j, x, time) {
+                            if mask.is_none_or(|m| m.designated[j]) {
+                                released += joints.stored_energy(j, x);
+                            }
                             // Fully damaged now; the friction springs start unstretched
                             // and hold nothing (a softening point's last energy was its
                             // cohesive ψ₀: left in place, the next opening would release it

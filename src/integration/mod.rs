@@ -84,6 +84,9 @@ pub struct StepParams {
     /// Velocity that mass damping measures against (the ground's under a base motion) [m/s].
     pub frame_velocity: Vec3,
     pub sample: bool,
+    /// The nodes this process advances (a rank of a decomposed model, its range aligned to
+    /// `CHUNK`); `None`: all. The other nodes' forces are only cleared.
+    pub owned: Option<(usize, usize)>,
 }
 
 /// The coefficients of one central-difference step that nodes and rigid bodies share:
@@ -159,6 +162,10 @@ pub fn central_difference(
         .map(|(chunk, (((xs, vs), fs), rs))| {
             let base = chunk * CHUNK;
             let mut s = IntegrationSums::default();
+            if p.owned.is_some_and(|(a, b)| base < a || base >= b) {
+                fs.fill(Vec3::zeros());
+                return s;
+            }
             let mut finite_probe = 0.0;
             for i in 0..xs.len() {
                 let n = base + i;

@@ -243,8 +243,14 @@ pub struct Joints {
     color_blocks: Vec<Vec<std::ops::Range<usize>>>,
     /// Number of joints coloured and ordered (insertion after that re-colours).
     colored: usize,
+    /// The sums of every block in schedule order (colour by colour), this step's.
     #[serde(skip)]
-    partials: Vec<JointSums>,
+    pub unit_partials: Vec<JointSums>,
+    /// Which blocks this process computes, in schedule order (empty: all). A rank of a
+    /// decomposed model computes only the blocks with a joint at one of its nodes
+    /// (crate::parallel).
+    #[serde(skip)]
+    pub compute: Vec<bool>,
 }
 
 /// Loading-rate state of a joint whose law is rate-dependent ([`RateEffects`]).
@@ -307,10 +313,36 @@ pub struct JointSums {
     pub parted: usize,
 }
 
+impl JointSums {
+    /// Add another block's sums.
+    pub fn add(&mut self, p: &JointSums) {
+        self.energy += p.energy;
+        self.dissipated += p.dissipated;
+        self.newly_failed += p.newly_failed;
+        self.parted += p.parted;
+    }
+}
+
 impl Joints {
+    /// The joints of each work unit (block), in schedule order: the order of
+    /// [`Joints::unit_partials`] and [`Joints::compute`]. Valid after `prepare`.
+    pub fn blocks(&self) -> impl Iterator<Item = &std::ops::Range<usize>> {
+        self.color_blocks.iter().flatten()
+    }
+
+    /// The stage's sums: the blocks' partial sums added in schedule order.
+    pub fn total(&self) -> JointSums {
+        let mut total = JointSums::default();
+        for p in &self.unit_partials {
+            total.add(p);
+        }
+        total
+    }
+
     /// Move the per-step scratch buffers (not part of a checkpoint) from `from` into `self`.
     pub(crate) fn take_scratch(&mut self, from: &mut Self) {
-        std::mem::swap(&mut self.partials, &mut from.partials);
+        std::mem::swap(&mut self.unit_partials, &mut from.unit_partials);
+        std::mem::swap(&mut self.compute, &mut from.compute);
     }
 
     pub fn len(&self) -> usize {
@@ -562,7 +594,7 @@ impl Joints {
             }
         }
         let blocks = chosen.unwrap_or_else(|| self.colour_blocks(n_nodes, CHUNK));
-        self.partials = Vec::with_capacity(blocks.iter().map(Vec::len).sum());
+        self.unit_partials = Vec::with_capacity(blocks.iter().map(Vec::len).sum());
         self.color_blocks = blocks;
         self.colored = n;
     }
@@ -935,7 +967,8 @@ pub fn add_joint_forces(
         rate,
         consts,
         color_blocks,
-        partials,
+        unit_partials,
+        compute,
         ..
     } = joints;
     let n_handed = handed_over.len();
@@ -1119,19 +1152,24 @@ pub fn add_joint_forces(
         }
         s
     };
+    unit_partials.clear();
     for (colour, blocks) in color_blocks.iter().enumerate() {
+        let first = unit_partials.len();
+        let run_unit = |(i, range): (usize, &std::ops::Range<usize>)| {
+            if *compute.get(first + i).unwrap_or(&true) {
+                run_block(range)
+            } else {
+                JointSums::default()
+            }
+        };
         if colour == SEQUENTIAL {
-            partials.clear();
-            partials.extend(blocks.iter().map(run_block));
+            unit_partials.extend(blocks.iter().enumerate().map(run_unit));
         } else {
-            blocks.par_iter().map(run_block).collect_into_vec(partials);
+            unit_partials.par_extend(blocks.par_iter().enumerate().map(run_unit));
         }
-        for p in partials.iter() {
-            total.energy += p.energy;
-            total.dissipated += p.dissipated;
-            total.newly_failed += p.newly_failed;
-            total.parted += p.parted;
-        }
+    }
+    for p in unit_partials.iter() {
+        total.add(p);
     }
     total
 }

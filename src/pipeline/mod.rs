@@ -369,6 +369,9 @@ pub struct Simulation {
     gravity_applied: Option<Vec3>,
     /// Σ m·v(t − dt/2) of the last step, for the relative-frame body force's work.
     momentum_before: Vec3,
+    /// This rank's part of a model decomposed over several ranks ([`Simulation::decompose`]).
+    #[serde(skip)]
+    parallel: Option<crate::parallel::Parallel>,
 }
 
 impl Simulation {
@@ -391,6 +394,21 @@ impl Simulation {
 
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// Run this model as one rank of `comm` (every rank builds the same model and calls
+    /// this; see [`crate::parallel`]). The split is made before the next step. One rank is
+    /// the plain single-process run.
+    pub fn decompose(&mut self, comm: std::sync::Arc<dyn crate::parallel::Comm>) {
+        self.parallel = (comm.size() > 1).then(|| crate::parallel::Parallel::pending(comm));
+        self.ready = false;
+    }
+
+    /// This process's rank and the number of ranks ((0, 1) unless decomposed).
+    pub fn rank_and_size(&self) -> (usize, usize) {
+        self.parallel
+            .as_ref()
+            .map_or((0, 1), |p| (p.rank(), p.comm.size()))
     }
 
     pub fn add_material(&mut self, m: Material) -> MaterialId {
@@ -638,10 +656,40 @@ impl Simulation {
             self.contact.prepare(&self.materials, &self.tets);
             self.contact_detection.prepare();
         }
+        self.split_between_ranks()?;
         let info = self.stable_time_step()?;
         self.dt = info.dt;
         self.dt_info = Some(info);
         self.ready = true;
+        Ok(())
+    }
+
+    /// A decomposed model: split nodes and work for this rank, and hand stages 1 and 2 the
+    /// units it computes. Refuses what the decomposition does not cover yet.
+    fn split_between_ranks(&mut self) -> Result<(), SimError> {
+        let Some(par) = &mut self.parallel else {
+            return Ok(());
+        };
+        let missing = [
+            (self.contact.is_enabled(), "contact"),
+            (!self.rigid.is_empty(), "rigid bodies"),
+            (!self.bars.is_empty() || !self.bonds.is_empty(), "rebars"),
+        ];
+        if let Some((_, what)) = missing.iter().find(|m| m.0) {
+            return Err(SimError::Invalid(format!(
+                "this model has {what}, which a run on more than one rank does not support yet (decomposed runs cover elements, joints, fracture, loads and integration: docs/cluster.md); run it on one rank"
+            )));
+        }
+        let units = self.elements_ws.units(&self.bodies);
+        par.split(
+            self.nodes.len(),
+            &self.tets,
+            &self.bodies,
+            &units,
+            &self.joints,
+        );
+        self.elements_ws.compute = par.elements.compute.clone();
+        self.joints.compute = par.joint_blocks.compute.clone();
         Ok(())
     }
 
@@ -718,7 +766,7 @@ impl Simulation {
             || crate::joints::audit::on();
         self.sample_next = false;
         let (dt, time) = (self.dt, self.time);
-        let el = timed(&mut self.timers, Stage::Elements, || {
+        let mut el = timed(&mut self.timers, Stage::Elements, || {
             elements::add_internal_forces(
                 &mut self.nodes,
                 &self.tets,
@@ -728,6 +776,13 @@ impl Simulation {
                 sample,
             )
         });
+        if let Some(par) = &mut self.parallel {
+            par.exchange_partials(
+                &mut self.elements_ws.unit_partials,
+                crate::parallel::Units::Elements,
+            );
+            el = self.elements_ws.total();
+        }
         // An element inverted by the last step's motion stops the run here, before the
         // other stages act on it (a neo-Hookean stress is NaN there, and would make the
         // nodes non-finite, hiding the cause).
@@ -744,7 +799,7 @@ impl Simulation {
                 sample,
             )
         });
-        let (js, bond) = timed(&mut self.timers, Stage::Joints, || {
+        let (mut js, bond) = timed(&mut self.timers, Stage::Joints, || {
             (
                 crate::joints::add_joint_forces(&mut self.joints, &mut self.nodes, time, sample),
                 crate::joints::bond::add_bond_forces(
@@ -755,10 +810,18 @@ impl Simulation {
                 ),
             )
         });
+        if let Some(par) = &mut self.parallel {
+            par.exchange_partials(
+                &mut self.joints.unit_partials,
+                crate::parallel::Units::JointBlocks,
+            );
+            js = self.joints.total();
+        }
         if crate::joints::audit::on() {
             crate::joints::audit::close_step(&self.joints.faces, &self.nodes.x, time);
         }
-        let released = timed(&mut self.timers, Stage::Fracture, || {
+        let events_before = self.break_events.len();
+        let mut released = timed(&mut self.timers, Stage::Fracture, || {
             crate::fracture::break_joints(
                 &mut self.joints,
                 &self.nodes.x,
@@ -768,8 +831,13 @@ impl Simulation {
                 js.newly_failed,
                 self.fracture_criterion.as_mut(),
                 &mut self.break_events,
+                self.parallel.as_ref().map(|p| &p.joints),
             )
         });
+        if let Some(par) = &mut self.parallel {
+            par.merge_break_events(&mut self.break_events, events_before, &mut self.joints);
+            released = par.sum_in_rank_order(released);
+        }
         self.accumulated.fracture += released;
         if self.contact.is_enabled() {
             self.contact_stages()?; // 4. contact detection, 5. contact interaction
@@ -786,6 +854,7 @@ impl Simulation {
             mass_damping: self.settings.mass_damping,
             frame_velocity: self.loads.frame_velocity,
             sample,
+            owned: self.parallel.as_ref().map(|p| p.owned()),
         };
         let body_frame = self.settings.damping_relative_to_body && params.mass_damping > 0.0;
         if body_frame {
@@ -816,6 +885,18 @@ impl Simulation {
             is
         });
         self.nodes.body = node_body;
+        let mut is = is;
+        if let Some(par) = &mut self.parallel {
+            par.exchange_chunk_partials(&mut self.integration_partials);
+            is = self
+                .integration_partials
+                .iter()
+                .fold(IntegrationSums::default(), |mut a, s| {
+                    a.add(s);
+                    a
+                });
+            par.share_nodes(&mut self.nodes);
+        }
         self.account(sample, &el, &js, &is, (&bs, &bond))?;
         self.dt_prev = dt;
         self.time += dt;

@@ -1,0 +1,179 @@
+//! The three collective operations the decomposed step needs, behind one trait: [`Serial`]
+//! (one rank), [`ThreadComm`] (ranks as threads of one process, for tests and for checking a
+//! decomposition without MPI) and, with the `mpi` feature, MPI.
+//!
+//! Every operation is a collective: every rank calls it, in the same order, with arguments
+//! of the same shape. Results are the same bits on every rank.
+
+use std::ops::Range;
+use std::sync::{Arc, Barrier, Mutex};
+
+/// Collective communication between the ranks of one model.
+pub trait Comm: Send + Sync {
+    /// This process's rank, 0-based.
+    fn rank(&self) -> usize;
+    /// Number of ranks.
+    fn size(&self) -> usize;
+    /// Element-wise sum over the ranks, in place. Used where each element is non-zero on at
+    /// most one rank (a unit's partial sum on its designated rank), which makes it exact in
+    /// any summation order.
+    fn sum_f64(&self, data: &mut [f64]);
+    /// Every rank's bytes, indexed by rank.
+    fn allgather_bytes(&self, mine: &[u8]) -> Vec<Vec<u8>>;
+    /// Fill `data[ranges[r]]` on every rank from rank r's copy (`ranges` is the same on every
+    /// rank; ranges are disjoint).
+    fn allgather_ranges_f64(&self, data: &mut [f64], ranges: &[Range<usize>]);
+}
+
+/// One rank: every collective is the identity.
+#[derive(Debug, Default)]
+pub struct Serial;
+
+impl Comm for Serial {
+    fn rank(&self) -> usize {
+        0
+    }
+    fn size(&self) -> usize {
+        1
+    }
+    fn sum_f64(&self, _data: &mut [f64]) {}
+    fn allgather_bytes(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+        vec![mine.to_vec()]
+    }
+    fn allgather_ranges_f64(&self, _data: &mut [f64], _ranges: &[Range<usize>]) {}
+}
+
+/// Ranks as threads of one process, exchanging through shared slots between barriers. Slow
+/// (every collective copies), but the same decomposition and the same arithmetic as MPI:
+/// what tests use to check that N ranks reproduce one, without an MPI installation.
+pub struct ThreadComm {
+    rank: usize,
+    shared: Arc<Shared>,
+}
+
+struct Shared {
+    barrier: Barrier,
+    slots: Vec<Mutex<Vec<u8>>>,
+}
+
+impl ThreadComm {
+    /// Run `f` on `size` ranks, each on its own thread with its own communicator; the
+    /// results in rank order. A panic on one rank is re-raised here (the other ranks may
+    /// then wait forever at their next collective, so tests keep ranks in lockstep).
+    pub fn run<T: Send>(size: usize, f: impl Fn(Arc<dyn Comm>) -> T + Sync) -> Vec<T> {
+        assert!(size >= 1);
+        let shared = Arc::new(Shared {
+            barrier: Barrier::new(size),
+            slots: (0..size).map(|_| Mutex::new(Vec::new())).collect(),
+        });
+        std::thread::scope(|s| {
+            let handles: Vec<_> = (0..size)
+                .map(|rank| {
+                    let comm: Arc<dyn Comm> = Arc::new(ThreadComm {
+                        rank,
+                        shared: shared.clone(),
+                    });
+                    let f = &f;
+                    std::thread::Builder::new()
+                        .name(format!("rank {rank}"))
+                        .stack_size(64 << 20)
+                        .spawn_scoped(s, move || f(comm))
+                        .expect("spawn a rank thread")
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                .collect()
+        })
+    }
+}
+
+impl Comm for ThreadComm {
+    fn rank(&self) -> usize {
+        self.rank
+    }
+    fn size(&self) -> usize {
+        self.shared.slots.len()
+    }
+    fn sum_f64(&self, data: &mut [f64]) {
+        let all = self.allgather_bytes(as_bytes(data));
+        data.fill(0.0);
+        for bytes in &all {
+            for (d, b) in data.iter_mut().zip(bytes.chunks_exact(8)) {
+                *d += f64::from_le_bytes(b.try_into().expect("8 bytes"));
+            }
+        }
+    }
+    fn allgather_bytes(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+        *self.shared.slots[self.rank].lock().expect("slot") = mine.to_vec();
+        self.shared.barrier.wait();
+        let all = self
+            .shared
+            .slots
+            .iter()
+            .map(|s| s.lock().expect("slot").clone())
+            .collect();
+        // Nobody writes a slot again until everybody has read them all.
+        self.shared.barrier.wait();
+        all
+    }
+    fn allgather_ranges_f64(&self, data: &mut [f64], ranges: &[Range<usize>]) {
+        let mine = as_bytes(&data[ranges[self.rank].clone()]).to_vec();
+        let all = self.allgather_bytes(&mine);
+        for (r, bytes) in all.iter().enumerate() {
+            if r == self.rank {
+                continue;
+            }
+            for (d, b) in data[ranges[r].clone()]
+                .iter_mut()
+                .zip(bytes.chunks_exact(8))
+            {
+                *d = f64::from_le_bytes(b.try_into().expect("8 bytes"));
+            }
+        }
+    }
+}
+
+/// The bytes of an f64 slice in little-endian order.
+fn as_bytes(data: &[f64]) -> &[u8] {
+    // SAFETY: f64 has no padding and any byte pattern is a valid u8; the length is exact.
+    // (Every target fdem builds for is little-endian; `from_le_bytes` reads them back.)
+    unsafe { std::slice::from_raw_parts(data.as_ptr().cast::<u8>(), std::mem::size_of_val(data)) }
+}
+
+/// A slice of 3-vectors as the flat f64 slice they are stored as.
+pub fn flat_mut(v: &mut [crate::math::Vec3]) -> &mut [f64] {
+    // SAFETY: nalgebra's Vector3<f64> is a repr(C) [f64; 3] without padding.
+    unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<f64>(), 3 * v.len()) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each collective gives every rank the same answer: the designated-rank sum is exact,
+    /// the range gather fills every range from its rank, bytes come back in rank order.
+    #[test]
+    fn thread_collectives_agree_on_every_rank() {
+        let out = ThreadComm::run(3, |c| {
+            let r = c.rank();
+            let mut s = [0.0; 3];
+            s[r] = 0.1 * (r as f64 + 1.0);
+            c.sum_f64(&mut s);
+            let ranges = [0..2, 2..3, 3..6];
+            let mut d = [f64::NAN; 6];
+            for i in ranges[r].clone() {
+                d[i] = i as f64;
+            }
+            c.allgather_ranges_f64(&mut d, &ranges);
+            let b = c.allgather_bytes(&[r as u8; 2]);
+            (s, d, b)
+        });
+        for (s, d, b) in out {
+            assert_eq!(s, [0.1, 0.2, 0.30000000000000004]);
+            assert_eq!(d, [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
+            assert_eq!(b, vec![vec![0, 0], vec![1, 1], vec![2, 2]]);
+        }
+    }
+}

@@ -1,0 +1,426 @@
+//! Domain decomposition: one model on several ranks (processes under MPI, or threads for
+//! tests), giving the same bits as one rank.
+//!
+//! **How the work is split.** Every rank builds the whole model (SPMD: each runs the script).
+//! The nodes are split into one contiguous range per rank, aligned to stage 7's chunks
+//! (`integration::CHUNK` nodes) and never through a rigid body, balanced by tet corners. A
+//! rank *owns* its nodes: it alone integrates them (stage 7), and after each step every rank
+//! receives every other rank's nodes' x, v and reactions, so positions and velocities are
+//! replicated and current everywhere.
+//!
+//! **Why the bits are the same.** A node's force is a sum of contributions in an order that
+//! does not depend on threads: within each stage the stage fixes it (per body and tet order
+//! in stage 1, block schedule and joint order in stage 2), and stages add in stage order. The
+//! owner of a node computes every work unit (a stage's chunk of elements, a block of joints)
+//! that touches one of its nodes, in full, so it adds the same contributions in the same
+//! order as one rank would. Energies and other sums come from the units' partial sums: each
+//! unit is *designated* to one of the ranks that compute it (the lowest rank owning one of
+//! its nodes), the designated partials are exchanged exactly (one rank non-zero per entry)
+//! and added in unit order, as one rank adds them. Break events are exchanged after stage 3
+//! (each joint's by its designated rank), merged in joint order, and every rank marks them
+//! broken, so the surfaces that contact detection derives from them agree.
+//!
+//! **What this is not yet.** The model is replicated: memory per rank does not shrink, and
+//! x, v, reactions of all nodes travel to every rank each step (72 bytes per node). Contact,
+//! rigid bodies and rebars are refused on more than one rank for now (docs/cluster.md).
+
+pub mod comm;
+
+use crate::fracture::{BreakEvent, JointMask};
+use crate::integration::IntegrationSums;
+use crate::joints::{JointSums, Joints};
+use crate::math::Real;
+use crate::state::{Body, Layout, Tets};
+pub use comm::{Comm, Serial, ThreadComm};
+use std::ops::Range;
+use std::sync::Arc;
+
+/// The split of one model's nodes and work between ranks, as seen from one rank.
+#[derive(Clone, Debug, Default)]
+pub struct Partition {
+    pub rank: usize,
+    /// Each rank's nodes.
+    pub node_ranges: Vec<Range<usize>>,
+    /// The lowest rank owning one of the tet's nodes.
+    pub tet_min_rank: Vec<u32>,
+    /// The tet has a node of this rank.
+    pub tet_relevant: Vec<bool>,
+}
+
+impl Partition {
+    /// Split `n_nodes` nodes between `size` ranks: contiguous ranges, boundaries at multiples
+    /// of `align` nodes (and never inside a rigid body's nodes), balanced by the number of
+    /// tet corners at each node (a node of no tet weighs one).
+    pub fn new(rank: usize, size: usize, n_nodes: usize, tets: &Tets, bodies: &[Body]) -> Self {
+        let align = crate::integration::CHUNK;
+        let mut weight = vec![0u32; n_nodes];
+        for t in &tets.nodes {
+            for &n in t {
+                weight[n as usize] += 1;
+            }
+        }
+        let mut prefix = Vec::with_capacity(n_nodes + 1);
+        let mut acc = 0u64;
+        prefix.push(0);
+        for w in &weight {
+            acc += u64::from((*w).max(1));
+            prefix.push(acc);
+        }
+        let rigid: Vec<Range<usize>> = bodies
+            .iter()
+            .filter(|b| b.layout == Layout::Rigid)
+            .map(|b| b.nodes.clone())
+            .collect();
+        let mut bounds = vec![0usize];
+        for k in 1..size {
+            let target = acc * k as u64 / size as u64;
+            let i = prefix.partition_point(|&p| p < target).min(n_nodes);
+            let mut b = ((i + align / 2) / align * align).min(n_nodes);
+            if let Some(r) = rigid.iter().find(|r| r.start < b && b < r.end) {
+                b = r.end;
+            }
+            bounds.push(b.max(*bounds.last().expect("a bound")));
+        }
+        bounds.push(n_nodes);
+        let node_ranges: Vec<Range<usize>> = bounds.windows(2).map(|w| w[0]..w[1]).collect();
+        let mut p = Partition {
+            rank,
+            node_ranges,
+            tet_min_rank: Vec::new(),
+            tet_relevant: Vec::new(),
+        };
+        p.tet_min_rank = tets
+            .nodes
+            .iter()
+            .map(|t| {
+                t.iter()
+                    .map(|&n| p.owner(n as usize) as u32)
+                    .min()
+                    .expect("4 nodes")
+            })
+            .collect();
+        p.tet_relevant = tets
+            .nodes
+            .iter()
+            .map(|t| t.iter().any(|&n| p.owns(n as usize)))
+            .collect();
+        p
+    }
+
+    pub fn size(&self) -> usize {
+        self.node_ranges.len()
+    }
+
+    /// The rank owning node `n`.
+    pub fn owner(&self, n: usize) -> usize {
+        self.node_ranges
+            .partition_point(|r| r.end <= n)
+            .min(self.size() - 1)
+    }
+
+    pub fn owns(&self, n: usize) -> bool {
+        self.node_ranges[self.rank].contains(&n)
+    }
+
+    /// The joints at this rank's nodes, and those designated to it (the lowest rank owning
+    /// one of the joint's six nodes).
+    pub fn joint_mask(&self, joints: &Joints) -> JointMask {
+        let (relevant, designated) = joints
+            .faces
+            .iter()
+            .map(|f| {
+                let nodes = f.iter().flatten().map(|&n| n as usize);
+                let relevant = nodes.clone().any(|n| self.owns(n));
+                let lowest = nodes.map(|n| self.owner(n)).min().expect("6 nodes");
+                (relevant, lowest == self.rank)
+            })
+            .unzip();
+        JointMask {
+            relevant,
+            designated,
+        }
+    }
+
+    /// Compute and designation flags of work units, each a list of items with (lowest rank,
+    /// relevant to this rank): a unit is computed when one item is relevant, and designated
+    /// to the lowest rank of its items (which computes it, owning a node of that item).
+    pub fn unit_flags<I>(&self, units: impl Iterator<Item = I>) -> UnitFlags
+    where
+        I: Iterator<Item = (u32, bool)>,
+    {
+        let mut flags = UnitFlags::default();
+        for items in units {
+            let (lowest, relevant) =
+                items.fold((u32::MAX, false), |(l, r), (il, ir)| (l.min(il), r || ir));
+            flags.compute.push(relevant);
+            flags.designated.push(lowest == self.rank as u32);
+        }
+        flags
+    }
+}
+
+/// Per work unit: computed by this rank, designated to it.
+#[derive(Clone, Debug, Default)]
+pub struct UnitFlags {
+    pub compute: Vec<bool>,
+    pub designated: Vec<bool>,
+}
+
+/// A rank's part of a decomposed model: its communicator, partition and work masks.
+#[derive(Clone)]
+pub struct Parallel {
+    pub comm: Arc<dyn Comm>,
+    pub partition: Partition,
+    /// Stage 1's units (see `ElementsWorkspace::units`).
+    pub elements: UnitFlags,
+    /// Stage 2's blocks (see `Joints::blocks`).
+    pub joint_blocks: UnitFlags,
+    /// Stage 3's joints.
+    pub joints: JointMask,
+    /// Exchange buffer (reused).
+    buffer: Vec<f64>,
+}
+
+impl std::fmt::Debug for Parallel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "Parallel {{ rank {} of {}, nodes {:?} }}",
+            self.comm.rank(),
+            self.comm.size(),
+            self.partition.node_ranges
+        )
+    }
+}
+
+/// Which stage's units a partial-sum exchange is about.
+#[derive(Clone, Copy, Debug)]
+pub enum Units {
+    Elements,
+    JointBlocks,
+}
+
+impl Parallel {
+    /// A rank not split yet ([`Parallel::split`] does it once the model is complete).
+    pub fn pending(comm: Arc<dyn Comm>) -> Self {
+        Parallel {
+            comm,
+            partition: Partition::default(),
+            elements: UnitFlags::default(),
+            joint_blocks: UnitFlags::default(),
+            joints: JointMask::default(),
+            buffer: Vec::new(),
+        }
+    }
+
+    /// Split the model for this rank: partition, and the work masks of stages 1 to 3.
+    pub fn split(
+        &mut self,
+        n_nodes: usize,
+        tets: &Tets,
+        bodies: &[Body],
+        element_units: &[Range<usize>],
+        joints: &Joints,
+    ) {
+        let comm = &self.comm;
+        let partition = Partition::new(comm.rank(), comm.size(), n_nodes, tets, bodies);
+        let p = &partition;
+        let elements = p.unit_flags(
+            element_units
+                .iter()
+                .map(|u| u.clone().map(|e| (p.tet_min_rank[e], p.tet_relevant[e]))),
+        );
+        let joint_mask = p.joint_mask(joints);
+        let joint_blocks = p.unit_flags(joints.blocks().map(|b| {
+            b.clone().map(|j| {
+                let lowest = joints.faces[j]
+                    .iter()
+                    .flatten()
+                    .map(|&n| p.owner(n as usize) as u32)
+                    .min()
+                    .expect("6 nodes");
+                (lowest, joint_mask.relevant[j])
+            })
+        }));
+        self.elements = elements;
+        self.joint_blocks = joint_blocks;
+        self.joints = joint_mask;
+        self.partition = partition;
+    }
+
+    pub fn rank(&self) -> usize {
+        self.comm.rank()
+    }
+
+    /// This rank's nodes as (start, end).
+    pub fn owned(&self) -> (usize, usize) {
+        let r = &self.partition.node_ranges[self.rank()];
+        (r.start, r.end)
+    }
+
+    /// Replace every unit's partial sums with the designated rank's, on every rank.
+    pub fn exchange_partials<P: Partial>(&mut self, partials: &mut [P], units: Units) {
+        let designated = match units {
+            Units::Elements => &self.elements.designated,
+            Units::JointBlocks => &self.joint_blocks.designated,
+        };
+        Self::exchange(&*self.comm, &mut self.buffer, partials, designated);
+    }
+
+    fn exchange<P: Partial>(
+        comm: &dyn Comm,
+        buf: &mut Vec<f64>,
+        partials: &mut [P],
+        designated: &[bool],
+    ) {
+        buf.clear();
+        buf.resize(partials.len() * P::LEN, 0.0);
+        for (i, p) in partials.iter().enumerate() {
+            if designated[i] {
+                p.write(&mut buf[i * P::LEN..(i + 1) * P::LEN]);
+            }
+        }
+        comm.sum_f64(buf);
+        for (i, p) in partials.iter_mut().enumerate() {
+            *p = P::read(&buf[i * P::LEN..(i + 1) * P::LEN]);
+        }
+    }
+
+    /// The integration chunks' partials: each chunk is one rank's (ranges are aligned).
+    pub fn exchange_chunk_partials(&mut self, partials: &mut [IntegrationSums]) {
+        let chunk = crate::integration::CHUNK;
+        let (a, b) = self.owned();
+        let designated: Vec<bool> = (0..partials.len())
+            .map(|c| (a..b).contains(&(c * chunk)))
+            .collect();
+        Self::exchange(&*self.comm, &mut self.buffer, partials, &designated);
+    }
+
+    /// Merge this step's break events (from `first` on in `events`): each rank contributes
+    /// those of its designated joints; every rank ends with all of them in joint order and
+    /// marks the joints broken.
+    pub fn merge_break_events(
+        &mut self,
+        events: &mut Vec<BreakEvent>,
+        first: usize,
+        joints: &mut Joints,
+    ) {
+        let mine: Vec<BreakEvent> = events[first..]
+            .iter()
+            .filter(|e| self.joints.designated[e.joint])
+            .cloned()
+            .collect();
+        let bytes = postcard::to_allocvec(&mine).expect("break events serialize");
+        let mut all: Vec<BreakEvent> = self
+            .comm
+            .allgather_bytes(&bytes)
+            .iter()
+            .flat_map(|b| {
+                postcard::from_bytes::<Vec<BreakEvent>>(b).expect("break events deserialize")
+            })
+            .collect();
+        all.sort_by_key(|e| e.joint);
+        for e in &all {
+            joints.broken[e.joint] = true;
+        }
+        events.truncate(first);
+        events.extend(all);
+    }
+
+    /// A sum over ranks of one value per rank, added in rank order (the same on every rank;
+    /// for a quantity that is not a unit partial).
+    pub fn sum_in_rank_order(&mut self, value: Real) -> Real {
+        let n = self.comm.size();
+        let buf = &mut self.buffer;
+        buf.clear();
+        buf.resize(n, 0.0);
+        buf[self.comm.rank()] = value;
+        self.comm.sum_f64(buf);
+        buf.iter().sum()
+    }
+
+    /// After stage 7: every rank's nodes' positions, velocities and reactions to every rank.
+    pub fn share_nodes(&self, nodes: &mut crate::state::Nodes) {
+        let ranges: Vec<Range<usize>> = self
+            .partition
+            .node_ranges
+            .iter()
+            .map(|r| 3 * r.start..3 * r.end)
+            .collect();
+        for field in [&mut nodes.x, &mut nodes.v, &mut nodes.reaction] {
+            self.comm
+                .allgather_ranges_f64(comm::flat_mut(field), &ranges);
+        }
+    }
+}
+
+/// A stage's per-unit sums as a fixed number of f64 (counts are exact in f64 below 2⁵³).
+pub trait Partial {
+    const LEN: usize;
+    fn write(&self, out: &mut [f64]);
+    fn read(from: &[f64]) -> Self;
+}
+
+impl Partial for crate::elements::ElementSums {
+    const LEN: usize = 3;
+    fn write(&self, out: &mut [f64]) {
+        out.copy_from_slice(&[self.strain_energy, self.viscous_power, self.inverted as f64]);
+    }
+    fn read(v: &[f64]) -> Self {
+        Self {
+            strain_energy: v[0],
+            viscous_power: v[1],
+            inverted: v[2] as usize,
+        }
+    }
+}
+
+impl Partial for JointSums {
+    const LEN: usize = 4;
+    fn write(&self, out: &mut [f64]) {
+        out.copy_from_slice(&[
+            self.energy,
+            self.dissipated,
+            self.newly_failed as f64,
+            self.parted as f64,
+        ]);
+    }
+    fn read(v: &[f64]) -> Self {
+        Self {
+            energy: v[0],
+            dissipated: v[1],
+            newly_failed: v[2] as usize,
+            parted: v[3] as usize,
+        }
+    }
+}
+
+impl Partial for IntegrationSums {
+    const LEN: usize = 10;
+    fn write(&self, out: &mut [f64]) {
+        out.copy_from_slice(&[
+            self.kinetic,
+            self.gravity_work,
+            self.reaction_work_before,
+            self.reaction_work_after,
+            self.damping_before,
+            self.damping_after,
+            self.non_finite as f64,
+            self.momentum.x,
+            self.momentum.y,
+            self.momentum.z,
+        ]);
+    }
+    fn read(v: &[f64]) -> Self {
+        Self {
+            kinetic: v[0],
+            gravity_work: v[1],
+            reaction_work_before: v[2],
+            reaction_work_after: v[3],
+            damping_before: v[4],
+            damping_after: v[5],
+            non_finite: v[6] as usize,
+            momentum: crate::math::Vec3::new(v[7], v[8], v[9]),
+        }
+    }
+}
