@@ -179,6 +179,8 @@ pub struct Parallel {
     pub joints: JointMask,
     /// Exchange buffer (reused).
     buffer: Vec<f64>,
+    /// Wall time spent in exchanges [s].
+    pub seconds: f64,
 }
 
 impl std::fmt::Debug for Parallel {
@@ -210,6 +212,7 @@ impl Parallel {
             joint_blocks: UnitFlags::default(),
             joints: JointMask::default(),
             buffer: Vec::new(),
+            seconds: 0.0,
         }
     }
 
@@ -264,7 +267,9 @@ impl Parallel {
             Units::Elements => &self.elements.designated,
             Units::JointBlocks => &self.joint_blocks.designated,
         };
+        let t = std::time::Instant::now();
         Self::exchange(&*self.comm, &mut self.buffer, partials, designated);
+        self.seconds += t.elapsed().as_secs_f64();
     }
 
     fn exchange<P: Partial>(
@@ -293,7 +298,9 @@ impl Parallel {
         let designated: Vec<bool> = (0..partials.len())
             .map(|c| (a..b).contains(&(c * chunk)))
             .collect();
+        let t = std::time::Instant::now();
         Self::exchange(&*self.comm, &mut self.buffer, partials, &designated);
+        self.seconds += t.elapsed().as_secs_f64();
     }
 
     /// Merge this step's break events (from `first` on in `events`): each rank contributes
@@ -305,6 +312,7 @@ impl Parallel {
         first: usize,
         joints: &mut Joints,
     ) {
+        let t = std::time::Instant::now();
         let mine: Vec<BreakEvent> = events[first..]
             .iter()
             .filter(|e| self.joints.designated[e.joint])
@@ -325,22 +333,27 @@ impl Parallel {
         }
         events.truncate(first);
         events.extend(all);
+        self.seconds += t.elapsed().as_secs_f64();
     }
 
     /// A sum over ranks of one value per rank, added in rank order (the same on every rank;
     /// for a quantity that is not a unit partial).
     pub fn sum_in_rank_order(&mut self, value: Real) -> Real {
+        let t = std::time::Instant::now();
         let n = self.comm.size();
         let buf = &mut self.buffer;
         buf.clear();
         buf.resize(n, 0.0);
         buf[self.comm.rank()] = value;
         self.comm.sum_f64(buf);
-        buf.iter().sum()
+        let sum = buf.iter().sum();
+        self.seconds += t.elapsed().as_secs_f64();
+        sum
     }
 
     /// After stage 7: every rank's nodes' positions, velocities and reactions to every rank.
-    pub fn share_nodes(&self, nodes: &mut crate::state::Nodes) {
+    pub fn share_nodes(&mut self, nodes: &mut crate::state::Nodes) {
+        let t = std::time::Instant::now();
         let ranges: Vec<Range<usize>> = self
             .partition
             .node_ranges
@@ -351,6 +364,7 @@ impl Parallel {
             self.comm
                 .allgather_ranges_f64(comm::flat_mut(field), &ranges);
         }
+        self.seconds += t.elapsed().as_secs_f64();
     }
 }
 

@@ -820,25 +820,7 @@ impl Simulation {
         if crate::joints::audit::on() {
             crate::joints::audit::close_step(&self.joints.faces, &self.nodes.x, time);
         }
-        let events_before = self.break_events.len();
-        let mut released = timed(&mut self.timers, Stage::Fracture, || {
-            crate::fracture::break_joints(
-                &mut self.joints,
-                &self.nodes.x,
-                &self.tets.body,
-                time,
-                self.step,
-                js.newly_failed,
-                self.fracture_criterion.as_mut(),
-                &mut self.break_events,
-                self.parallel.as_ref().map(|p| &p.joints),
-            )
-        });
-        if let Some(par) = &mut self.parallel {
-            par.merge_break_events(&mut self.break_events, events_before, &mut self.joints);
-            released = par.sum_in_rank_order(released);
-        }
-        self.accumulated.fracture += released;
+        self.fracture_stage(js.newly_failed);
         if self.contact.is_enabled() {
             self.contact_stages()?; // 4. contact detection, 5. contact interaction
         }
@@ -860,6 +842,42 @@ impl Simulation {
         if body_frame {
             self.update_body_frame();
         }
+        let is = self.integration_stage(params, body_frame);
+        self.account(sample, &el, &js, &is, (&bs, &bond))?;
+        self.dt_prev = dt;
+        self.time += dt;
+        self.step += 1;
+        Ok(())
+    }
+
+    /// Stage 3, and on a decomposed model the merge of every rank's break events.
+    fn fracture_stage(&mut self, newly_failed: usize) {
+        let (time, step) = (self.time, self.step);
+        let events_before = self.break_events.len();
+        let mut released = timed(&mut self.timers, Stage::Fracture, || {
+            crate::fracture::break_joints(
+                &mut self.joints,
+                &self.nodes.x,
+                &self.tets.body,
+                time,
+                step,
+                newly_failed,
+                self.fracture_criterion.as_mut(),
+                &mut self.break_events,
+                self.parallel.as_ref().map(|p| &p.joints),
+            )
+        });
+        if let Some(par) = &mut self.parallel {
+            par.merge_break_events(&mut self.break_events, events_before, &mut self.joints);
+            released = par.sum_in_rank_order(released);
+        }
+        self.accumulated.fracture += released;
+    }
+
+    /// Stage 7 (and the rigid bodies'); on a decomposed model, the exchange of the chunks'
+    /// sums and of the nodes each rank advanced.
+    fn integration_stage(&mut self, params: StepParams, body_frame: bool) -> IntegrationSums {
+        let time = self.time;
         // Stage 7 writes the nodes and reads their body ids: lent out for the step.
         let node_body = std::mem::take(&mut self.nodes.body);
         let is = timed(&mut self.timers, Stage::Integration, || {
@@ -897,11 +915,7 @@ impl Simulation {
                 });
             par.share_nodes(&mut self.nodes);
         }
-        self.account(sample, &el, &js, &is, (&bs, &bond))?;
-        self.dt_prev = dt;
-        self.time += dt;
-        self.step += 1;
-        Ok(())
+        is
     }
 
     /// Each body's mass-weighted mean velocity Σm·v/Σm over its nodes (v at t − dt/2), for
