@@ -167,6 +167,40 @@ impl GeoArgs {
     }
 }
 
+/// The number of processes an MPI launcher started this one among (Open MPI's
+/// `OMPI_COMM_WORLD_SIZE`, MPICH's and Intel MPI's `PMI_SIZE`), if any.
+fn launched_ranks() -> Option<usize> {
+    ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE"]
+        .iter()
+        .find_map(|v| std::env::var(v).ok()?.trim().parse().ok())
+}
+
+/// Started by `mpirun` as one of several ranks: initialise MPI and make its world this
+/// process's (scripts' models are then decomposed over it). The universe returned must live
+/// until the run ends.
+#[cfg(feature = "mpi")]
+fn start_ranks() -> Result<Option<mpi::environment::Universe>, String> {
+    if launched_ranks().unwrap_or(1) <= 1 {
+        return Ok(None);
+    }
+    let universe = mpi::initialize().ok_or("MPI was initialised twice")?;
+    let world = crate::parallel::comm::MpiComm::world(&universe);
+    crate::parallel::set_world(std::sync::Arc::new(world));
+    Ok(Some(universe))
+}
+
+/// Without the `mpi` feature a launch by `mpirun` on several ranks is refused: each process
+/// would run the whole model and write the same files.
+#[cfg(not(feature = "mpi"))]
+fn start_ranks() -> Result<Option<()>, String> {
+    match launched_ranks() {
+        Some(n) if n > 1 => Err(format!(
+            "this process is one of {n} started by an MPI launcher, but this fdem was built without MPI, so each would run the whole model and write the same files; build it with `cargo build --release --features mpi` (docs/cluster.md), or run one process"
+        )),
+        _ => Ok(None),
+    }
+}
+
 /// The `fdem` command: parse the arguments, run the subcommand and exit with its code.
 pub fn main() {
     let cli = Cli::parse();
@@ -217,6 +251,13 @@ fn execute(cli: Cli) -> i32 {
                 Ok(g) => g,
                 Err(e) => return fail(&e),
             };
+            // Under `mpirun`: MPI lives until this run returns (dropping it finalises).
+            let _ranks = match start_ranks() {
+                Ok(r) => r,
+                Err(e) => return fail(&e),
+            };
+            // Rank 0 of a decomposed run prints and writes; the others work quietly.
+            let quiet = quiet || !crate::parallel::is_root();
             let options = RunOptions {
                 out_dir: out,
                 quiet,

@@ -47,9 +47,8 @@ fn outcome(sim: &Simulation) -> Outcome {
 }
 
 /// Run `build()` for `steps` steps on one rank and on 2, 3, 4; every rank of every count
-/// must end with the one-rank outcome. Joint states are compared on the joints each rank
-/// computes (the others are not kept current on it), so the one-rank run is the reference
-/// for them through the break events and the motion.
+/// must end with the one-rank outcome, joint histories included once the ranks have
+/// synchronised (while stepping a rank keeps current only the joints it computes).
 fn same_on_any_rank_count(build: impl Fn() -> Simulation + Sync, steps: usize) -> Outcome {
     let reference = {
         let mut sim = build();
@@ -65,11 +64,12 @@ fn same_on_any_rank_count(build: impl Fn() -> Simulation + Sync, steps: usize) -
             for _ in 0..steps {
                 sim.step().unwrap();
             }
+            sim.synchronize();
             let (rank, size) = sim.rank_and_size();
             assert_eq!(size, ranks);
             (rank, outcome(&sim))
         });
-        for (rank, mut o) in runs {
+        for (rank, o) in runs {
             let place = format!("rank {rank} of {ranks}");
             assert!(o.x == reference.x, "{place}: positions differ");
             assert!(o.v == reference.v, "{place}: velocities differ");
@@ -83,9 +83,7 @@ fn same_on_any_rank_count(build: impl Fn() -> Simulation + Sync, steps: usize) -
                 o.energy, reference.energy,
                 "{place}: energy account differs"
             );
-            // Joint damage: only where this rank keeps it (the joints it computes), which
-            // includes every joint at its nodes.
-            o.damage = reference.damage.clone();
+            assert!(o.damage == reference.damage, "{place}: joint damage differs");
         }
     }
     reference
@@ -246,4 +244,30 @@ fn unsupported_features_are_refused_by_name() {
         assert!(e.contains("contact") && e.contains("one rank"), "{e}");
     }
     with_contact().step().unwrap();
+}
+
+/// Started by an MPI launcher as one of several ranks, an fdem built without MPI refuses to
+/// run (each process would run the whole model and write the same files) and says how to
+/// build one with it.
+#[cfg(not(feature = "mpi"))]
+#[test]
+fn a_launch_on_several_ranks_without_mpi_is_refused() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_fdem"))
+        .args([
+            "run",
+            "scripts/cantilever.rhai",
+            "--set",
+            "quick=true",
+            "--quiet",
+        ])
+        .env("OMPI_COMM_WORLD_SIZE", "2")
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "ran: {err}");
+    assert!(
+        err.contains("one of 2") && err.contains("--features mpi"),
+        "{err}"
+    );
 }

@@ -110,6 +110,9 @@ pub fn push_number(s: &mut String, v: f64) {
 
 /// `create_dir_all` whose error names the directory.
 pub fn create_dir(dir: &Path) -> Result<(), String> {
+    if !crate::parallel::is_root() {
+        return Ok(()); // rank 0 of a decomposed run writes the files
+    }
     std::fs::create_dir_all(dir).map_err(|e| format!("creating directory {}: {e}", dir.display()))
 }
 
@@ -118,7 +121,8 @@ pub fn create_dir(dir: &Path) -> Result<(), String> {
 /// the row being written). Errors name the file and the OS error.
 pub struct CsvStream {
     path: PathBuf,
-    file: std::fs::File,
+    /// None on the ranks of a decomposed run other than 0 (which writes the files).
+    file: Option<std::fs::File>,
     line: String,
 }
 
@@ -128,8 +132,14 @@ impl CsvStream {
         if let Some(dir) = path.parent() {
             create_dir(dir)?;
         }
-        let file =
-            std::fs::File::create(path).map_err(|e| format!("writing {}: {e}", path.display()))?;
+        let file = if crate::parallel::is_root() {
+            Some(
+                std::fs::File::create(path)
+                    .map_err(|e| format!("writing {}: {e}", path.display()))?,
+            )
+        } else {
+            None
+        };
         let mut s = CsvStream {
             path: path.to_path_buf(),
             file,
@@ -155,8 +165,10 @@ impl CsvStream {
 
     fn write_line(&mut self) -> Result<(), String> {
         use std::io::Write;
-        self.file
-            .write_all(self.line.as_bytes())
+        let Some(file) = &mut self.file else {
+            return Ok(());
+        };
+        file.write_all(self.line.as_bytes())
             .map_err(|e| format!("writing {}: {e}", self.path.display()))
     }
 
@@ -166,8 +178,10 @@ impl CsvStream {
 
     /// Bytes written so far (every row is written through; nothing is held back).
     pub fn bytes(&self) -> Result<u64, String> {
-        self.file
-            .metadata()
+        let Some(file) = &self.file else {
+            return Ok(0);
+        };
+        file.metadata()
             .map(|m| m.len())
             .map_err(|e| format!("reading the length of {}: {e}", self.path.display()))
     }
@@ -177,6 +191,13 @@ impl CsvStream {
     pub fn resume(path: &Path, bytes: u64) -> Result<Self, String> {
         use std::io::{Seek, SeekFrom};
         let fail = |e: std::io::Error| format!("resuming {}: {e}", path.display());
+        if !crate::parallel::is_root() {
+            return Ok(CsvStream {
+                path: path.to_path_buf(),
+                file: None,
+                line: String::new(),
+            });
+        }
         let mut file = std::fs::OpenOptions::new()
             .write(true)
             .open(path)
@@ -192,7 +213,7 @@ impl CsvStream {
         file.seek(SeekFrom::Start(bytes)).map_err(fail)?;
         Ok(CsvStream {
             path: path.to_path_buf(),
-            file,
+            file: Some(file),
             line: String::new(),
         })
     }

@@ -461,6 +461,9 @@ fn base64_into(bytes: &[u8], out: &mut Vec<u8>) {
 /// Two concurrent calls for the same `path` share the `.tmp` name and must not
 /// overlap.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    if !crate::parallel::is_root() {
+        return Ok(()); // rank 0 of a decomposed run writes the files
+    }
     let mut name = path
         .file_name()
         .ok_or_else(|| {

@@ -135,6 +135,84 @@ impl Comm for ThreadComm {
     }
 }
 
+/// MPI ranks (feature `mpi`): the world communicator of the processes `mpirun` started.
+#[cfg(feature = "mpi")]
+pub struct MpiComm {
+    world: mpi::topology::SimpleCommunicator,
+}
+
+// SAFETY: fdem calls MPI only from the thread that steps the model (MPI initialised with
+// `Threading::Single`; rayon's workers never touch the communicator), so the handle is
+// never used from two threads at once.
+#[cfg(feature = "mpi")]
+unsafe impl Send for MpiComm {}
+// SAFETY: as for Send.
+#[cfg(feature = "mpi")]
+unsafe impl Sync for MpiComm {}
+
+#[cfg(feature = "mpi")]
+impl MpiComm {
+    /// The world communicator of an initialised MPI `universe` (which must outlive it).
+    pub fn world(universe: &mpi::environment::Universe) -> Self {
+        MpiComm {
+            world: universe.world(),
+        }
+    }
+}
+
+#[cfg(feature = "mpi")]
+impl Comm for MpiComm {
+    fn rank(&self) -> usize {
+        use mpi::traits::Communicator;
+        self.world.rank() as usize
+    }
+    fn size(&self) -> usize {
+        use mpi::traits::Communicator;
+        self.world.size() as usize
+    }
+    fn sum_f64(&self, data: &mut [f64]) {
+        use mpi::collective::SystemOperation;
+        use mpi::traits::CommunicatorCollectives;
+        let send = data.to_vec();
+        self.world
+            .all_reduce_into(&send[..], data, SystemOperation::sum());
+    }
+    fn allgather_bytes(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+        use mpi::datatype::PartitionMut;
+        use mpi::traits::CommunicatorCollectives;
+        let n = self.size();
+        let mut counts = vec![0 as mpi::Count; n];
+        self.world
+            .all_gather_into(&(mine.len() as mpi::Count), &mut counts[..]);
+        let displs: Vec<mpi::Count> = counts
+            .iter()
+            .scan(0, |acc, &c| {
+                let d = *acc;
+                *acc += c;
+                Some(d)
+            })
+            .collect();
+        let total = counts.iter().sum::<mpi::Count>() as usize;
+        let mut all = vec![0u8; total];
+        {
+            let mut part = PartitionMut::new(&mut all[..], &counts[..], &displs[..]);
+            self.world.all_gather_varcount_into(mine, &mut part);
+        }
+        (0..n)
+            .map(|r| all[displs[r] as usize..(displs[r] + counts[r]) as usize].to_vec())
+            .collect()
+    }
+    fn allgather_ranges_f64(&self, data: &mut [f64], ranges: &[Range<usize>]) {
+        use mpi::datatype::PartitionMut;
+        use mpi::traits::CommunicatorCollectives;
+        let counts: Vec<mpi::Count> = ranges.iter().map(|r| r.len() as mpi::Count).collect();
+        let displs: Vec<mpi::Count> = ranges.iter().map(|r| r.start as mpi::Count).collect();
+        let mine = data[ranges[self.rank()].clone()].to_vec();
+        let mut part = PartitionMut::new(data, &counts[..], &displs[..]);
+        self.world.all_gather_varcount_into(&mine[..], &mut part);
+    }
+}
+
 /// The bytes of an f64 slice in little-endian order.
 fn as_bytes(data: &[f64]) -> &[u8] {
     // SAFETY: f64 has no padding and any byte pattern is a valid u8; the length is exact.

@@ -35,6 +35,25 @@ pub use comm::{Comm, Serial, ThreadComm};
 use std::ops::Range;
 use std::sync::Arc;
 
+/// The ranks this process belongs to, when it was started as one of several (`mpirun`):
+/// set once at startup by the command line; models built by scripts are decomposed over it.
+static WORLD: std::sync::OnceLock<Arc<dyn Comm>> = std::sync::OnceLock::new();
+
+/// Make `comm` this process's world (once; a second call is ignored).
+pub fn set_world(comm: Arc<dyn Comm>) {
+    let _ = WORLD.set(comm);
+}
+
+/// This process's world, if it is one of several ranks.
+pub fn world() -> Option<Arc<dyn Comm>> {
+    WORLD.get().cloned()
+}
+
+/// Whether this process writes files and prints: the only process, or rank 0 of its world.
+pub fn is_root() -> bool {
+    WORLD.get().is_none_or(|w| w.rank() == 0)
+}
+
 /// The split of one model's nodes and work between ranks, as seen from one rank.
 #[derive(Clone, Debug, Default)]
 pub struct Partition {
@@ -181,6 +200,8 @@ pub struct Parallel {
     buffer: Vec<f64>,
     /// Wall time spent in exchanges [s].
     pub seconds: f64,
+    /// The step at which the joint histories were last shared.
+    pub shared_at: Option<u64>,
 }
 
 impl std::fmt::Debug for Parallel {
@@ -213,6 +234,7 @@ impl Parallel {
             joints: JointMask::default(),
             buffer: Vec::new(),
             seconds: 0.0,
+            shared_at: None,
         }
     }
 
@@ -363,6 +385,67 @@ impl Parallel {
         for field in [&mut nodes.x, &mut nodes.v, &mut nodes.reaction] {
             self.comm
                 .allgather_ranges_f64(comm::flat_mut(field), &ranges);
+        }
+        self.seconds += t.elapsed().as_secs_f64();
+    }
+}
+
+/// One joint's history, as its designated rank sends it to the others.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct JointHistory {
+    joint: u32,
+    state: [crate::joints::law::PointHistory; 3],
+    anchor: [crate::math::Vec3; 3],
+    slid: [Real; 3],
+    offset: [crate::math::Vec3; 3],
+    last_energy: [Real; 3],
+    keeps_faces: bool,
+    handed_over: bool,
+    rate: Option<crate::joints::RateState>,
+}
+
+impl Parallel {
+    /// Give every rank every joint's history from its designated rank (a rank keeps only the
+    /// joints it computes current while stepping). Before output, checkpoints and the
+    /// script's queries; a collective.
+    pub fn share_joint_histories(&mut self, joints: &mut Joints) {
+        let t = std::time::Instant::now();
+        let get = |v: &Vec<bool>, j: usize| v.get(j).copied().unwrap_or(false);
+        let mine: Vec<JointHistory> = (0..joints.len())
+            .filter(|&j| self.joints.designated[j])
+            .map(|j| JointHistory {
+                joint: j as u32,
+                state: joints.state[j],
+                anchor: joints.anchor[j],
+                slid: joints.slid[j],
+                offset: joints.offset[j],
+                last_energy: joints.last_energy[j],
+                keeps_faces: get(&joints.keeps_faces, j),
+                handed_over: get(&joints.handed_over, j),
+                rate: joints.rate.get(j).copied(),
+            })
+            .collect();
+        let bytes = postcard::to_allocvec(&mine).expect("joint histories serialize");
+        for b in self.comm.allgather_bytes(&bytes) {
+            let theirs: Vec<JointHistory> =
+                postcard::from_bytes(&b).expect("joint histories deserialize");
+            for h in theirs {
+                let j = h.joint as usize;
+                joints.state[j] = h.state;
+                joints.anchor[j] = h.anchor;
+                joints.slid[j] = h.slid;
+                joints.offset[j] = h.offset;
+                joints.last_energy[j] = h.last_energy;
+                if let Some(k) = joints.keeps_faces.get_mut(j) {
+                    *k = h.keeps_faces;
+                }
+                if let Some(k) = joints.handed_over.get_mut(j) {
+                    *k = h.handed_over;
+                }
+                if let (Some(r), Some(hr)) = (joints.rate.get_mut(j), h.rate) {
+                    *r = hr;
+                }
+            }
         }
         self.seconds += t.elapsed().as_secs_f64();
     }

@@ -404,6 +404,26 @@ impl Simulation {
         self.ready = false;
     }
 
+    /// On a decomposed model, bring this rank's copy of the whole state up to date (each rank
+    /// keeps current only what it computes): every joint's history from the rank it is
+    /// designated to. A collective: every rank calls it at the same point of the script
+    /// (the script layer does, before hooks, monitors, output, checkpoints and when a run
+    /// returns). Positions, velocities, reactions and break events are shared every step.
+    pub fn synchronize(&mut self) {
+        let step = self.step;
+        if let Some(par) = &mut self.parallel {
+            if par.shared_at != Some(step) && !par.partition.node_ranges.is_empty() {
+                par.share_joint_histories(&mut self.joints);
+                par.shared_at = Some(step);
+            }
+        }
+    }
+
+    /// Wall time this rank spent exchanging data with the others [s] (0 unless decomposed).
+    pub fn exchange_seconds(&self) -> Real {
+        self.parallel.as_ref().map_or(0.0, |p| p.seconds)
+    }
+
     /// This process's rank and the number of ranks ((0, 1) unless decomposed).
     pub fn rank_and_size(&self) -> (usize, usize) {
         self.parallel

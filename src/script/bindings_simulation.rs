@@ -84,10 +84,14 @@ fn simulation(c: &ScriptContext, m: Map) -> RhaiResult<SimHandle> {
     let out_dir = claim_out_dir(c, &name, out_dir)?;
     // A restart continues the output of the simulation it restores.
     let continues = super::checkpoint::continues(c, &name);
-    if !c.options.check_only && !continues {
+    if !c.options.check_only && !continues && crate::parallel::is_root() {
         clear_earlier_output(&out_dir, &name, c.options.overwrite)?;
     }
     let mut sim = Simulation::new();
+    // Started as one of several ranks (`mpirun`): the model is split between them.
+    if let Some(world) = crate::parallel::world() {
+        sim.decompose(world);
+    }
     if let Some(n) = o.positive_int("energy_every")? {
         sim.settings.energy_every = n;
     }

@@ -106,7 +106,8 @@ impl ScriptContext {
     /// Print a line of script output (silent under `fdem check`, and while a restart replays
     /// the script up to its checkpoint).
     pub fn say(&self, msg: &str) {
-        if !self.options.check_only && !self.replaying() {
+        // On a decomposed run rank 0 speaks for all.
+        if !self.options.check_only && !self.replaying() && crate::parallel::is_root() {
             println!("{msg}");
         }
     }
@@ -156,7 +157,7 @@ pub fn build_engine(ctx: Rc<ScriptContext>) -> Engine {
     // The script's own output shows under `fdem check` too (up to its first run).
     let c = ctx.clone();
     engine.on_print(move |s| {
-        if !c.replaying() {
+        if !c.replaying() && crate::parallel::is_root() {
             println!("{s}");
         }
     });

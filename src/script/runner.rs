@@ -149,6 +149,7 @@ pub fn checkpoint(ctx: &ScriptContext, s: &SimHandle) -> RhaiResult<()> {
 
 /// Write the checkpoint of `s` now (at the end of a step, or between runs).
 fn write_checkpoint(ctx: &ScriptContext, s: &SimHandle, func: &str) -> RhaiResult<()> {
+    synchronize(s);
     let mut st = s.0.borrow_mut();
     let start = st.run_start;
     checkpoint::write(ctx, &mut st, start).map_err(|e| format!("{func}: {e}"))?;
@@ -552,10 +553,18 @@ fn stop_requested(
 
 /// The end-of-run check for inverted elements, as a script error.
 fn check_configuration(s: &SimHandle) -> RhaiResult<()> {
+    // The run ends: what the script reads next is the whole model's state.
+    synchronize(s);
     s.0.borrow()
         .sim
         .check_configuration()
         .map_err(|e| sim_error(&e))
+}
+
+/// On a model decomposed over ranks, bring this rank's copy of the state up to date before
+/// the script reads it (a collective, reached by every rank at the same point).
+fn synchronize(s: &SimHandle) {
+    s.0.borrow_mut().sim.synchronize();
 }
 
 fn sim_error(e: &SimError) -> Box<rhai::EvalAltResult> {
@@ -590,6 +599,7 @@ fn call_hooks(nc: &NativeCallContext, s: &SimHandle) -> RhaiResult<()> {
             due.then(|| h.f.clone())
         };
         if let Some(f) = due {
+            synchronize(s);
             let _: Dynamic = f.call_within_context(nc, (s.clone(),))?;
         }
     }
@@ -630,11 +640,13 @@ fn dispatch_break_events(nc: &NativeCallContext, s: &SimHandle) -> RhaiResult<()
             st.events_dispatched += 1;
             (f, m)
         };
+        synchronize(s);
         let _: Dynamic = f.call_within_context(nc, (s.clone(), event))?;
     }
 }
 
 fn record(nc: &NativeCallContext, s: &SimHandle, m: &MonitorHandle) -> RhaiResult<()> {
+    synchronize(s);
     let f = m.0.borrow().f.clone();
     let v: Dynamic = f.call_within_context(nc, (s.clone(),))?;
     let value = super::opts::to_float(&v).ok_or_else(|| {
@@ -745,9 +757,11 @@ fn finish_run_output(s: &SimHandle) -> Result<(), String> {
 
 /// `sim.write_vtk()`: encode a frame now and queue it for the background writer.
 pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
+    synchronize(s);
     let mut st = s.0.borrow_mut();
     st.sim.prepare().map_err(|e| format!("write_vtk(): {e}"))?;
-    if st.dry || st.restore_pending {
+    // On a decomposed model rank 0 writes the frames (its state is the whole model's now).
+    if st.dry || st.restore_pending || !crate::parallel::is_root() {
         // `fdem check` writes nothing; a restart replaying up to its checkpoint has these
         // frames on disk already.
         return Ok(());

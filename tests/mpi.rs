@@ -1,0 +1,114 @@
+//! `mpirun -np N fdem run SCRIPT` writes the same files as `fdem run SCRIPT`, byte for byte,
+//! for N = 1, 2, 3, 4 (issue 17): every CSV (energy account, monitors, cracks) and every
+//! ParaView frame (positions, stresses, damage, fragments). Needs fdem built with the `mpi`
+//! feature and an MPI launcher: `.ci/run` installs Open MPI and runs
+//! `cargo test --release --features mpi --test mpi -- --include-ignored`.
+//!
+//! Reference: the single-process run of the same script. Tolerance: none; the decomposition
+//! adds every contribution in the single-process order (crate::parallel), so any difference
+//! is a bug. 4 ranks on a 2-core machine are oversubscribed (slower, not different).
+
+#![cfg(feature = "mpi")]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const SCRIPT: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/tests/common/decomposed_bar.rhai"
+);
+
+fn fdem() -> &'static str {
+    env!("CARGO_BIN_EXE_fdem")
+}
+
+/// `mpirun` with what Open MPI needs on a CI machine (root, more ranks than cores).
+fn mpirun(np: usize) -> Command {
+    let mut c = Command::new("mpirun");
+    let version = Command::new("mpirun")
+        .arg("--version")
+        .output()
+        .expect("mpirun must be installed (.ci/run installs Open MPI)");
+    if String::from_utf8_lossy(&version.stdout).contains("Open MPI") {
+        c.args(["--oversubscribe", "--allow-run-as-root"]);
+    }
+    c.args(["-np", &np.to_string()]);
+    c
+}
+
+fn run(mut cmd: Command, out: &Path) {
+    let o = cmd
+        .args([
+            "run",
+            SCRIPT,
+            "--quiet",
+            "--overwrite",
+            "--threads",
+            "1",
+            "--out",
+        ])
+        .arg(out)
+        .output()
+        .expect("start the run");
+    assert!(
+        o.status.success(),
+        "{:?} failed:\n{}\n{}",
+        cmd,
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// Every file of `dir`, by name, with its bytes.
+fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let p = e.unwrap().path();
+            (
+                p.file_name().unwrap().to_string_lossy().into_owned(),
+                std::fs::read(&p).unwrap(),
+            )
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+#[ignore = "needs mpi"]
+fn mpirun_writes_the_single_process_files_on_any_rank_count() {
+    let root = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("mpi_decomposed_bar");
+    let _ = std::fs::remove_dir_all(&root);
+    let single = root.join("single");
+    let mut cmd = Command::new(fdem());
+    // Not under a launcher: one process, not decomposed.
+    cmd.env_remove("OMPI_COMM_WORLD_SIZE")
+        .env_remove("PMI_SIZE");
+    run(cmd, &single);
+    let reference = files(&single);
+    let names: Vec<&str> = reference.iter().map(|(n, _)| n.as_str()).collect();
+    for expected in [
+        "energy.csv",
+        "load.csv",
+        "cracks.csv",
+        "decomposed_bar_000004.vtu",
+    ] {
+        assert!(names.contains(&expected), "{expected} missing: {names:?}");
+    }
+    for np in 1..=4 {
+        let out = root.join(format!("np{np}"));
+        let mut cmd = mpirun(np);
+        cmd.arg(fdem());
+        run(cmd, &out);
+        let got = files(&out);
+        let got_names: Vec<&str> = got.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(got_names, names, "np {np}: other files");
+        for ((name, a), (_, b)) in reference.iter().zip(&got) {
+            assert!(
+                a == b,
+                "np {np}: {name} differs from the single-process run"
+            );
+        }
+    }
+}
