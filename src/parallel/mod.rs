@@ -196,12 +196,20 @@ pub struct Parallel {
     pub joint_blocks: UnitFlags,
     /// Stage 3's joints.
     pub joints: JointMask,
+    /// Each rank's nodes that other ranks read while stepping (its *exports*, in node
+    /// order): the nodes of every work unit that spans two ranks or more, and the nodes of
+    /// nodal force sets. Shared every step; the rest of the model at [`Parallel::share_nodes`].
+    pub exports: Vec<Vec<u32>>,
     /// Exchange buffer (reused).
     buffer: Vec<f64>,
     /// Wall time spent in exchanges [s].
     pub seconds: f64,
-    /// The step at which the joint histories were last shared.
-    pub shared_at: Option<u64>,
+    /// Bytes this rank received in exchanges (the whole array of each collective, less its
+    /// own part).
+    pub bytes: u64,
+    /// The steps at which all nodes, and all joint histories, were last shared.
+    pub nodes_shared_at: Option<u64>,
+    pub joints_shared_at: Option<u64>,
 }
 
 impl std::fmt::Debug for Parallel {
@@ -232,13 +240,17 @@ impl Parallel {
             elements: UnitFlags::default(),
             joint_blocks: UnitFlags::default(),
             joints: JointMask::default(),
+            exports: Vec::new(),
             buffer: Vec::new(),
             seconds: 0.0,
-            shared_at: None,
+            bytes: 0,
+            nodes_shared_at: None,
+            joints_shared_at: None,
         }
     }
 
-    /// Split the model for this rank: partition, and the work masks of stages 1 to 3.
+    /// Split the model for this rank: partition, the work masks of stages 1 to 3, and every
+    /// rank's exports (`loaded`: nodes whose positions stage 6 reads, the force sets').
     pub fn split(
         &mut self,
         n_nodes: usize,
@@ -246,6 +258,7 @@ impl Parallel {
         bodies: &[Body],
         element_units: &[Range<usize>],
         joints: &Joints,
+        loaded: &[u32],
     ) {
         let comm = &self.comm;
         let partition = Partition::new(comm.rank(), comm.size(), n_nodes, tets, bodies);
@@ -267,10 +280,78 @@ impl Parallel {
                 (lowest, joint_mask.relevant[j])
             })
         }));
+        // A unit whose nodes two ranks own is computed by both: its nodes are exported.
+        let mut exported = vec![false; n_nodes];
+        let mut mark = |nodes: &mut dyn Iterator<Item = usize>| {
+            let nodes: Vec<usize> = nodes.collect();
+            let first = nodes.first().map(|&n| p.owner(n));
+            if nodes.iter().any(|&n| Some(p.owner(n)) != first) {
+                for n in nodes {
+                    exported[n] = true;
+                }
+            }
+        };
+        for u in element_units {
+            mark(&mut u.clone().flat_map(|e| tets.nodes[e].map(|n| n as usize)));
+        }
+        for b in joints.blocks() {
+            mark(
+                &mut b
+                    .clone()
+                    .flat_map(|j| joints.faces[j].into_iter().flatten().map(|n| n as usize)),
+            );
+        }
+        for &n in loaded {
+            exported[n as usize] = true;
+        }
+        self.exports = p
+            .node_ranges
+            .iter()
+            .map(|r| {
+                r.clone()
+                    .filter(|&n| exported[n])
+                    .map(|n| n as u32)
+                    .collect()
+            })
+            .collect();
         self.elements = elements;
         self.joint_blocks = joint_blocks;
         self.joints = joint_mask;
         self.partition = partition;
+    }
+
+    /// After stage 7: every rank's exported nodes' positions and velocities to every rank
+    /// (what the next step reads of nodes other ranks own).
+    pub fn share_exports(&mut self, nodes: &mut crate::state::Nodes) {
+        let t = std::time::Instant::now();
+        let mine = &self.exports[self.rank()];
+        let mut send = Vec::with_capacity(6 * mine.len());
+        for &n in mine {
+            let n = n as usize;
+            send.extend_from_slice(nodes.x[n].as_slice());
+            send.extend_from_slice(nodes.v[n].as_slice());
+        }
+        let mut all = vec![0.0; 6 * self.exports.iter().map(Vec::len).sum::<usize>()];
+        let mut ranges = Vec::with_capacity(self.exports.len());
+        let mut at = 0;
+        for e in &self.exports {
+            ranges.push(at..at + 6 * e.len());
+            at += 6 * e.len();
+        }
+        all[ranges[self.rank()].clone()].copy_from_slice(&send);
+        self.comm.allgather_ranges_f64(&mut all, &ranges);
+        for (r, e) in self.exports.iter().enumerate() {
+            if r == self.rank() {
+                continue;
+            }
+            for (k, &n) in e.iter().enumerate() {
+                let v = &all[ranges[r].start + 6 * k..ranges[r].start + 6 * k + 6];
+                nodes.x[n as usize] = crate::math::Vec3::new(v[0], v[1], v[2]);
+                nodes.v[n as usize] = crate::math::Vec3::new(v[3], v[4], v[5]);
+            }
+        }
+        self.bytes += (8 * (all.len() - send.len())) as u64;
+        self.seconds += t.elapsed().as_secs_f64();
     }
 
     pub fn rank(&self) -> usize {
@@ -292,6 +373,7 @@ impl Parallel {
         let t = std::time::Instant::now();
         Self::exchange(&*self.comm, &mut self.buffer, partials, designated);
         self.seconds += t.elapsed().as_secs_f64();
+        self.bytes += (self.buffer.len() * 8 * (self.comm.size() - 1)) as u64;
     }
 
     fn exchange<P: Partial>(
@@ -323,6 +405,7 @@ impl Parallel {
         let t = std::time::Instant::now();
         Self::exchange(&*self.comm, &mut self.buffer, partials, &designated);
         self.seconds += t.elapsed().as_secs_f64();
+        self.bytes += (self.buffer.len() * 8 * (self.comm.size() - 1)) as u64;
     }
 
     /// Merge this step's break events (from `first` on in `events`): each rank contributes
@@ -341,9 +424,9 @@ impl Parallel {
             .cloned()
             .collect();
         let bytes = postcard::to_allocvec(&mine).expect("break events serialize");
-        let mut all: Vec<BreakEvent> = self
-            .comm
-            .allgather_bytes(&bytes)
+        let received = self.comm.allgather_bytes(&bytes);
+        self.bytes += received.iter().map(|b| b.len() as u64).sum::<u64>() - bytes.len() as u64;
+        let mut all: Vec<BreakEvent> = received
             .iter()
             .flat_map(|b| {
                 postcard::from_bytes::<Vec<BreakEvent>>(b).expect("break events deserialize")
@@ -373,7 +456,8 @@ impl Parallel {
         sum
     }
 
-    /// After stage 7: every rank's nodes' positions, velocities and reactions to every rank.
+    /// Every rank's nodes' positions, velocities and reactions to every rank: the whole
+    /// model current on every rank (before the script reads it, before output).
     pub fn share_nodes(&mut self, nodes: &mut crate::state::Nodes) {
         let t = std::time::Instant::now();
         let ranges: Vec<Range<usize>> = self
@@ -386,6 +470,8 @@ impl Parallel {
             self.comm
                 .allgather_ranges_f64(comm::flat_mut(field), &ranges);
         }
+        let mine = self.partition.node_ranges[self.rank()].len();
+        self.bytes += (72 * (nodes.len() - mine)) as u64;
         self.seconds += t.elapsed().as_secs_f64();
     }
 }
@@ -426,7 +512,9 @@ impl Parallel {
             })
             .collect();
         let bytes = postcard::to_allocvec(&mine).expect("joint histories serialize");
-        for b in self.comm.allgather_bytes(&bytes) {
+        let received = self.comm.allgather_bytes(&bytes);
+        self.bytes += received.iter().map(|b| b.len() as u64).sum::<u64>() - bytes.len() as u64;
+        for b in received {
             let theirs: Vec<JointHistory> =
                 postcard::from_bytes(&b).expect("joint histories deserialize");
             for h in theirs {

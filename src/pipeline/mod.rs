@@ -405,23 +405,46 @@ impl Simulation {
     }
 
     /// On a decomposed model, bring this rank's copy of the whole state up to date (each rank
-    /// keeps current only what it computes): every joint's history from the rank it is
-    /// designated to. A collective: every rank calls it at the same point of the script
-    /// (the script layer does, before hooks, monitors, output, checkpoints and when a run
-    /// returns). Positions, velocities, reactions and break events are shared every step.
+    /// keeps current only what it computes): [`Simulation::synchronize_nodes`] and
+    /// [`Simulation::synchronize_joints`]. Collectives: every rank calls them at the same point
+    /// of the script (the script layer does: before output, checkpoints and when a run
+    /// returns; the nodes before hooks and monitors; the joints before queries of their
+    /// state). While stepping, ranks share only break events and the nodes other ranks read
+    /// (`Parallel::exports`).
     pub fn synchronize(&mut self) {
+        self.synchronize_nodes();
+        self.synchronize_joints();
+    }
+
+    /// Every node's position, velocity and reaction from the rank that owns it (once per
+    /// step).
+    pub fn synchronize_nodes(&mut self) {
         let step = self.step;
         if let Some(par) = &mut self.parallel {
-            if par.shared_at != Some(step) && !par.partition.node_ranges.is_empty() {
-                par.share_joint_histories(&mut self.joints);
-                par.shared_at = Some(step);
+            if par.nodes_shared_at != Some(step) && !par.partition.node_ranges.is_empty() {
+                par.share_nodes(&mut self.nodes);
+                par.nodes_shared_at = Some(step);
             }
         }
     }
 
-    /// Wall time this rank spent exchanging data with the others [s] (0 unless decomposed).
-    pub fn exchange_seconds(&self) -> Real {
-        self.parallel.as_ref().map_or(0.0, |p| p.seconds)
+    /// Every joint's history from the rank it is designated to (once per step).
+    pub fn synchronize_joints(&mut self) {
+        let step = self.step;
+        if let Some(par) = &mut self.parallel {
+            if par.joints_shared_at != Some(step) && !par.partition.node_ranges.is_empty() {
+                par.share_joint_histories(&mut self.joints);
+                par.joints_shared_at = Some(step);
+            }
+        }
+    }
+
+    /// Wall time this rank spent exchanging data with the others [s], and the bytes it
+    /// received ((0, 0) unless decomposed).
+    pub fn exchanged(&self) -> (Real, u64) {
+        self.parallel
+            .as_ref()
+            .map_or((0.0, 0), |p| (p.seconds, p.bytes))
     }
 
     /// This process's rank and the number of ranks ((0, 1) unless decomposed).
@@ -701,12 +724,19 @@ impl Simulation {
             )));
         }
         let units = self.elements_ws.units(&self.bodies);
+        let loaded: Vec<u32> = self
+            .loads
+            .forces
+            .iter()
+            .flat_map(|f| f.nodes.iter().copied())
+            .collect();
         par.split(
             self.nodes.len(),
             &self.tets,
             &self.bodies,
             &units,
             &self.joints,
+            &loaded,
         );
         self.elements_ws.compute = par.elements.compute.clone();
         self.joints.compute = par.joint_blocks.compute.clone();
@@ -807,7 +837,10 @@ impl Simulation {
         // other stages act on it (a neo-Hookean stress is NaN there, and would make the
         // nodes non-finite, hiding the cause).
         if el.inverted > 0 {
-            return Err(SimError::Unstable(self.describe_instability(el.inverted)));
+            {
+                self.synchronize();
+                return Err(SimError::Unstable(self.describe_instability(el.inverted)));
+            }
         }
         let bs = timed(&mut self.timers, Stage::Elements, || {
             elements::bar2::add_bar_forces(
@@ -933,7 +966,7 @@ impl Simulation {
                     a.add(s);
                     a
                 });
-            par.share_nodes(&mut self.nodes);
+            par.share_exports(&mut self.nodes);
         }
         is
     }
@@ -941,6 +974,8 @@ impl Simulation {
     /// Each body's mass-weighted mean velocity Σm·v/Σm over its nodes (v at t − dt/2), for
     /// mass damping relative to bodies. One pass over the nodes, in node order.
     fn update_body_frame(&mut self) {
+        // Every node's velocity, not only the exported ones' (a decomposed model).
+        self.synchronize_nodes();
         let nb = self.bodies.len();
         self.body_frame.clear();
         self.body_frame.resize(nb, Vec3::zeros());
@@ -966,6 +1001,8 @@ impl Simulation {
         let g = self.loads.gravity;
         if let Some(g_old) = self.gravity_applied {
             if g_old != g {
+                // Every node's position, not only the exported ones' (a decomposed model).
+                self.synchronize_nodes();
                 // Fixed chunks summed in order: the same for any thread count.
                 const CHUNK: usize = 4096;
                 let nodes = &self.nodes;
@@ -1082,12 +1119,18 @@ impl Simulation {
                 energy: self.energy,
             });
             if !self.energy.kinetic.is_finite() {
-                return Err(SimError::Unstable(self.describe_instability(el.inverted)));
+                {
+                    self.synchronize();
+                    return Err(SimError::Unstable(self.describe_instability(el.inverted)));
+                }
             }
         }
         // Every step: stage 7 counted the nodes it made non-finite.
         if is.non_finite > 0 {
-            return Err(SimError::Unstable(self.describe_instability(el.inverted)));
+            {
+                self.synchronize();
+                return Err(SimError::Unstable(self.describe_instability(el.inverted)));
+            }
         }
         self.accumulated.viscous_damping += viscous;
         self.accumulated.fracture += js.dissipated;

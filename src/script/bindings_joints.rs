@@ -104,7 +104,9 @@ pub fn register(engine: &mut Engine) {
         s.0.borrow().sim.break_events.len() as i64
     });
     engine.register_fn("damaged_joints", |s: &mut SimHandle| {
-        s.0.borrow().sim.joints.damaged() as i64
+        let mut st = s.0.borrow_mut();
+        st.sim.synchronize_joints(); // (a decomposed model: joint states from their ranks)
+        st.sim.joints.damaged() as i64
     });
     engine.register_fn("fragments", |s: &mut SimHandle| -> RhaiResult<Map> {
         let mut st = s.0.borrow_mut();

@@ -567,6 +567,12 @@ fn synchronize(s: &SimHandle) {
     s.0.borrow_mut().sim.synchronize();
 }
 
+/// The nodes only: what hooks and monitors read between steps (queries of joint state
+/// synchronise the joints themselves).
+fn synchronize_nodes(s: &SimHandle) {
+    s.0.borrow_mut().sim.synchronize_nodes();
+}
+
 fn sim_error(e: &SimError) -> Box<rhai::EvalAltResult> {
     format!("run(): {e}").into()
 }
@@ -599,7 +605,7 @@ fn call_hooks(nc: &NativeCallContext, s: &SimHandle) -> RhaiResult<()> {
             due.then(|| h.f.clone())
         };
         if let Some(f) = due {
-            synchronize(s);
+            synchronize_nodes(s);
             let _: Dynamic = f.call_within_context(nc, (s.clone(),))?;
         }
     }
@@ -640,13 +646,13 @@ fn dispatch_break_events(nc: &NativeCallContext, s: &SimHandle) -> RhaiResult<()
             st.events_dispatched += 1;
             (f, m)
         };
-        synchronize(s);
+        synchronize_nodes(s);
         let _: Dynamic = f.call_within_context(nc, (s.clone(), event))?;
     }
 }
 
 fn record(nc: &NativeCallContext, s: &SimHandle, m: &MonitorHandle) -> RhaiResult<()> {
-    synchronize(s);
+    synchronize_nodes(s);
     let f = m.0.borrow().f.clone();
     let v: Dynamic = f.call_within_context(nc, (s.clone(),))?;
     let value = super::opts::to_float(&v).ok_or_else(|| {
@@ -976,6 +982,17 @@ fn stage_table(sim: &Simulation) -> String {
         ));
     }
     s.push_str(&format!("   {:<20} {:>9.3}\n", "total", total));
+    let (rank, ranks) = sim.rank_and_size();
+    if ranks > 1 {
+        let (seconds, bytes) = sim.exchanged();
+        let per_step = bytes as f64 / sim.step.max(1) as f64;
+        s.push_str(&format!(
+            "   {:<20} {:>9.3}            (rank {rank} of {ranks}, besides the stages; received {} MB per step)\n",
+            "exchange",
+            seconds,
+            sig(per_step / 1e6, 3)
+        ));
+    }
     s
 }
 
