@@ -389,7 +389,16 @@ impl Simulation {
             &mut self.contact_detection.detector.workspace,
         );
         saved.joints.take_scratch(&mut self.joints);
+        // A decomposed model stays decomposed (over this run's ranks, whatever the count
+        // that wrote the checkpoint): the split is made again before the next step.
+        let parallel = self.parallel.take();
         *self = saved;
+        if let Some(mut par) = parallel {
+            par.nodes_shared_at = None;
+            par.joints_shared_at = None;
+            self.parallel = Some(par);
+            self.ready = false;
+        }
     }
 
     pub fn new() -> Self {

@@ -103,11 +103,7 @@ pub fn register(engine: &mut Engine) {
     engine.register_fn("broken_joints", |s: &mut SimHandle| {
         s.0.borrow().sim.break_events.len() as i64
     });
-    engine.register_fn("damaged_joints", |s: &mut SimHandle| {
-        let mut st = s.0.borrow_mut();
-        st.sim.synchronize_joints(); // (a decomposed model: joint states from their ranks)
-        st.sim.joints.damaged() as i64
-    });
+    engine.register_fn("damaged_joints", damaged_joints);
     engine.register_fn("fragments", |s: &mut SimHandle| -> RhaiResult<Map> {
         let mut st = s.0.borrow_mut();
         st.sim.prepare().map_err(|e| e.to_string())?;
@@ -264,6 +260,14 @@ pub(super) fn compile_from(
 }
 
 /// The map a script's `on_joint_broken` callback receives.
+/// `s.damaged_joints()`: joints with D > 0 somewhere (a decomposed model's joint states are
+/// gathered from their ranks first).
+fn damaged_joints(s: &mut SimHandle) -> i64 {
+    let mut st = s.0.borrow_mut();
+    st.sim.synchronize_joints();
+    st.sim.joints.damaged() as i64
+}
+
 pub fn event_map(sim: &crate::pipeline::Simulation, e: &crate::fracture::BreakEvent) -> Map {
     let mut m = Map::new();
     m.insert("id".into(), (e.joint as i64).into());
