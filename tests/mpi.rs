@@ -36,18 +36,11 @@ fn mpirun(np: usize) -> Command {
     c
 }
 
-fn run(mut cmd: Command, out: &Path) {
+fn run(mut cmd: Command, out: &Path, extra: &[&str]) {
     let o = cmd
-        .args([
-            "run",
-            SCRIPT,
-            "--quiet",
-            "--overwrite",
-            "--threads",
-            "1",
-            "--out",
-        ])
+        .args(["run", SCRIPT, "--quiet", "--threads", "1", "--out"])
         .arg(out)
+        .args(extra)
         .output()
         .expect("start the run");
     assert!(
@@ -102,15 +95,64 @@ fn mpirun_writes_the_single_process_files_on_any_rank_count() {
         let out = root.join(format!("np{np}"));
         let mut cmd = mpirun(np);
         cmd.arg(fdem());
-        run(cmd, &out);
-        let got = files(&out);
-        let got_names: Vec<&str> = got.iter().map(|(n, _)| n.as_str()).collect();
-        assert_eq!(got_names, names, "np {np}: other files");
-        for ((name, a), (_, b)) in reference.iter().zip(&got) {
-            assert!(
-                a == b,
-                "np {np}: {name} differs from the single-process run"
-            );
+        run(cmd, &out, &["--overwrite"]);
+        same_files(&reference, &out, &format!("np {np}"));
+    }
+}
+
+/// `out` holds the files of `reference` (names and bytes).
+fn same_files(reference: &[(String, Vec<u8>)], out: &Path, what: &str) {
+    let names: Vec<&str> = reference.iter().map(|(n, _)| n.as_str()).collect();
+    let got = files(out);
+    let got_names: Vec<&str> = got.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(got_names, names, "{what}: other files");
+    for ((name, a), (_, b)) in reference.iter().zip(&got) {
+        assert!(a == b, "{what}: {name} differs from the single-process run");
+    }
+}
+
+/// A checkpoint written on 2 ranks restarts on 3 and on 1, and the continued run writes the
+/// files of the uninterrupted single-process run: a checkpoint holds the whole model's
+/// state, and the split is made again for the ranks that restart it. (The restart's output
+/// directory is the 2-rank run's, as after an interruption: the rows and frames after the
+/// checkpoint are written again.)
+#[test]
+#[ignore = "needs mpi"]
+fn a_checkpoint_restarts_on_another_rank_count() {
+    let root = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("mpi_restart");
+    let _ = std::fs::remove_dir_all(&root);
+    let at = ["--set", "checkpoint_at=1000", "--overwrite"];
+    let single = root.join("single");
+    let mut cmd = Command::new(fdem());
+    cmd.env_remove("OMPI_COMM_WORLD_SIZE")
+        .env_remove("PMI_SIZE");
+    run(cmd, &single, &at);
+    let reference = files(&single);
+    let two = root.join("np2");
+    let mut cmd = mpirun(2);
+    cmd.arg(fdem());
+    run(cmd, &two, &at);
+    for np in [3, 1] {
+        let out = root.join(format!("restart_np{np}"));
+        std::fs::create_dir_all(&out).unwrap();
+        for e in std::fs::read_dir(&two).unwrap() {
+            let p = e.unwrap().path();
+            std::fs::copy(&p, out.join(p.file_name().unwrap())).unwrap();
         }
+        let ck = out.join("checkpoint.fdemck");
+        let mut cmd = mpirun(np);
+        cmd.arg(fdem());
+        let restart = [
+            "--set",
+            "checkpoint_at=1000",
+            "--restart",
+            ck.to_str().unwrap(),
+        ];
+        run(cmd, &out, &restart);
+        same_files(
+            &reference,
+            &out,
+            &format!("restart on {np} of a 2-rank checkpoint"),
+        );
     }
 }
