@@ -4,9 +4,12 @@
 //! **How the work is split.** Every rank builds the whole model (SPMD: each runs the script).
 //! The nodes are split into one contiguous range per rank, aligned to stage 7's chunks
 //! (`integration::CHUNK` nodes) and never through a rigid body, balanced by tet corners. A
-//! rank *owns* its nodes: it alone integrates them (stage 7), and after each step every rank
-//! receives every other rank's nodes' x, v and reactions, so positions and velocities are
-//! replicated and current everywhere.
+//! rank *owns* its nodes: it alone integrates them (stage 7). After each step every rank
+//! receives the x and v of the nodes other ranks read while stepping (each rank's *exports*:
+//! the nodes of work units that span ranks, and of nodal force sets); the rest of the model
+//! (all nodes' x, v, reactions; every joint's history) is shared only when the script reads
+//! it ([`Parallel::share_nodes`], [`Parallel::share_joint_histories`], called through
+//! `Simulation::synchronize`).
 //!
 //! **Why the bits are the same.** A node's force is a sum of contributions in an order that
 //! does not depend on threads: within each stage the stage fixes it (per body and tet order
@@ -21,8 +24,9 @@
 //! broken, so the surfaces that contact detection derives from them agree.
 //!
 //! **What this is not yet.** The model is replicated: memory per rank does not shrink, and
-//! x, v, reactions of all nodes travel to every rank each step (72 bytes per node). Contact,
-//! rigid bodies and rebars are refused on more than one rank for now (docs/cluster.md).
+//! every rank receives every rank's exports (an all-gather, not a neighbour exchange).
+//! Contact, rigid bodies and rebars are refused on more than one rank for now
+//! (docs/cluster.md lists the next steps).
 
 pub mod comm;
 

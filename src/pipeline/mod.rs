@@ -456,6 +456,22 @@ impl Simulation {
             .map_or((0.0, 0), |p| (p.seconds, p.bytes))
     }
 
+    /// How a decomposed model is split, for the console: ranks, nodes per rank, and the
+    /// nodes each step exchanges (None unless decomposed).
+    pub fn split_summary(&self) -> Option<String> {
+        let par = self.parallel.as_ref()?;
+        let ranges = &par.partition.node_ranges;
+        let nodes: Vec<String> = ranges.iter().map(|r| r.len().to_string()).collect();
+        let exported: usize = par.exports.iter().map(Vec::len).sum();
+        Some(format!(
+            "split over {} ranks: nodes per rank [{}]; {} nodes ({:.1} %) exchanged every step",
+            ranges.len(),
+            nodes.join(", "),
+            exported,
+            100.0 * exported as f64 / self.nodes.len().max(1) as f64
+        ))
+    }
+
     /// This process's rank and the number of ranks ((0, 1) unless decomposed).
     pub fn rank_and_size(&self) -> (usize, usize) {
         self.parallel

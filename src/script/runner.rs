@@ -280,6 +280,9 @@ fn prepare_run(ctx: &ScriptContext, s: &SimHandle) -> RhaiResult<()> {
             .check_body_overlaps()
             .map_err(|e| format!("run(): {e}"))?;
         warn_jointless_bodies(ctx, &st);
+        if let Some(split) = st.sim.split_summary() {
+            ctx.say(&format!("[{}] {split}", st.name));
+        }
     }
     // Printed again when the step or what sets it changes, not when the element that sets
     // it has only moved (its place is where it is now).
