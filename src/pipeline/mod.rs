@@ -456,6 +456,22 @@ impl Simulation {
             .map_or((0.0, 0), |p| (p.seconds, p.bytes))
     }
 
+    /// A stop signal (SIGINT, SIGTERM) as every rank of a decomposed model sees it: the
+    /// largest signal number any rank received, so that all stop at the same step (mpirun
+    /// forwards a Ctrl-C to every rank, which may get it a step apart). A collective on a
+    /// decomposed model; `signal` itself otherwise.
+    pub fn agree_on_signal(&mut self, signal: Option<i32>) -> Option<i32> {
+        let Some(par) = &mut self.parallel else {
+            return signal;
+        };
+        let n = par.comm.size();
+        let mut flags = vec![0.0; n];
+        flags[par.comm.rank()] = signal.map_or(0.0, f64::from);
+        par.comm.sum_f64(&mut flags);
+        let largest = flags.iter().fold(0.0, |a: f64, &b| a.max(b));
+        (largest > 0.0).then_some(largest as i32)
+    }
+
     /// How a decomposed model is split, for the console: ranks, nodes per rank, and the
     /// nodes each step exchanges (None unless decomposed).
     pub fn split_summary(&self) -> Option<String> {

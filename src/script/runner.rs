@@ -436,7 +436,9 @@ fn step_until_done(
         if step >= lim.step_end || time >= lim.t_end - 1e-9 * lim.dt {
             return check_configuration(s);
         }
-        if let Some(sig) = interrupt::requested() {
+        // (On a decomposed model every rank stops at the same step, if any rank got it.)
+        let signal = s.0.borrow_mut().sim.agree_on_signal(interrupt::requested());
+        if let Some(sig) = signal {
             return Err(interrupted(ctx, s, sig));
         }
         {
