@@ -175,6 +175,24 @@ fn launched_ranks() -> Option<usize> {
         .find_map(|v| std::env::var(v).ok()?.trim().parse().ok())
 }
 
+/// The threads a rank takes when an MPI launcher started several on this machine (Open MPI's
+/// `OMPI_COMM_WORLD_LOCAL_SIZE`, MPICH's `MPI_LOCALNRANKS`): the cores divided among them,
+/// at least one. None when not started so.
+fn ranks_share_of_cores() -> Option<usize> {
+    let local = ["OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS"]
+        .iter()
+        .find_map(|v| std::env::var(v).ok()?.trim().parse().ok());
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    share_of_cores(local, cores)
+}
+
+/// `cores` shared among `local` ranks on one machine: at least one thread each; None for
+/// a single rank (rayon's default, one thread per core).
+fn share_of_cores(local: Option<usize>, cores: usize) -> Option<usize> {
+    let local = local.filter(|&l| l > 1)?;
+    Some((cores / local).max(1))
+}
+
 /// Started by `mpirun` as one of several ranks: initialise MPI and make its world this
 /// process's (scripts' models are then decomposed over it). The universe returned must live
 /// until the run ends.
@@ -244,6 +262,9 @@ fn execute(cli: Cli) -> i32 {
             restart,
             geo,
         } => {
+            // Several ranks on one machine share its cores: without --threads each takes its
+            // share (rayon would start one thread per core in every rank).
+            let threads = threads.or_else(ranks_share_of_cores);
             if let Err(e) = set_threads(threads) {
                 return fail(&e);
             }
@@ -1098,4 +1119,19 @@ fn time_steps(
         stages.insert(s.name().into(), sim.timers.get(s).into());
     }
     Ok((seconds, stages))
+}
+
+#[cfg(test)]
+mod tests {
+    /// Ranks on one machine split its cores (an 8-core node: 2 ranks take 4 threads each, 3
+    /// take 2, 16 take 1); one rank, or none known, keeps rayon's default.
+    #[test]
+    fn ranks_share_the_cores_of_their_machine() {
+        use super::share_of_cores;
+        assert_eq!(share_of_cores(Some(2), 8), Some(4));
+        assert_eq!(share_of_cores(Some(3), 8), Some(2));
+        assert_eq!(share_of_cores(Some(16), 8), Some(1));
+        assert_eq!(share_of_cores(Some(1), 8), None);
+        assert_eq!(share_of_cores(None, 8), None);
+    }
 }
