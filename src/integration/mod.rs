@@ -69,6 +69,16 @@ impl IntegrationSums {
         self.non_finite += s.non_finite;
         self.momentum += s.momentum;
     }
+
+    /// The chunks' sums added in chunk order.
+    pub fn total(partials: &[IntegrationSums]) -> IntegrationSums {
+        partials
+            .iter()
+            .fold(IntegrationSums::default(), |mut a, s| {
+                a.add(s);
+                a
+            })
+    }
 }
 
 /// Step parameters.
@@ -235,10 +245,5 @@ pub fn central_difference(
             s
         })
         .collect_into_vec(partials);
-    partials
-        .iter()
-        .fold(IntegrationSums::default(), |mut a, s| {
-            a.add(s);
-            a
-        })
+    IntegrationSums::total(partials)
 }

@@ -204,6 +204,9 @@ pub struct Parallel {
     /// order): the nodes of every work unit that spans two ranks or more, and the nodes of
     /// nodal force sets. Shared every step; the rest of the model at [`Parallel::share_nodes`].
     pub exports: Vec<Vec<u32>>,
+    /// Each rank's exports' place in `export_buffer`, and the buffer (reused every step).
+    export_ranges: Vec<Range<usize>>,
+    export_buffer: Vec<f64>,
     /// Exchange buffer (reused).
     buffer: Vec<f64>,
     /// Wall time spent in exchanges [s].
@@ -245,6 +248,8 @@ impl Parallel {
             joint_blocks: UnitFlags::default(),
             joints: JointMask::default(),
             exports: Vec::new(),
+            export_ranges: Vec::new(),
+            export_buffer: Vec::new(),
             buffer: Vec::new(),
             seconds: 0.0,
             bytes: 0,
@@ -318,6 +323,17 @@ impl Parallel {
                     .collect()
             })
             .collect();
+        // Where each rank's exports (x and v, 6 numbers a node) sit in the exchange buffer.
+        let mut at = 0;
+        self.export_ranges = self
+            .exports
+            .iter()
+            .map(|e| {
+                at += 6 * e.len();
+                at - 6 * e.len()..at
+            })
+            .collect();
+        self.export_buffer = vec![0.0; at];
         self.elements = elements;
         self.joint_blocks = joint_blocks;
         self.joints = joint_mask;
@@ -328,24 +344,16 @@ impl Parallel {
     /// (what the next step reads of nodes other ranks own).
     pub fn share_exports(&mut self, nodes: &mut crate::state::Nodes) {
         let t = std::time::Instant::now();
-        let mine = &self.exports[self.rank()];
-        let mut send = Vec::with_capacity(6 * mine.len());
-        for &n in mine {
-            let n = n as usize;
-            send.extend_from_slice(nodes.x[n].as_slice());
-            send.extend_from_slice(nodes.v[n].as_slice());
+        let (ranges, all) = (&self.export_ranges, &mut self.export_buffer);
+        let mine = &ranges[self.comm.rank()];
+        for (k, &n) in self.exports[self.comm.rank()].iter().enumerate() {
+            let at = mine.start + 6 * k;
+            all[at..at + 3].copy_from_slice(nodes.x[n as usize].as_slice());
+            all[at + 3..at + 6].copy_from_slice(nodes.v[n as usize].as_slice());
         }
-        let mut all = vec![0.0; 6 * self.exports.iter().map(Vec::len).sum::<usize>()];
-        let mut ranges = Vec::with_capacity(self.exports.len());
-        let mut at = 0;
-        for e in &self.exports {
-            ranges.push(at..at + 6 * e.len());
-            at += 6 * e.len();
-        }
-        all[ranges[self.rank()].clone()].copy_from_slice(&send);
-        self.comm.allgather_ranges_f64(&mut all, &ranges);
+        self.comm.allgather_ranges_f64(all, ranges);
         for (r, e) in self.exports.iter().enumerate() {
-            if r == self.rank() {
+            if r == self.comm.rank() {
                 continue;
             }
             for (k, &n) in e.iter().enumerate() {
@@ -354,7 +362,7 @@ impl Parallel {
                 nodes.v[n as usize] = crate::math::Vec3::new(v[3], v[4], v[5]);
             }
         }
-        self.bytes += (8 * (all.len() - send.len())) as u64;
+        self.bytes += (8 * (all.len() - mine.len())) as u64;
         self.seconds += t.elapsed().as_secs_f64();
     }
 
@@ -375,7 +383,7 @@ impl Parallel {
             Units::JointBlocks => &self.joint_blocks.designated,
         };
         let t = std::time::Instant::now();
-        Self::exchange(&*self.comm, &mut self.buffer, partials, designated);
+        Self::exchange(&*self.comm, &mut self.buffer, partials, |i| designated[i]);
         self.seconds += t.elapsed().as_secs_f64();
         self.bytes += (self.buffer.len() * 8 * (self.comm.size() - 1)) as u64;
     }
@@ -384,12 +392,12 @@ impl Parallel {
         comm: &dyn Comm,
         buf: &mut Vec<f64>,
         partials: &mut [P],
-        designated: &[bool],
+        designated: impl Fn(usize) -> bool,
     ) {
         buf.clear();
         buf.resize(partials.len() * P::LEN, 0.0);
         for (i, p) in partials.iter().enumerate() {
-            if designated[i] {
+            if designated(i) {
                 p.write(&mut buf[i * P::LEN..(i + 1) * P::LEN]);
             }
         }
@@ -403,11 +411,10 @@ impl Parallel {
     pub fn exchange_chunk_partials(&mut self, partials: &mut [IntegrationSums]) {
         let chunk = crate::integration::CHUNK;
         let (a, b) = self.owned();
-        let designated: Vec<bool> = (0..partials.len())
-            .map(|c| (a..b).contains(&(c * chunk)))
-            .collect();
         let t = std::time::Instant::now();
-        Self::exchange(&*self.comm, &mut self.buffer, partials, &designated);
+        Self::exchange(&*self.comm, &mut self.buffer, partials, |c| {
+            (a..b).contains(&(c * chunk))
+        });
         self.seconds += t.elapsed().as_secs_f64();
         self.bytes += (self.buffer.len() * 8 * (self.comm.size() - 1)) as u64;
     }
@@ -448,6 +455,18 @@ impl Parallel {
     /// A sum over ranks of one value per rank, added in rank order (the same on every rank;
     /// for a quantity that is not a unit partial).
     pub fn sum_in_rank_order(&mut self, value: Real) -> Real {
+        self.values_of_ranks(value).iter().sum()
+    }
+
+    /// The largest of one value per rank (the same on every rank).
+    pub fn largest_over_ranks(&mut self, value: Real) -> Real {
+        self.values_of_ranks(value)
+            .iter()
+            .fold(Real::NEG_INFINITY, |a, &b| a.max(b))
+    }
+
+    /// Every rank's `value`, indexed by rank (a collective).
+    fn values_of_ranks(&mut self, value: Real) -> &[Real] {
         let t = std::time::Instant::now();
         let n = self.comm.size();
         let buf = &mut self.buffer;
@@ -455,9 +474,8 @@ impl Parallel {
         buf.resize(n, 0.0);
         buf[self.comm.rank()] = value;
         self.comm.sum_f64(buf);
-        let sum = buf.iter().sum();
         self.seconds += t.elapsed().as_secs_f64();
-        sum
+        &self.buffer
     }
 
     /// Every rank's nodes' positions, velocities and reactions to every rank: the whole

@@ -464,11 +464,7 @@ impl Simulation {
         let Some(par) = &mut self.parallel else {
             return signal;
         };
-        let n = par.comm.size();
-        let mut flags = vec![0.0; n];
-        flags[par.comm.rank()] = signal.map_or(0.0, f64::from);
-        par.comm.sum_f64(&mut flags);
-        let largest = flags.iter().fold(0.0, |a: f64, &b| a.max(b));
+        let largest = par.largest_over_ranks(signal.map_or(0.0, f64::from));
         (largest > 0.0).then_some(largest as i32)
     }
 
@@ -878,10 +874,7 @@ impl Simulation {
         // other stages act on it (a neo-Hookean stress is NaN there, and would make the
         // nodes non-finite, hiding the cause).
         if el.inverted > 0 {
-            {
-                self.synchronize();
-                return Err(SimError::Unstable(self.describe_instability(el.inverted)));
-            }
+            return Err(self.unstable(el.inverted));
         }
         let bs = timed(&mut self.timers, Stage::Elements, || {
             elements::bar2::add_bar_forces(
@@ -1000,13 +993,7 @@ impl Simulation {
         let mut is = is;
         if let Some(par) = &mut self.parallel {
             par.exchange_chunk_partials(&mut self.integration_partials);
-            is = self
-                .integration_partials
-                .iter()
-                .fold(IntegrationSums::default(), |mut a, s| {
-                    a.add(s);
-                    a
-                });
+            is = IntegrationSums::total(&self.integration_partials);
             par.share_exports(&mut self.nodes);
         }
         is
@@ -1160,18 +1147,12 @@ impl Simulation {
                 energy: self.energy,
             });
             if !self.energy.kinetic.is_finite() {
-                {
-                    self.synchronize();
-                    return Err(SimError::Unstable(self.describe_instability(el.inverted)));
-                }
+                return Err(self.unstable(el.inverted));
             }
         }
         // Every step: stage 7 counted the nodes it made non-finite.
         if is.non_finite > 0 {
-            {
-                self.synchronize();
-                return Err(SimError::Unstable(self.describe_instability(el.inverted)));
-            }
+            return Err(self.unstable(el.inverted));
         }
         self.accumulated.viscous_damping += viscous;
         self.accumulated.fracture += js.dissipated;
@@ -1185,6 +1166,13 @@ impl Simulation {
     /// What stopped the run, where, in which stage, and the likely cause: the first node
     /// made non-finite by stage 7 (integration), or the first element found inverted by
     /// stage 1 (elements) from the positions the previous step produced.
+    /// The error that stops an unstable run, described from the whole model's state (a
+    /// decomposed model is synchronised first: a collective every rank reaches alike).
+    fn unstable(&mut self, inverted: usize) -> SimError {
+        self.synchronize();
+        SimError::Unstable(self.describe_instability(inverted))
+    }
+
     fn describe_instability(&self, inverted: usize) -> String {
         self.describe_instability_found_by(
             inverted,
