@@ -17,6 +17,10 @@ const SCRIPT: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/tests/common/decomposed_bar.rhai"
 );
+const CONTACT_SCRIPT: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/tests/common/decomposed_contact.rhai"
+);
 
 fn fdem() -> &'static str {
     env!("CARGO_BIN_EXE_fdem")
@@ -36,9 +40,13 @@ fn mpirun(np: usize) -> Command {
     c
 }
 
-fn run(mut cmd: Command, out: &Path, extra: &[&str]) {
+fn run(cmd: Command, out: &Path, extra: &[&str]) {
+    run_script(cmd, SCRIPT, out, extra)
+}
+
+fn run_script(mut cmd: Command, script: &str, out: &Path, extra: &[&str]) {
     let o = cmd
-        .args(["run", SCRIPT, "--quiet", "--threads", "1", "--out"])
+        .args(["run", script, "--quiet", "--threads", "1", "--out"])
         .arg(out)
         .args(extra)
         .output()
@@ -155,4 +163,59 @@ fn a_checkpoint_restarts_on_another_rank_count() {
             &format!("restart on {np} of a 2-rank checkpoint"),
         );
     }
+}
+
+/// Contact (stages 4 and 5) with fracture: a bar thrown onto a slab writes the same files on
+/// 1 to 4 ranks (energy account, the slab's contact force, touching pairs, frames with
+/// contact forces and pressures), and a 2-rank checkpoint taken while pairs touch and slide
+/// restarts on 3 ranks with the same files.
+#[test]
+#[ignore = "needs mpi"]
+fn contact_writes_the_single_process_files_on_any_rank_count() {
+    let root = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("mpi_decomposed_contact");
+    let _ = std::fs::remove_dir_all(&root);
+    let at = ["--set", "checkpoint_at=300", "--overwrite"];
+    let single = root.join("single");
+    let mut cmd = Command::new(fdem());
+    cmd.env_remove("OMPI_COMM_WORLD_SIZE")
+        .env_remove("PMI_SIZE");
+    run_script(cmd, CONTACT_SCRIPT, &single, &at);
+    let reference = files(&single);
+    let names: Vec<&str> = reference.iter().map(|(n, _)| n.as_str()).collect();
+    for expected in [
+        "energy.csv",
+        "slab_contact_force.csv",
+        "touching_pairs.csv",
+        "decomposed_contact_000003.vtu",
+    ] {
+        assert!(names.contains(&expected), "{expected} missing: {names:?}");
+    }
+    for np in 1..=4 {
+        let out = root.join(format!("np{np}"));
+        let mut cmd = mpirun(np);
+        cmd.arg(fdem());
+        run_script(cmd, CONTACT_SCRIPT, &out, &at);
+        same_files(&reference, &out, &format!("contact on np {np}"));
+    }
+    let out = root.join("restart_np3");
+    std::fs::create_dir_all(&out).unwrap();
+    for e in std::fs::read_dir(root.join("np2")).unwrap() {
+        let p = e.unwrap().path();
+        std::fs::copy(&p, out.join(p.file_name().unwrap())).unwrap();
+    }
+    let ck = out.join("checkpoint.fdemck");
+    let mut cmd = mpirun(3);
+    cmd.arg(fdem());
+    let restart = [
+        "--set",
+        "checkpoint_at=300",
+        "--restart",
+        ck.to_str().unwrap(),
+    ];
+    run_script(cmd, CONTACT_SCRIPT, &out, &restart);
+    same_files(
+        &reference,
+        &out,
+        "contact: restart on 3 of a 2-rank checkpoint",
+    );
 }

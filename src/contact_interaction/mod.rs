@@ -310,6 +310,34 @@ pub struct ContactInteraction {
     chunk_out: Vec<Vec<u32>>,
     chunk_sums: Vec<ContactSums>,
     chunk_handover: Vec<Vec<u32>>,
+    /// On a decomposed model: the pairs this rank computes, and those designated to it
+    /// (`crate::parallel`); empty on one rank (every pair).
+    #[serde(skip)]
+    pub mask: PairMask,
+    /// Per chunk, on a decomposed model: what the designated pairs added to the step's
+    /// totals, events and handovers (merged over ranks by [`ContactInteraction::apply_records`]).
+    #[serde(skip)]
+    chunk_records: Vec<Vec<PairRecord>>,
+}
+
+/// Which candidate pairs one rank of a decomposed model computes (those with a node of the
+/// rank: their forces on its nodes are then the one-rank sums) and which it reports (each
+/// pair to one rank: the lowest owning a node of it). Indexed like stage 4's pairs.
+#[derive(Clone, Debug, Default)]
+pub struct PairMask {
+    pub compute: Vec<bool>,
+    pub designated: Vec<bool>,
+}
+
+/// What one pair added to a step's totals (its own contributions summed first), with the
+/// joint it handed over and the contact event it started: the unit a decomposed model
+/// exchanges so that every rank adds them in pair order, as one rank does.
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq)]
+pub struct PairRecord {
+    pub pair: u32,
+    pub sums: ContactSums,
+    pub handover: Option<u32>,
+    pub event: Option<ContactEvent>,
 }
 
 impl ContactInteraction {
@@ -375,6 +403,10 @@ impl ContactInteraction {
         self.chunk_out.resize_with(n_chunks, Vec::new);
         self.chunk_sums.resize(n_chunks, ContactSums::default());
         self.chunk_handover.resize_with(n_chunks, Vec::new);
+        self.chunk_records.resize_with(n_chunks, Vec::new);
+        self.chunk_records.iter_mut().for_each(Vec::clear);
+        // The pairs changed: a decomposed model makes its mask again.
+        self.mask = PairMask::default();
     }
 
     /// This stage's share of the time-step limit: the stiffest contact spring a node can
@@ -589,6 +621,9 @@ pub fn add_contact_forces(
     time: Real,
 ) -> ContactSums {
     update_surface_geometry(ci, &detection.surface, &tets.nodes, &nodes.x);
+    // Checkpoints leave the records out: one list per chunk again after a restart.
+    let n_chunks = ci.hist.len();
+    ci.chunk_records.resize_with(n_chunks, Vec::new);
     let ContactInteraction {
         laws,
         slots,
@@ -602,6 +637,8 @@ pub fn add_contact_forces(
         chunk_out,
         chunk_sums,
         chunk_handover,
+        chunk_records,
+        mask,
         ..
     } = ci;
     let inputs = StepInputs {
@@ -620,6 +657,7 @@ pub fn add_contact_forces(
         time,
     };
     let record_events = *record_events;
+    let masked = !mask.compute.is_empty();
     slots
         .par_chunks_mut(CHUNK)
         .zip(hist.par_iter_mut())
@@ -627,75 +665,153 @@ pub fn add_contact_forces(
         .zip(chunk_out.par_iter_mut())
         .zip(chunk_sums.par_iter_mut())
         .zip(chunk_handover.par_iter_mut())
+        .zip(chunk_records.par_iter_mut())
         .enumerate()
-        .for_each(|(ci, (((((sl, hist), free), out), sums), handover))| {
-            out.clear();
-            handover.clear();
-            *sums = ContactSums::default();
-            // Slots of the compiled friction laws (on the stack, reused by every pair).
-            let mut frame = Frame::new();
-            for (k, slot) in sl.iter_mut().enumerate() {
-                let pi = ci * CHUNK + k;
-                if slot.hist == NO_HISTORY {
-                    // No history: armed and not touching. Rejected pairs (most candidates,
-                    // most steps) only update their witness.
-                    match reject(&inputs, pi, slot.witness) {
-                        Rejection::Apart(axis) => {
-                            if slot.witness != axis {
-                                slot.witness = axis;
-                            }
-                            continue;
-                        }
-                        Rejection::Degenerate => continue,
-                        Rejection::Maybe => {}
-                    }
-                }
-                let mut ps = if slot.hist == NO_HISTORY {
-                    PairState::default()
-                } else {
-                    hist[slot.hist as usize]
+        .for_each(
+            |(c, ((((((slots, hist), free), out), sums), handover), records))| {
+                let chunk = Chunk {
+                    slots,
+                    hist,
+                    free,
+                    out,
+                    sums,
+                    handover,
+                    records,
                 };
-                ps.witness = slot.witness;
-                let mut flag = 0;
-                let touches =
-                    if let Some(po) = interact(&inputs, pi, &mut ps, sums, handover, &mut frame) {
-                        if !ps.touching && record_events {
-                            // Reported in pair order below.
-                            flag = NEW_FLAG;
-                        }
-                        ps.touching = true;
-                        ps.out = po;
-                        true
-                    } else {
-                        false
-                    };
-                slot.witness = ps.witness;
-                if ps.needs_history() {
-                    if slot.hist == NO_HISTORY {
-                        slot.hist = match free.pop() {
-                            Some(h) => h,
-                            None => {
-                                // Grow by an eighth, not double: the histories are most
-                                // of stage 5's memory.
-                                if hist.len() == hist.capacity() {
-                                    hist.reserve_exact(hist.len() / 8 + 8);
-                                }
-                                hist.push(ps);
-                                (hist.len() - 1) as u16
-                            }
-                        };
-                    }
-                    hist[slot.hist as usize] = ps;
-                    if touches {
-                        out.push(slot.hist as u32 | flag);
-                    }
-                } else if slot.hist != NO_HISTORY {
-                    free.push(slot.hist);
-                    slot.hist = NO_HISTORY;
-                }
-            }
-        });
+                evaluate_chunk(&inputs, c, chunk, mask, record_events);
+            },
+        );
+    if masked {
+        // Forces only: the totals, events and handovers come from every rank's records.
+        scatter_forces(ci, nodes);
+        return ContactSums::default();
+    }
     scatter_in_pair_order(ci, nodes, time)
+}
+
+/// One chunk of stage 5's pairs and its per-step outputs.
+struct Chunk<'a> {
+    slots: &'a mut [PairSlot],
+    hist: &'a mut Vec<PairState>,
+    free: &'a mut Vec<u16>,
+    out: &'a mut Vec<u32>,
+    sums: &'a mut ContactSums,
+    handover: &'a mut Vec<u32>,
+    records: &'a mut Vec<PairRecord>,
+}
+
+/// Evaluate the pairs of chunk `c` (those `mask` gives this rank, all on one rank): forces
+/// into their histories and the chunk's outputs, sums, handovers and (for designated pairs
+/// of a decomposed model) records.
+fn evaluate_chunk(
+    inputs: &StepInputs,
+    c: usize,
+    chunk: Chunk,
+    mask: &PairMask,
+    record_events: bool,
+) {
+    let Chunk {
+        slots: sl,
+        hist,
+        free,
+        out,
+        sums,
+        handover,
+        records,
+    } = chunk;
+    let masked = !mask.compute.is_empty();
+    out.clear();
+    handover.clear();
+    records.clear();
+    *sums = ContactSums::default();
+    // Slots of the compiled friction laws (on the stack, reused by every pair).
+    let mut frame = Frame::new();
+    for (k, slot) in sl.iter_mut().enumerate() {
+        let pi = c * CHUNK + k;
+        if masked && !mask.compute[pi] {
+            continue;
+        }
+        if slot.hist == NO_HISTORY {
+            // No history: armed and not touching. Rejected pairs (most candidates,
+            // most steps) only update their witness.
+            match reject(inputs, pi, slot.witness) {
+                Rejection::Apart(axis) => {
+                    if slot.witness != axis {
+                        slot.witness = axis;
+                    }
+                    continue;
+                }
+                Rejection::Degenerate => continue,
+                Rejection::Maybe => {}
+            }
+        }
+        let mut ps = if slot.hist == NO_HISTORY {
+            PairState::default()
+        } else {
+            hist[slot.hist as usize]
+        };
+        ps.witness = slot.witness;
+        let mut flag = 0;
+        // The pair's own contributions first, then added to the chunk's: the order
+        // a decomposed model reproduces from per-pair records.
+        let mut pair_sums = ContactSums::default();
+        let handed = handover.len();
+        let touches =
+            if let Some(po) = interact(inputs, pi, &mut ps, &mut pair_sums, handover, &mut frame) {
+                if !ps.touching && record_events {
+                    // Reported in pair order below.
+                    flag = NEW_FLAG;
+                }
+                ps.touching = true;
+                ps.out = po;
+                true
+            } else {
+                false
+            };
+        sums.add(&pair_sums);
+        if masked && mask.designated[pi] {
+            let record = PairRecord {
+                pair: pi as u32,
+                sums: pair_sums,
+                handover: handover.get(handed).copied(),
+                event: (flag != 0).then_some(ContactEvent {
+                    time: inputs.time,
+                    tets: ps.out.tets,
+                    point: ps.out.point,
+                }),
+            };
+            if record.sums != ContactSums::default()
+                || record.handover.is_some()
+                || record.event.is_some()
+            {
+                records.push(record);
+            }
+        }
+        slot.witness = ps.witness;
+        if ps.needs_history() {
+            if slot.hist == NO_HISTORY {
+                slot.hist = match free.pop() {
+                    Some(h) => h,
+                    None => {
+                        // Grow by an eighth, not double: the histories are most
+                        // of stage 5's memory.
+                        if hist.len() == hist.capacity() {
+                            hist.reserve_exact(hist.len() / 8 + 8);
+                        }
+                        hist.push(ps);
+                        (hist.len() - 1) as u16
+                    }
+                };
+            }
+            hist[slot.hist as usize] = ps;
+            if touches {
+                out.push(slot.hist as u32 | flag);
+            }
+        } else if slot.hist != NO_HISTORY {
+            free.push(slot.hist);
+            slot.hist = NO_HISTORY;
+        }
+    }
 }
 
 /// Add the touching pairs' forces to the nodes in pair order (deterministic for any thread
@@ -705,6 +821,7 @@ fn scatter_in_pair_order(
     nodes: &mut Nodes,
     time: Real,
 ) -> ContactSums {
+    scatter_forces(ci, nodes);
     let mut total = ContactSums::default();
     for ((out, s), hist) in ci
         .chunk_out
@@ -714,11 +831,8 @@ fn scatter_in_pair_order(
     {
         total.add(s);
         for &i in out {
-            let po = &hist[(i & !NEW_FLAG) as usize].out;
-            for k in 0..8 {
-                nodes.f[po.nodes[k] as usize] += po.f[k];
-            }
             if i & NEW_FLAG != 0 {
+                let po = &hist[(i & !NEW_FLAG) as usize].out;
                 ci.events.push(ContactEvent {
                     time,
                     tets: po.tets,
@@ -731,15 +845,101 @@ fn scatter_in_pair_order(
     for h in ci.chunk_handover.iter() {
         ci.handover.extend_from_slice(h);
     }
-    ci.last = total;
-    if total.max_overlap_ratio > ci.deepest.ratio {
-        ci.deepest = DeepestOverlap {
-            ratio: total.max_overlap_ratio,
-            depth: total.max_overlap,
-            time,
-        };
+    ci.close_step(total, time)
+}
+
+/// Add the forces of the pairs that touched in this step to their nodes, in pair order.
+fn scatter_forces(ci: &ContactInteraction, nodes: &mut Nodes) {
+    for (out, hist) in ci.chunk_out.iter().zip(ci.hist.iter()) {
+        for &i in out {
+            let po = &hist[(i & !NEW_FLAG) as usize].out;
+            for k in 0..8 {
+                nodes.f[po.nodes[k] as usize] += po.f[k];
+            }
+        }
     }
-    total
+}
+
+impl ContactInteraction {
+    /// The step's totals are `total`: keep them and the deepest penetration so far.
+    fn close_step(&mut self, total: ContactSums, time: Real) -> ContactSums {
+        self.last = total;
+        if total.max_overlap_ratio > self.deepest.ratio {
+            self.deepest = DeepestOverlap {
+                ratio: total.max_overlap_ratio,
+                depth: total.max_overlap,
+                time,
+            };
+        }
+        total
+    }
+
+    /// This rank's records of the last step (its designated pairs), in pair order.
+    pub fn records(&self) -> impl Iterator<Item = &PairRecord> {
+        self.chunk_records.iter().flatten()
+    }
+
+    /// A decomposed model's step, closed from the records of every pair (`records`, from
+    /// all ranks, in pair order): the totals summed chunk by chunk in pair order (each pair's
+    /// own sum first), events and handovers in pair order: what one rank gets.
+    pub fn apply_records(&mut self, records: &[PairRecord], time: Real) -> ContactSums {
+        let (mut total, mut chunk_sum, mut chunk) =
+            (ContactSums::default(), ContactSums::default(), usize::MAX);
+        self.handover.clear();
+        for r in records {
+            let c = r.pair as usize / CHUNK;
+            if c != chunk {
+                total.add(&chunk_sum);
+                chunk_sum = ContactSums::default();
+                chunk = c;
+            }
+            chunk_sum.add(&r.sums);
+            self.handover.extend(r.handover);
+            self.events.extend(r.event);
+        }
+        total.add(&chunk_sum);
+        self.close_step(total, time)
+    }
+
+    /// On a decomposed model, every candidate pair's witness and history as this rank holds
+    /// them, for the pairs designated to it: (pair, witness, history if stored).
+    pub fn designated_states(&self) -> Vec<(u32, u8, Option<PairState>)> {
+        (0..self.slots.len())
+            .filter(|&k| self.mask.designated.get(k).copied().unwrap_or(true))
+            .map(|k| {
+                let s = self.slots[k];
+                let h = (s.hist != NO_HISTORY).then(|| self.hist[k / CHUNK][s.hist as usize]);
+                (k as u32, s.witness, h)
+            })
+            .collect()
+    }
+
+    /// Replace every pair's witness and history (`states`: one per candidate pair, in pair
+    /// order) and lay the histories out afresh in pair order; the outputs of the last step
+    /// are those of the touching pairs. The forces a later step computes do not depend on
+    /// the layout.
+    pub fn set_states(&mut self, states: impl Iterator<Item = (u8, Option<PairState>)>) {
+        let n_chunks = self.slots.len().div_ceil(CHUNK);
+        self.hist.iter_mut().for_each(Vec::clear);
+        self.free.iter_mut().for_each(Vec::clear);
+        self.chunk_out.iter_mut().for_each(Vec::clear);
+        self.hist.resize_with(n_chunks, Vec::new);
+        self.free.resize_with(n_chunks, Vec::new);
+        self.chunk_out.resize_with(n_chunks, Vec::new);
+        for (k, (witness, state)) in states.enumerate() {
+            let slot = &mut self.slots[k];
+            slot.witness = witness;
+            slot.hist = NO_HISTORY;
+            if let Some(s) = state {
+                let h = &mut self.hist[k / CHUNK];
+                slot.hist = h.len() as u16;
+                if s.touching {
+                    self.chunk_out[k / CHUNK].push(slot.hist as u32);
+                }
+                h.push(s);
+            }
+        }
+    }
 }
 
 /// Current geometry, box and 1/(smallest height) of the surface tets, in one pass.

@@ -146,14 +146,20 @@ impl Partition {
     }
 
     /// The joints at this rank's nodes, and those designated to it (the lowest rank owning
-    /// one of the joint's six nodes).
-    pub fn joint_mask(&self, joints: &Joints) -> JointMask {
+    /// one of the joint's six nodes). With `contact`, a joint is also at this rank's nodes
+    /// when one of its two tets is: a contact pair of the two reads whether the broken joint
+    /// still holds their faces, and the ranks computing the pair compute that. (For jointed
+    /// bodies this adds nothing: a tet's four nodes are consecutive and ranges are aligned,
+    /// so one rank owns the whole tet; it matters where a joint's tet shares nodes.)
+    pub fn joint_mask(&self, joints: &Joints, contact: bool) -> JointMask {
         let (relevant, designated) = joints
             .faces
             .iter()
-            .map(|f| {
+            .zip(&joints.tets)
+            .map(|(f, t)| {
                 let nodes = f.iter().flatten().map(|&n| n as usize);
-                let relevant = nodes.clone().any(|n| self.owns(n));
+                let relevant = nodes.clone().any(|n| self.owns(n))
+                    || (contact && t.iter().any(|&e| self.tet_relevant[e as usize]));
                 let lowest = nodes.map(|n| self.owner(n)).min().expect("6 nodes");
                 (relevant, lowest == self.rank)
             })
@@ -180,6 +186,20 @@ impl Partition {
         }
         flags
     }
+}
+
+/// What [`Parallel::split`] reads of a model.
+pub struct ModelToSplit<'a> {
+    pub n_nodes: usize,
+    pub tets: &'a Tets,
+    pub bodies: &'a [Body],
+    /// Stage 1's units (see `ElementsWorkspace::units`).
+    pub element_units: &'a [Range<usize>],
+    pub joints: &'a Joints,
+    /// Nodes whose positions stage 6 reads (the nodal force sets').
+    pub loaded: &'a [u32],
+    /// The model has contact: stages 4 and 5 read every node.
+    pub contact: bool,
 }
 
 /// Per work unit: computed by this rank, designated to it.
@@ -217,6 +237,7 @@ pub struct Parallel {
     /// The steps at which all nodes, and all joint histories, were last shared.
     pub nodes_shared_at: Option<u64>,
     pub joints_shared_at: Option<u64>,
+    pub contact_shared_at: Option<u64>,
 }
 
 impl std::fmt::Debug for Parallel {
@@ -255,20 +276,22 @@ impl Parallel {
             bytes: 0,
             nodes_shared_at: None,
             joints_shared_at: None,
+            contact_shared_at: None,
         }
     }
 
     /// Split the model for this rank: partition, the work masks of stages 1 to 3, and every
-    /// rank's exports (`loaded`: nodes whose positions stage 6 reads, the force sets').
-    pub fn split(
-        &mut self,
-        n_nodes: usize,
-        tets: &Tets,
-        bodies: &[Body],
-        element_units: &[Range<usize>],
-        joints: &Joints,
-        loaded: &[u32],
-    ) {
+    /// rank's exports.
+    pub fn split(&mut self, model: ModelToSplit) {
+        let ModelToSplit {
+            n_nodes,
+            tets,
+            bodies,
+            element_units,
+            joints,
+            loaded,
+            contact,
+        } = model;
         let comm = &self.comm;
         let partition = Partition::new(comm.rank(), comm.size(), n_nodes, tets, bodies);
         let p = &partition;
@@ -277,7 +300,7 @@ impl Parallel {
                 .iter()
                 .map(|u| u.clone().map(|e| (p.tet_min_rank[e], p.tet_relevant[e]))),
         );
-        let joint_mask = p.joint_mask(joints);
+        let joint_mask = p.joint_mask(joints, contact);
         let joint_blocks = p.unit_flags(joints.blocks().map(|b| {
             b.clone().map(|j| {
                 let lowest = joints.faces[j]
@@ -312,6 +335,11 @@ impl Parallel {
         }
         for &n in loaded {
             exported[n as usize] = true;
+        }
+        if contact {
+            // Stage 4 finds candidate pairs among all surface tets, on every rank, and a
+            // pair may join any two nodes: every node is exported.
+            exported.iter_mut().for_each(|e| *e = true);
         }
         self.exports = p
             .node_ranges
@@ -494,6 +522,91 @@ impl Parallel {
         }
         let mine = self.partition.node_ranges[self.rank()].len();
         self.bytes += (72 * (nodes.len() - mine)) as u64;
+        self.seconds += t.elapsed().as_secs_f64();
+    }
+}
+
+impl Parallel {
+    /// Stage 5's work for this rank over stage 4's candidate `pairs` (indices into the
+    /// `surface` tets): a pair is computed when one of its tets has a node of this rank, and
+    /// designated to the lowest rank owning a node of one of its tets. Both depend only on
+    /// the pair's two tets, so a rank computes a pair every step the pair exists: its
+    /// history is current there.
+    pub fn contact_mask(
+        &self,
+        surface: &[u32],
+        pairs: &[[u32; 2]],
+    ) -> crate::contact_interaction::PairMask {
+        let p = &self.partition;
+        let rank = self.rank() as u32;
+        let (compute, designated) = pairs
+            .iter()
+            .map(|&[a, b]| {
+                let (ea, eb) = (surface[a as usize] as usize, surface[b as usize] as usize);
+                (
+                    p.tet_relevant[ea] || p.tet_relevant[eb],
+                    p.tet_min_rank[ea].min(p.tet_min_rank[eb]) == rank,
+                )
+            })
+            .unzip();
+        crate::contact_interaction::PairMask {
+            compute,
+            designated,
+        }
+    }
+
+    /// Close stage 5 of a step on every rank: each rank's records of its designated pairs
+    /// to all, merged in pair order, give the totals, contact events and handed-over joints
+    /// one rank gets.
+    pub fn merge_contact(
+        &mut self,
+        ci: &mut crate::contact_interaction::ContactInteraction,
+        time: Real,
+    ) -> crate::contact_interaction::ContactSums {
+        use crate::contact_interaction::PairRecord;
+        let t = std::time::Instant::now();
+        let mine: Vec<PairRecord> = ci.records().copied().collect();
+        let bytes = postcard::to_allocvec(&mine).expect("contact records serialize");
+        let received = self.comm.allgather_bytes(&bytes);
+        self.bytes += received.iter().map(|b| b.len() as u64).sum::<u64>() - bytes.len() as u64;
+        let mut all: Vec<PairRecord> = received
+            .iter()
+            .flat_map(|b| {
+                postcard::from_bytes::<Vec<PairRecord>>(b).expect("contact records deserialize")
+            })
+            .collect();
+        all.sort_by_key(|r| r.pair);
+        self.seconds += t.elapsed().as_secs_f64();
+        ci.apply_records(&all, time)
+    }
+
+    /// Give every rank every candidate pair's history from its designated rank (a rank
+    /// keeps current only the pairs it computes). Before output, checkpoints and the
+    /// script's contact queries; a collective.
+    pub fn share_contact_histories(
+        &mut self,
+        ci: &mut crate::contact_interaction::ContactInteraction,
+    ) {
+        use crate::contact_interaction::PairState;
+        let t = std::time::Instant::now();
+        let mine = ci.designated_states();
+        let bytes = postcard::to_allocvec(&mine).expect("pair histories serialize");
+        let received = self.comm.allgather_bytes(&bytes);
+        self.bytes += received.iter().map(|b| b.len() as u64).sum::<u64>() - bytes.len() as u64;
+        let mut all: Vec<(u32, u8, Option<PairState>)> = received
+            .iter()
+            .flat_map(|b| {
+                postcard::from_bytes::<Vec<(u32, u8, Option<PairState>)>>(b)
+                    .expect("pair histories deserialize")
+            })
+            .collect();
+        all.sort_by_key(|s| s.0);
+        assert_eq!(
+            all.len(),
+            ci.slots.len(),
+            "every candidate pair is designated to one rank"
+        );
+        ci.set_states(all.into_iter().map(|(_, w, s)| (w, s)));
         self.seconds += t.elapsed().as_secs_f64();
     }
 }

@@ -396,6 +396,7 @@ impl Simulation {
         if let Some(mut par) = parallel {
             par.nodes_shared_at = None;
             par.joints_shared_at = None;
+            par.contact_shared_at = None;
             self.parallel = Some(par);
             self.ready = false;
         }
@@ -423,6 +424,7 @@ impl Simulation {
     pub fn synchronize(&mut self) {
         self.synchronize_nodes();
         self.synchronize_joints();
+        self.synchronize_contact();
     }
 
     /// Every node's position, velocity and reaction from the rank that owns it (once per
@@ -444,6 +446,22 @@ impl Simulation {
             if par.joints_shared_at != Some(step) && !par.partition.node_ranges.is_empty() {
                 par.share_joint_histories(&mut self.joints);
                 par.joints_shared_at = Some(step);
+            }
+        }
+    }
+
+    /// Every contact pair's history and last forces from the rank it is designated to (once
+    /// per step).
+    pub fn synchronize_contact(&mut self) {
+        let step = self.step;
+        if let Some(par) = &mut self.parallel {
+            if par.contact_shared_at != Some(step)
+                && !par.partition.node_ranges.is_empty()
+                && self.contact.is_enabled()
+                && self.contact.mask.compute.len() == self.contact.slots.len()
+            {
+                par.share_contact_histories(&mut self.contact);
+                par.contact_shared_at = Some(step);
             }
         }
     }
@@ -751,7 +769,6 @@ impl Simulation {
             return Ok(());
         };
         let missing = [
-            (self.contact.is_enabled(), "contact"),
             (!self.rigid.is_empty(), "rigid bodies"),
             (!self.bars.is_empty() || !self.bonds.is_empty(), "rebars"),
         ];
@@ -767,14 +784,17 @@ impl Simulation {
             .iter()
             .flat_map(|f| f.nodes.iter().copied())
             .collect();
-        par.split(
-            self.nodes.len(),
-            &self.tets,
-            &self.bodies,
-            &units,
-            &self.joints,
-            &loaded,
-        );
+        par.split(crate::parallel::ModelToSplit {
+            n_nodes: self.nodes.len(),
+            tets: &self.tets,
+            bodies: &self.bodies,
+            element_units: &units,
+            joints: &self.joints,
+            loaded: &loaded,
+            contact: self.contact.is_enabled(),
+        });
+        // Stage 5's mask is made for the pairs of the next step.
+        self.contact.mask = Default::default();
         self.elements_ws.compute = par.elements.compute.clone();
         self.joints.compute = par.joint_blocks.compute.clone();
         Ok(())
@@ -1070,6 +1090,12 @@ impl Simulation {
                 let n_surface = self.contact_detection.surface.len();
                 self.contact.carry_history(remap, n_surface);
             }
+            if let Some(par) = &self.parallel {
+                let cd = &self.contact_detection;
+                if self.contact.mask.compute.len() != cd.pairs.len() {
+                    self.contact.mask = par.contact_mask(&cd.surface, &cd.pairs);
+                }
+            }
         });
         let cs = timed(&mut self.timers, Stage::ContactInteraction, || {
             let cs = contact_interaction::add_contact_forces(
@@ -1081,6 +1107,10 @@ impl Simulation {
                 self.dt_prev,
                 self.time,
             );
+            let cs = match &mut self.parallel {
+                Some(par) => par.merge_contact(&mut self.contact, self.time),
+                None => cs,
+            };
             self.joints.hand_over(&self.contact.handover);
             cs
         });
