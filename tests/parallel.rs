@@ -246,7 +246,7 @@ fn continuous_bodies_move_identically_on_any_rank_count() {
 /// A jointed bar (24 × 4 × 4 Kuhn cells, 2 304 tets, dilatant cohesive joints) thrown at 5 m/s down
 /// and 1.5 m/s along onto a slab (continuous, 24 × 8 × 2 cells, base held) with Coulomb
 /// friction μ = 0.5 and normal damping: the impact (about ρcv = 25 MPa against f_t = 1 MPa)
-/// breaks joints, whose faces contact takes over; pairs stick and slide. 13 900 nodes: 7 of
+/// breaks joints, whose faces contact takes over; pairs stick and slide. 9 891 nodes: 5 of
 /// stage 7's chunks, so 4 ranks each own some, and contact pairs join nodes of different
 /// ranks.
 fn bar_thrown_on_a_slab() -> Simulation {

@@ -73,7 +73,8 @@ pub struct Partition {
 impl Partition {
     /// Split `n_nodes` nodes between `size` ranks: contiguous ranges, boundaries at multiples
     /// of `align` nodes (and never inside a rigid body's nodes), balanced by the number of
-    /// tet corners at each node (a node of no tet weighs one).
+    /// tet corners at each node (a node of no tet weighs one): each boundary is the aligned
+    /// one nearest in weight to its share.
     pub fn new(rank: usize, size: usize, n_nodes: usize, tets: &Tets, bodies: &[Body]) -> Self {
         let align = crate::integration::CHUNK;
         let mut weight = vec![0u32; n_nodes];
@@ -98,7 +99,16 @@ impl Partition {
         for k in 1..size {
             let target = acc * k as u64 / size as u64;
             let i = prefix.partition_point(|&p| p < target).min(n_nodes);
-            let mut b = ((i + align / 2) / align * align).min(n_nodes);
+            // The aligned bound on either side whose weight is nearer the target (a heavy
+            // run of nodes, a continuous body's, can put the nearest index far off in weight).
+            let below = i / align * align;
+            let above = (below + align).min(n_nodes);
+            let off = |b: usize| prefix[b].abs_diff(target);
+            let mut b = if off(above) < off(below) {
+                above
+            } else {
+                below
+            };
             if let Some(r) = rigid.iter().find(|r| r.start < b && b < r.end) {
                 b = r.end;
             }
