@@ -327,6 +327,8 @@ pub struct ContactInteraction {
 pub struct PairMask {
     pub compute: Vec<bool>,
     pub designated: Vec<bool>,
+    /// Per surface tet: in a pair this rank computes (the others' geometry is not updated).
+    pub surface: Vec<bool>,
 }
 
 /// What one pair added to a step's totals (its own contributions summed first), with the
@@ -620,7 +622,9 @@ pub fn add_contact_forces(
     dt_prev: Real,
     time: Real,
 ) -> ContactSums {
-    update_surface_geometry(ci, &detection.surface, &tets.nodes, &nodes.x);
+    let needed = std::mem::take(&mut ci.mask.surface);
+    update_surface_geometry(ci, &needed, &detection.surface, &tets.nodes, &nodes.x);
+    ci.mask.surface = needed;
     // Checkpoints leave the records out: one list per chunk again after a restart.
     let n_chunks = ci.hist.len();
     ci.chunk_records.resize_with(n_chunks, Vec::new);
@@ -942,9 +946,11 @@ impl ContactInteraction {
     }
 }
 
-/// Current geometry, box and 1/(smallest height) of the surface tets, in one pass.
+/// Current geometry, box and 1/(smallest height) of the surface tets (those `needed`, when
+/// given: a decomposed model's rank reads only the tets of its pairs), in one pass.
 fn update_surface_geometry(
     ci: &mut ContactInteraction,
+    needed: &[bool],
     surface: &[u32],
     tet_nodes: &[[u32; 4]],
     x: &[Vec3],
@@ -954,8 +960,12 @@ fn update_surface_geometry(
         .zip(ci.current_boxes.par_iter_mut())
         .zip(ci.inv_h.par_iter_mut())
         .zip(surface.par_iter())
+        .enumerate()
         .with_min_len(256)
-        .for_each(|(((g, bx), ih), &e)| {
+        .for_each(|(s, (((g, bx), ih), &e))| {
+            if !needed.is_empty() && !needed[s] {
+                return;
+            }
             let xs = tet_nodes[e as usize].map(|n| x[n as usize]);
             *bx = Aabb::of_points(&xs);
             *g = TetGeom::new(xs);

@@ -23,10 +23,18 @@
 //! (each joint's by its designated rank), merged in joint order, and every rank marks them
 //! broken, so the surfaces that contact detection derives from them agree.
 //!
+//! **Contact.** Every rank runs stage 4 on the whole model (every node is exported), so all
+//! have the same candidate pairs in the same order. A rank computes in stage 5 every pair
+//! with a node of its own ([`Parallel::contact_mask`]: a choice fixed by the pair's two
+//! tets, so its history is current wherever it is computed), and the designated rank of
+//! each pair sends its record (its totals, event, handover), merged in pair order
+//! ([`Parallel::merge_contact`]). Pair histories are shared at
+//! [`Parallel::share_contact_histories`].
+//!
 //! **What this is not yet.** The model is replicated: memory per rank does not shrink, and
 //! every rank receives every rank's exports (an all-gather, not a neighbour exchange).
-//! Contact, rigid bodies and rebars are refused on more than one rank for now
-//! (docs/cluster.md lists the next steps).
+//! Contact detection is not split. Rigid bodies and rebars are refused on more than one
+//! rank for now (docs/cluster.md lists the next steps).
 
 pub mod comm;
 
@@ -549,7 +557,7 @@ impl Parallel {
     ) -> crate::contact_interaction::PairMask {
         let p = &self.partition;
         let rank = self.rank() as u32;
-        let (compute, designated) = pairs
+        let (compute, designated): (Vec<bool>, Vec<bool>) = pairs
             .iter()
             .map(|&[a, b]| {
                 let (ea, eb) = (surface[a as usize] as usize, surface[b as usize] as usize);
@@ -559,9 +567,15 @@ impl Parallel {
                 )
             })
             .unzip();
+        let mut needed = vec![false; surface.len()];
+        for (&[a, b], _) in pairs.iter().zip(&compute).filter(|c| *c.1) {
+            needed[a as usize] = true;
+            needed[b as usize] = true;
+        }
         crate::contact_interaction::PairMask {
             compute,
             designated,
+            surface: needed,
         }
     }
 

@@ -1097,8 +1097,8 @@ impl Simulation {
                 }
             }
         });
-        let cs = timed(&mut self.timers, Stage::ContactInteraction, || {
-            let cs = contact_interaction::add_contact_forces(
+        let mut cs = timed(&mut self.timers, Stage::ContactInteraction, || {
+            contact_interaction::add_contact_forces(
                 &mut self.contact,
                 &self.contact_detection,
                 &mut self.nodes,
@@ -1106,14 +1106,13 @@ impl Simulation {
                 &self.joints.keeps_faces,
                 self.dt_prev,
                 self.time,
-            );
-            let cs = match &mut self.parallel {
-                Some(par) => par.merge_contact(&mut self.contact, self.time),
-                None => cs,
-            };
-            self.joints.hand_over(&self.contact.handover);
-            cs
+            )
         });
+        if let Some(par) = &mut self.parallel {
+            // Timed as exchange, like the other stages' merges.
+            cs = par.merge_contact(&mut self.contact, self.time);
+        }
+        self.joints.hand_over(&self.contact.handover);
         self.contact_energy = cs.energy;
         self.contact_dissipated = cs.dissipated;
         match &cs.law_failure {

@@ -309,7 +309,7 @@ pub fn check_used(ctx: &ScriptContext) -> Result<(), String> {
     };
     let h = &p.loaded.head;
     Err(format!(
-        "--restart {}: the script ended without reaching the checkpoint (simulation '{}', taken after {} completed run(s) at step {}); did the script change?",
+        "--restart {}: the script ended without reaching the checkpoint (simulation '{}', taken after {} completed run(s) at step {}). Either the script changed, or a loop or `if` between runs reads the model's state: while a restart replays the script up to its checkpoint, runs return at once and the model is the one the script built (the checkpoint's state is restored at its run), so such a condition can take another branch and call `run` fewer times. A checkpoint taken before such a loop, or in a script whose runs do not depend on the state, restarts",
         p.path.display(),
         h.simulation,
         h.point.runs_completed,
