@@ -287,25 +287,27 @@ impl CandidateFilter<'_> {
             .map(|i| self.broken[i].1)
     }
 
-    /// Surface elements `i` and `j` (overlapping boxes) are a candidate pair.
+    /// Surface elements `i` and `j` (overlapping boxes) are a candidate pair: near, and of
+    /// different fragments, or of one fragment but neither one continuous body nor
+    /// neighbours through an intact joint or a shared edge or node. The topological tests
+    /// come first: they are cheaper than [`CandidateFilter::near`] and reject most box
+    /// overlaps of an intact body (its neighbours').
     fn keep(&self, i: u32, j: u32) -> bool {
         let (a, b) = (self.surface[i as usize], self.surface[j as usize]);
-        if !self.near(a, b) {
-            return false;
-        }
         if self.fragment[a as usize] != self.fragment[b as usize] {
-            return true;
+            return self.near(a, b);
         }
         // A continuous body does not contact itself.
         let body = self.tet_body[a as usize];
         if body == self.tet_body[b as usize] && self.continuous[body as usize] {
             return false;
         }
-        match self.shared(a, b) {
+        let topology = match self.shared(a, b) {
             0 => true,
             3 => self.broken_joint(a, b).is_some(),
             _ => false,
-        }
+        };
+        topology && self.near(a, b)
     }
 
     /// The origin of a pair (surface indices) that was not a candidate before.
