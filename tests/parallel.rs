@@ -361,6 +361,59 @@ fn a_bar_thrown_on_a_slab_breaks_identically_on_any_rank_count() {
     assert!(handed > 0, "broken joints must be handed over to contact");
 }
 
+/// A friction law that turns negative once a pair slips faster than 0.5 m/s (μ = 0.5 − v)
+/// stops the run; on 2, 3 and 4 ranks every rank stops at the one-rank step with the
+/// one-rank message (the first failing pair in pair order, merged from the pairs' records).
+#[test]
+fn a_failing_friction_law_stops_every_rank_where_one_rank_stops() {
+    let build = || {
+        let mut sim = bar_thrown_on_a_slab();
+        let ast = rhai::Engine::new_raw()
+            .compile("fn mu(c, p) { p.mu0 - p.k * c.slip_rate }")
+            .unwrap();
+        let mut params = rhai::Map::new();
+        params.insert("mu0".into(), (0.5 as Real).into());
+        params.insert("k".into(), (1.0 as Real).into());
+        let law = fdem::compiled::compile_with(
+            &ast,
+            "mu",
+            &params,
+            fdem::contact_interaction::FRICTION_LAW,
+        )
+        .unwrap();
+        sim.contact.laws.rules[0] = fdem::contact_interaction::ContactRule::from(
+            fdem::contact_interaction::PotentialContact {
+                friction: 0.5,
+                damping: 0.1,
+                friction_law: Some(std::sync::Arc::new(law)),
+                ..Default::default()
+            },
+        );
+        sim
+    };
+    let stop = |sim: &mut Simulation| -> (u64, String) {
+        for _ in 0..2000 {
+            if let Err(e) = sim.step() {
+                return (sim.step, e.to_string());
+            }
+        }
+        panic!("the law must fail within 2000 steps");
+    };
+    let reference = stop(&mut build());
+    println!("one rank stops at step {}: {}", reference.0, reference.1);
+    assert!(reference.1.contains("friction law 'mu'"), "{}", reference.1);
+    for ranks in 2..=4 {
+        let runs = ThreadComm::run(ranks, |comm| {
+            let mut sim = build();
+            sim.decompose(comm);
+            stop(&mut sim)
+        });
+        for (rank, got) in runs.into_iter().enumerate() {
+            assert_eq!(got, reference, "rank {rank} of {ranks}");
+        }
+    }
+}
+
 /// What the decomposition does not cover yet (here: rigid bodies) is refused by name, on
 /// every rank, before the first step; the same model runs on one rank.
 #[test]
