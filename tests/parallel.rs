@@ -110,6 +110,25 @@ fn same_on_any_rank_count(build: impl Fn() -> Simulation + Sync, steps: usize) -
     reference
 }
 
+/// The cohesive joint law of the jointed models: tensile strength `ft`, cohesion 3·ft,
+/// friction angle 30°, G_II = 4·G_I, penalties 10·E.
+fn cohesive(e: Real, ft: Real, g_i: Real, dilatancy: fdem::joints::law::Dilatancy) -> Cohesive {
+    Cohesive {
+        softening: Softening::Munjiza,
+        calibration: Calibration::Exact,
+        tensile_strength: ft,
+        cohesion: 3.0 * ft,
+        tan_friction: 30f64.to_radians().tan(),
+        g_i,
+        g_ii: 4.0 * g_i,
+        normal_penalty: 10.0 * e,
+        tangential_penalty: 10.0 * e,
+        residual_friction: 0.5,
+        rate: fdem::joints::law::RateEffects::None,
+        dilatancy,
+    }
+}
+
 /// A jointed bar, 1 × 0.1 × 0.1 m in 48 × 4 × 4 Kuhn cells (4 608 tets, 18 432 nodes: 9
 /// of stage 7's chunks), held at x = 0 and pulled at x = L until it breaks.
 fn pulled_jointed_bar() -> Simulation {
@@ -123,20 +142,7 @@ fn pulled_jointed_bar() -> Simulation {
         Layout::Jointed,
     )
     .unwrap();
-    let law = Cohesive {
-        softening: Softening::Munjiza,
-        calibration: Calibration::Exact,
-        tensile_strength: ft,
-        cohesion: 3.0 * ft,
-        tan_friction: 30f64.to_radians().tan(),
-        g_i: 50.0,
-        g_ii: 200.0,
-        normal_penalty: 10.0 * e,
-        tangential_penalty: 10.0 * e,
-        residual_friction: 0.5,
-        rate: fdem::joints::law::RateEffects::None,
-        dilatancy: fdem::joints::law::Dilatancy::NONE,
-    };
+    let law = cohesive(e, ft, 50.0, fdem::joints::law::Dilatancy::NONE);
     let id = sim.joints.add_law(JointLaw::Cohesive(law));
     let (body, tets, x0) = (
         sim.bodies[0].clone(),
@@ -275,25 +281,13 @@ fn bar_thrown_on_a_slab() -> Simulation {
         Layout::Jointed,
     )
     .unwrap();
-    let law = Cohesive {
-        softening: Softening::Munjiza,
-        calibration: Calibration::Exact,
-        tensile_strength: ft,
-        cohesion: 3.0 * ft,
-        tan_friction: 30f64.to_radians().tan(),
-        g_i: 20.0,
-        g_ii: 80.0,
-        normal_penalty: 10.0 * e,
-        tangential_penalty: 10.0 * e,
-        residual_friction: 0.5,
-        rate: fdem::joints::law::RateEffects::None,
-        // Dilatant: a broken joint holds its faces while within the asperities' reach,
-        // and contact pairs of its two tets read that.
-        dilatancy: fdem::joints::law::Dilatancy {
-            tan_angle: 0.2,
-            max_opening: 5e-6,
-        },
+    // Dilatant: a broken joint holds its faces while within the asperities' reach,
+    // and contact pairs of its two tets read that.
+    let dilatant = fdem::joints::law::Dilatancy {
+        tan_angle: 0.2,
+        max_opening: 5e-6,
     };
+    let law = cohesive(e, ft, 20.0, dilatant);
     let id = sim.joints.add_law(JointLaw::Cohesive(law));
     let (body, tets, x0) = (
         sim.bodies[1].clone(),

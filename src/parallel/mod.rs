@@ -480,15 +480,7 @@ impl Parallel {
             .filter(|e| self.joints.designated[e.joint])
             .cloned()
             .collect();
-        let bytes = postcard::to_allocvec(&mine).expect("break events serialize");
-        let received = self.comm.allgather_bytes(&bytes);
-        self.bytes += received.iter().map(|b| b.len() as u64).sum::<u64>() - bytes.len() as u64;
-        let mut all: Vec<BreakEvent> = received
-            .iter()
-            .flat_map(|b| {
-                postcard::from_bytes::<Vec<BreakEvent>>(b).expect("break events deserialize")
-            })
-            .collect();
+        let mut all = self.gather_items(&mine, "break events");
         all.sort_by_key(|e| e.joint);
         for e in &all {
             joints.broken[e.joint] = true;
@@ -496,6 +488,24 @@ impl Parallel {
         events.truncate(first);
         events.extend(all);
         self.seconds += t.elapsed().as_secs_f64();
+    }
+
+    /// Every rank's `mine` to every rank, in rank order (a collective; `what` names the
+    /// items in a failure). Counts the bytes received; the caller times the exchange.
+    fn gather_items<T>(&mut self, mine: &[T], what: &str) -> Vec<T>
+    where
+        T: serde::Serialize + serde::de::DeserializeOwned,
+    {
+        let bytes = postcard::to_allocvec(mine).unwrap_or_else(|e| panic!("{what} serialize: {e}"));
+        let received = self.comm.allgather_bytes(&bytes);
+        self.bytes += received.iter().map(|b| b.len() as u64).sum::<u64>() - bytes.len() as u64;
+        received
+            .iter()
+            .flat_map(|b| {
+                postcard::from_bytes::<Vec<T>>(b)
+                    .unwrap_or_else(|e| panic!("{what} deserialize: {e}"))
+            })
+            .collect()
     }
 
     /// A sum over ranks of one value per rank, added in rank order (the same on every rank;
@@ -590,15 +600,7 @@ impl Parallel {
         use crate::contact_interaction::PairRecord;
         let t = std::time::Instant::now();
         let mine: Vec<PairRecord> = ci.records().copied().collect();
-        let bytes = postcard::to_allocvec(&mine).expect("contact records serialize");
-        let received = self.comm.allgather_bytes(&bytes);
-        self.bytes += received.iter().map(|b| b.len() as u64).sum::<u64>() - bytes.len() as u64;
-        let mut all: Vec<PairRecord> = received
-            .iter()
-            .flat_map(|b| {
-                postcard::from_bytes::<Vec<PairRecord>>(b).expect("contact records deserialize")
-            })
-            .collect();
+        let mut all = self.gather_items(&mine, "contact records");
         all.sort_by_key(|r| r.pair);
         self.seconds += t.elapsed().as_secs_f64();
         ci.apply_records(&all, time)
@@ -614,16 +616,7 @@ impl Parallel {
         use crate::contact_interaction::PairState;
         let t = std::time::Instant::now();
         let mine = ci.designated_states();
-        let bytes = postcard::to_allocvec(&mine).expect("pair histories serialize");
-        let received = self.comm.allgather_bytes(&bytes);
-        self.bytes += received.iter().map(|b| b.len() as u64).sum::<u64>() - bytes.len() as u64;
-        let mut all: Vec<(u32, u8, Option<PairState>)> = received
-            .iter()
-            .flat_map(|b| {
-                postcard::from_bytes::<Vec<(u32, u8, Option<PairState>)>>(b)
-                    .expect("pair histories deserialize")
-            })
-            .collect();
+        let mut all: Vec<(u32, u8, Option<PairState>)> = self.gather_items(&mine, "pair histories");
         all.sort_by_key(|s| s.0);
         assert_eq!(
             all.len(),
@@ -670,28 +663,21 @@ impl Parallel {
                 rate: joints.rate.get(j).copied(),
             })
             .collect();
-        let bytes = postcard::to_allocvec(&mine).expect("joint histories serialize");
-        let received = self.comm.allgather_bytes(&bytes);
-        self.bytes += received.iter().map(|b| b.len() as u64).sum::<u64>() - bytes.len() as u64;
-        for b in received {
-            let theirs: Vec<JointHistory> =
-                postcard::from_bytes(&b).expect("joint histories deserialize");
-            for h in theirs {
-                let j = h.joint as usize;
-                joints.state[j] = h.state;
-                joints.anchor[j] = h.anchor;
-                joints.slid[j] = h.slid;
-                joints.offset[j] = h.offset;
-                joints.last_energy[j] = h.last_energy;
-                if let Some(k) = joints.keeps_faces.get_mut(j) {
-                    *k = h.keeps_faces;
-                }
-                if let Some(k) = joints.handed_over.get_mut(j) {
-                    *k = h.handed_over;
-                }
-                if let (Some(r), Some(hr)) = (joints.rate.get_mut(j), h.rate) {
-                    *r = hr;
-                }
+        for h in self.gather_items(&mine, "joint histories") {
+            let j = h.joint as usize;
+            joints.state[j] = h.state;
+            joints.anchor[j] = h.anchor;
+            joints.slid[j] = h.slid;
+            joints.offset[j] = h.offset;
+            joints.last_energy[j] = h.last_energy;
+            if let Some(k) = joints.keeps_faces.get_mut(j) {
+                *k = h.keeps_faces;
+            }
+            if let Some(k) = joints.handed_over.get_mut(j) {
+                *k = h.handed_over;
+            }
+            if let (Some(r), Some(hr)) = (joints.rate.get_mut(j), h.rate) {
+                *r = hr;
             }
         }
         self.seconds += t.elapsed().as_secs_f64();
