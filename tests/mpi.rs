@@ -60,6 +60,33 @@ fn run_script(mut cmd: Command, script: &str, out: &Path, extra: &[&str]) {
     );
 }
 
+/// `fdem` not under a launcher: one process, not decomposed.
+fn single_process() -> Command {
+    let mut cmd = Command::new(fdem());
+    cmd.env_remove("OMPI_COMM_WORLD_SIZE")
+        .env_remove("PMI_SIZE");
+    cmd
+}
+
+/// Copy the run in `from` to `out` (as after an interruption) and continue it on `np` ranks
+/// from its checkpoint, with `set` as the script's `--set`.
+fn restart_on(np: usize, script: &str, from: &Path, out: &Path, set: &str) {
+    std::fs::create_dir_all(out).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let p = e.unwrap().path();
+        std::fs::copy(&p, out.join(p.file_name().unwrap())).unwrap();
+    }
+    let ck = out.join("checkpoint.fdemck");
+    let mut cmd = mpirun(np);
+    cmd.arg(fdem());
+    run_script(
+        cmd,
+        script,
+        out,
+        &["--set", set, "--restart", ck.to_str().unwrap()],
+    );
+}
+
 /// Every file of `dir`, by name, with its bytes; the checkpoint (which holds wall times)
 /// left out.
 fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
@@ -84,10 +111,7 @@ fn mpirun_writes_the_single_process_files_on_any_rank_count() {
     let root = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("mpi_decomposed_bar");
     let _ = std::fs::remove_dir_all(&root);
     let single = root.join("single");
-    let mut cmd = Command::new(fdem());
-    // Not under a launcher: one process, not decomposed.
-    cmd.env_remove("OMPI_COMM_WORLD_SIZE")
-        .env_remove("PMI_SIZE");
+    let cmd = single_process();
     run(cmd, &single, &["--overwrite"]);
     let reference = files(&single);
     let names: Vec<&str> = reference.iter().map(|(n, _)| n.as_str()).collect();
@@ -131,9 +155,7 @@ fn a_checkpoint_restarts_on_another_rank_count() {
     let _ = std::fs::remove_dir_all(&root);
     let at = ["--set", "checkpoint_at=1000", "--overwrite"];
     let single = root.join("single");
-    let mut cmd = Command::new(fdem());
-    cmd.env_remove("OMPI_COMM_WORLD_SIZE")
-        .env_remove("PMI_SIZE");
+    let cmd = single_process();
     run(cmd, &single, &at);
     let reference = files(&single);
     let two = root.join("np2");
@@ -142,21 +164,7 @@ fn a_checkpoint_restarts_on_another_rank_count() {
     run(cmd, &two, &at);
     for np in [3, 1] {
         let out = root.join(format!("restart_np{np}"));
-        std::fs::create_dir_all(&out).unwrap();
-        for e in std::fs::read_dir(&two).unwrap() {
-            let p = e.unwrap().path();
-            std::fs::copy(&p, out.join(p.file_name().unwrap())).unwrap();
-        }
-        let ck = out.join("checkpoint.fdemck");
-        let mut cmd = mpirun(np);
-        cmd.arg(fdem());
-        let restart = [
-            "--set",
-            "checkpoint_at=1000",
-            "--restart",
-            ck.to_str().unwrap(),
-        ];
-        run(cmd, &out, &restart);
+        restart_on(np, SCRIPT, &two, &out, "checkpoint_at=1000");
         same_files(
             &reference,
             &out,
@@ -176,9 +184,7 @@ fn contact_writes_the_single_process_files_on_any_rank_count() {
     let _ = std::fs::remove_dir_all(&root);
     let at = ["--set", "checkpoint_at=300", "--overwrite"];
     let single = root.join("single");
-    let mut cmd = Command::new(fdem());
-    cmd.env_remove("OMPI_COMM_WORLD_SIZE")
-        .env_remove("PMI_SIZE");
+    let cmd = single_process();
     run_script(cmd, CONTACT_SCRIPT, &single, &at);
     let reference = files(&single);
     let names: Vec<&str> = reference.iter().map(|(n, _)| n.as_str()).collect();
@@ -198,21 +204,13 @@ fn contact_writes_the_single_process_files_on_any_rank_count() {
         same_files(&reference, &out, &format!("contact on np {np}"));
     }
     let out = root.join("restart_np3");
-    std::fs::create_dir_all(&out).unwrap();
-    for e in std::fs::read_dir(root.join("np2")).unwrap() {
-        let p = e.unwrap().path();
-        std::fs::copy(&p, out.join(p.file_name().unwrap())).unwrap();
-    }
-    let ck = out.join("checkpoint.fdemck");
-    let mut cmd = mpirun(3);
-    cmd.arg(fdem());
-    let restart = [
-        "--set",
+    restart_on(
+        3,
+        CONTACT_SCRIPT,
+        &root.join("np2"),
+        &out,
         "checkpoint_at=300",
-        "--restart",
-        ck.to_str().unwrap(),
-    ];
-    run_script(cmd, CONTACT_SCRIPT, &out, &restart);
+    );
     same_files(
         &reference,
         &out,
