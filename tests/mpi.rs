@@ -217,3 +217,39 @@ fn contact_writes_the_single_process_files_on_any_rank_count() {
         "contact: restart on 3 of a 2-rank checkpoint",
     );
 }
+
+/// Rebars and rigid bodies: the reinforced concrete beam struck by a rigid weight on a rigid
+/// plate (`scripts/rc_beam_impact.rhai`, quick mode) writes the same files on 2 to 4 ranks
+/// as in one process: the weight's force, m·a, velocity and displacement, the bars' frames
+/// (axial force, slip), cracks and the energy account.
+#[test]
+#[ignore = "needs mpi"]
+fn a_reinforced_beam_under_a_rigid_weight_writes_the_single_process_files() {
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/rc_beam_impact.rhai");
+    let root = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("mpi_rc_beam");
+    let _ = std::fs::remove_dir_all(&root);
+    let set = ["--set", "quick=true", "--overwrite"];
+    let single = root.join("single");
+    run_script(single_process(), script, &single, &set);
+    let reference = files(&single);
+    let names: Vec<&str> = reference.iter().map(|(n, _)| n.as_str()).collect();
+    for expected in [
+        "energy.csv",
+        "weight_ma.csv",
+        "impact_force.csv",
+        "cracks.csv",
+    ] {
+        assert!(names.contains(&expected), "{expected} missing: {names:?}");
+    }
+    assert!(
+        names.iter().any(|n| n.contains("_bars_")),
+        "bar frames missing: {names:?}"
+    );
+    for np in 2..=4 {
+        let out = root.join(format!("np{np}"));
+        let mut cmd = mpirun(np);
+        cmd.arg(fdem());
+        run_script(cmd, script, &out, &set);
+        same_files(&reference, &out, &format!("rc beam on np {np}"));
+    }
+}

@@ -320,9 +320,20 @@ impl RigidBodies {
     }
 }
 
-/// Stage 7 for the rigid bodies: read their nodes' forces (and clear them), advance each
-/// body one step, place its nodes. `time` is t at the start of the step. The sums (kinetic
-/// energy, gravity work, constraint work, damping, momentum) are added to `sums`.
+/// Stage 7 for the rigid bodies, first half: each body's resultant force and torque from its
+/// nodes' forces (which are cleared), into `force` and `torque`. On a decomposed model only
+/// the rank owning a body's nodes has all their forces; it shares the two vectors
+/// (`Parallel::share_rigid_loads`) before [`advance`].
+pub fn gather_loads(rigid: &mut RigidBodies, nodes: &mut Nodes) {
+    for rb in &mut rigid.bodies {
+        gather(rb, nodes);
+    }
+}
+
+/// Stage 7 for the rigid bodies, second half: advance each body one step under the force
+/// and torque of [`gather_loads`], and place its nodes. `time` is t at the start of the step.
+/// The sums (kinetic energy, gravity work, constraint work, damping, momentum) are added to
+/// `sums`, after the nodes' (the same order on any number of ranks).
 pub fn advance(
     rigid: &mut RigidBodies,
     nodes: &mut Nodes,
@@ -331,7 +342,6 @@ pub fn advance(
     sums: &mut IntegrationSums,
 ) {
     for rb in &mut rigid.bodies {
-        gather(rb, nodes);
         let (w_old, w_new) = kick(rb, p, time, sums);
         if p.sample {
             let l_new = rb.angular_momentum;

@@ -98,7 +98,8 @@ impl Comm for ThreadComm {
     }
     fn sum_f64(&self, data: &mut [f64]) {
         let all = self.allgather_bytes(as_bytes(data));
-        data.fill(0.0);
+        // −0 is the additive identity (0 + −0 = 0 would lose a −0 some rank sent).
+        data.fill(-0.0);
         for bytes in &all {
             for (d, b) in data.iter_mut().zip(bytes.chunks_exact(8)) {
                 *d += f64::from_le_bytes(b.try_into().expect("8 bytes"));

@@ -31,10 +31,15 @@
 //! ([`Parallel::merge_contact`]). Pair histories are shared at
 //! [`Parallel::share_contact_histories`].
 //!
+//! **Rebars and rigid bodies.** Every rank computes every bar, hinge and bond point (few
+//! beside the host's tets), in the one-rank order, so their nodes and their host tets' are
+//! exported. A rigid body's nodes are never split: the rank owning them gathers the body's
+//! force and torque and shares them ([`Parallel::share_rigid_loads`]), and every rank
+//! advances every rigid body alike, after the nodes' sums.
+//!
 //! **What this is not yet.** The model is replicated: memory per rank does not shrink, and
 //! every rank receives every rank's exports (an all-gather, not a neighbour exchange).
-//! Contact detection is not split. Rigid bodies and rebars are refused on more than one
-//! rank for now (docs/cluster.md lists the next steps).
+//! Contact detection is not split (docs/cluster.md lists the next steps).
 
 pub mod comm;
 
@@ -214,7 +219,8 @@ pub struct ModelToSplit<'a> {
     /// Stage 1's units (see `ElementsWorkspace::units`).
     pub element_units: &'a [Range<usize>],
     pub joints: &'a Joints,
-    /// Nodes whose positions stage 6 reads (the nodal force sets').
+    /// Nodes every rank reads while stepping: the nodal force sets' (stage 6), the rebars'
+    /// and their host tets' (every rank computes every bar and bond point).
     pub loaded: &'a [u32],
     /// The model has contact: stages 4 and 5 read every node.
     pub contact: bool,
@@ -441,7 +447,9 @@ impl Parallel {
         designated: impl Fn(usize) -> bool,
     ) {
         buf.clear();
-        buf.resize(partials.len() * P::LEN, 0.0);
+        // −0, the additive identity: the designated rank's value comes through exactly,
+        // a −0 included.
+        buf.resize(partials.len() * P::LEN, -0.0);
         for (i, p) in partials.iter().enumerate() {
             if designated(i) {
                 p.write(&mut buf[i * P::LEN..(i + 1) * P::LEN]);
@@ -463,6 +471,34 @@ impl Parallel {
         });
         self.seconds += t.elapsed().as_secs_f64();
         self.bytes += (self.buffer.len() * 8 * (self.comm.size() - 1)) as u64;
+    }
+
+    /// Stage 7: each rigid body's resultant force and torque (from
+    /// `integration::rigid::gather_loads`) from the rank owning its nodes, which alone has
+    /// all their forces (a partition never splits a rigid body), to every rank; every rank
+    /// then advances every rigid body alike.
+    pub fn share_rigid_loads(&mut self, rigid: &mut crate::integration::rigid::RigidBodies) {
+        if rigid.is_empty() {
+            return;
+        }
+        let t = std::time::Instant::now();
+        let p = &self.partition;
+        let mine = |nodes: &Range<usize>| p.owner(nodes.start) == p.rank;
+        self.buffer.clear();
+        for rb in &rigid.bodies {
+            if mine(&rb.nodes) {
+                self.buffer.extend(rb.force.iter().chain(rb.torque.iter()));
+            } else {
+                self.buffer.extend([-0.0; 6]);
+            }
+        }
+        self.comm.sum_f64(&mut self.buffer);
+        for (rb, v) in rigid.bodies.iter_mut().zip(self.buffer.chunks_exact(6)) {
+            rb.force = crate::math::Vec3::new(v[0], v[1], v[2]);
+            rb.torque = crate::math::Vec3::new(v[3], v[4], v[5]);
+        }
+        self.bytes += (self.buffer.len() * 8 * (self.comm.size() - 1)) as u64;
+        self.seconds += t.elapsed().as_secs_f64();
     }
 
     /// Merge this step's break events (from `first` on in `events`): each rank contributes

@@ -763,26 +763,26 @@ impl Simulation {
     }
 
     /// A decomposed model: split nodes and work for this rank, and hand stages 1 and 2 the
-    /// units it computes. Refuses what the decomposition does not cover yet.
+    /// units it computes. Rebars (bars, hinges, bond points) are few beside the host's
+    /// tets: every rank computes all of them, so their nodes and their hosts' are read by
+    /// every rank. Rigid bodies are advanced by every rank from their owner's loads.
     fn split_between_ranks(&mut self) -> Result<(), SimError> {
         let Some(par) = &mut self.parallel else {
             return Ok(());
         };
-        let missing = [
-            (!self.rigid.is_empty(), "rigid bodies"),
-            (!self.bars.is_empty() || !self.bonds.is_empty(), "rebars"),
-        ];
-        if let Some((_, what)) = missing.iter().find(|m| m.0) {
-            return Err(SimError::Invalid(format!(
-                "this model has {what}, which a run on more than one rank does not support yet (decomposed runs cover elements, joints, fracture, loads and integration: docs/cluster.md); run it on one rank"
-            )));
-        }
         let units = self.elements_ws.units(&self.bodies);
+        let rebar_nodes = self.rebars.iter().flat_map(|r| r.nodes.clone());
+        let hosts = self
+            .bonds
+            .tet
+            .iter()
+            .flat_map(|&t| self.tets.nodes[t as usize].map(|n| n as usize));
         let loaded: Vec<u32> = self
             .loads
             .forces
             .iter()
             .flat_map(|f| f.nodes.iter().copied())
+            .chain(rebar_nodes.chain(hosts).map(|n| n as u32))
             .collect();
         par.split(crate::parallel::ModelToSplit {
             n_nodes: self.nodes.len(),
@@ -987,14 +987,26 @@ impl Simulation {
         let time = self.time;
         // Stage 7 writes the nodes and reads their body ids: lent out for the step.
         let node_body = std::mem::take(&mut self.nodes.body);
-        let is = timed(&mut self.timers, Stage::Integration, || {
+        let mut is = timed(&mut self.timers, Stage::Integration, || {
             let frame = body_frame.then_some((&node_body[..], &self.body_frame[..]));
-            let mut is = integration::central_difference(
+            let is = integration::central_difference(
                 &mut self.nodes,
                 params,
                 frame,
                 &mut self.integration_partials,
             );
+            integration::rigid::gather_loads(&mut self.rigid, &mut self.nodes);
+            is
+        });
+        self.nodes.body = node_body;
+        if let Some(par) = &mut self.parallel {
+            par.exchange_chunk_partials(&mut self.integration_partials);
+            is = IntegrationSums::total(&self.integration_partials);
+            // The rank owning a rigid body's nodes has all their forces.
+            par.share_rigid_loads(&mut self.rigid);
+        }
+        // Every rank advances every rigid body, after the nodes' sums: the same bits.
+        timed(&mut self.timers, Stage::Integration, || {
             // A rigid body's motion is all rigid: relative to itself, nothing to damp.
             let rigid_params = StepParams {
                 mass_damping: if body_frame { 0.0 } else { params.mass_damping },
@@ -1007,13 +1019,8 @@ impl Simulation {
                 time,
                 &mut is,
             );
-            is
         });
-        self.nodes.body = node_body;
-        let mut is = is;
         if let Some(par) = &mut self.parallel {
-            par.exchange_chunk_partials(&mut self.integration_partials);
-            is = IntegrationSums::total(&self.integration_partials);
             par.share_exports(&mut self.nodes);
         }
         is
