@@ -1086,6 +1086,7 @@ pub fn bench_fragmented(tets: usize, steps: u64) -> Result<serde_json::Value, St
         "candidate_pairs": sim.contact_detection.pairs.len(),
         "touching_pairs": sim.contact.last.active,
         "detections": sim.contact_detection.detector.detections,
+        "incremental_detections": sim.contact_detection.detector.incremental,
         "steps": steps,
         "threads": rayon::current_num_threads(),
         "seconds": seconds,

@@ -1000,3 +1000,146 @@ fn blocks_slide_at_the_coulomb_acceleration_at_the_defaults() {
         assert!(err.abs() < 0.01, "balance error {err:.3e}");
     }
 }
+
+/// Stage 4 after fracture: when joints break, the candidate list grows incrementally (the
+/// pairs of tets that joined the surface, and the two sides of each broken joint, found at
+/// the positions of the last full detection). Oracle: a full detection (NBS over every
+/// surface tet) with the same topology at those positions — the lists must be equal as sets
+/// of tet pairs, after each of 40 rounds of random breaks in a jointed 6³-cell block whose
+/// nodes were moved (less than half the skin) since the last full detection (the mutation
+/// "boxes from the current positions" fails it). Rounds that
+/// split off a fragment, or bring too many tets to the surface, take the full path, and so
+/// does a node moved past half the skin; both paths must be taken.
+#[test]
+fn incremental_detection_after_fracture_equals_a_full_detection() {
+    use fdem::contact_detection::{update_pairs, ContactDetection};
+    use fdem::joints::law::{Calibration, Cohesive, Softening};
+    use fdem::joints::JointLaw;
+    let mut sim = Simulation::new();
+    let m = sim.add_material(material(Formulation::StVenantKirchhoff, 2500.0, 1e8, 0.2));
+    let block = box_mesh(Vec3::zeros(), Vec3::repeat(0.6), [6, 6, 6]);
+    let b = sim.add_body("block", &block, m, Layout::Jointed).unwrap();
+    let law = sim.joints.add_law(JointLaw::Cohesive(Cohesive {
+        softening: Softening::Munjiza,
+        calibration: Calibration::Exact,
+        tensile_strength: 0.3e6,
+        cohesion: 0.6e6,
+        tan_friction: 0.6,
+        g_i: 2.0,
+        g_ii: 8.0,
+        normal_penalty: 1e9,
+        tangential_penalty: 1e9,
+        residual_friction: 0.5,
+        rate: fdem::joints::law::RateEffects::None,
+        dilatancy: fdem::joints::law::Dilatancy::NONE,
+    }));
+    let body = sim.bodies[b].clone();
+    let (tn, x0) = (sim.tets.nodes.clone(), sim.nodes.x0.clone());
+    let n_joints = sim
+        .joints
+        .insert_in_body(&body, &tn, &x0, law, |_| true)
+        .unwrap();
+    // A skin of 1.5 cells: tets a cell or two apart (not neighbours) are candidates or not
+    // by where their nodes are, so detections at different positions differ.
+    let mut cd = ContactDetection::default();
+    cd.skin = Some(0.15);
+    cd.prepare();
+    assert!(update_pairs(
+        &mut cd,
+        &sim.nodes,
+        &sim.tets,
+        &sim.bodies,
+        &sim.joints
+    ));
+    let skin = cd.detector.skin;
+    let as_tets = |cd: &ContactDetection| {
+        let mut v: Vec<[u32; 2]> = (cd.pairs.iter())
+            .map(|p| {
+                let (a, b) = (cd.surface[p[0] as usize], cd.surface[p[1] as usize]);
+                [a.min(b), a.max(b)]
+            })
+            .collect();
+        v.sort_unstable();
+        v
+    };
+    let mut rng = fdem::math::SplitMix64(7);
+    let offsets: Vec<Vec3> = (0..sim.nodes.len())
+        .map(|_| {
+            let v = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) - Vec3::repeat(0.5);
+            v * (0.45 * skin * rng.uniform() / v.norm().max(1e-3))
+        })
+        .collect();
+    let (mut incremental, mut full) = (0, 0);
+    for round in 0..40 {
+        // Every node is either at its reference place or moved by its own random offset
+        // (less than 0.45 × skin), by the round's parity: the positions now and at the last
+        // full detection differ by up to 0.9 × skin between neighbours, within half a skin
+        // for each node; in round 30 one node goes past half the skin.
+        for ((x, x0), r) in sim.nodes.x.iter_mut().zip(&sim.nodes.x0).zip(&offsets) {
+            *x = if round % 2 == 1 { x0 + r } else { *x0 };
+        }
+        if round == 30 {
+            sim.nodes.x[0].x += skin;
+        }
+        // A few random joints, and in round 20 a whole plane of them (a fragment splits
+        // off) and in round 25 a third of all joints (too many tets join the surface).
+        let breaks = match round {
+            25 => n_joints / 3,
+            _ => 1 + (rng.next_u64() % 6) as usize,
+        };
+        for _ in 0..breaks {
+            let j = (rng.next_u64() % n_joints as u64) as usize;
+            sim.joints.broken[j] = true;
+        }
+        if round == 20 {
+            for j in 0..n_joints {
+                let f = sim.joints.faces[j][0];
+                if f.iter()
+                    .all(|&n| (sim.nodes.x0[n as usize].z - 0.3).abs() < 1e-9)
+                {
+                    sim.joints.broken[j] = true;
+                }
+            }
+        }
+        let (inc0, full0) = (cd.detector.incremental, cd.detector.detections);
+        cd.surface_stale = true;
+        assert!(update_pairs(
+            &mut cd,
+            &sim.nodes,
+            &sim.tets,
+            &sim.bodies,
+            &sim.joints
+        ));
+        incremental += cd.detector.incremental - inc0;
+        full += cd.detector.detections - full0;
+        // The oracle: a full detection at the positions of the last full one.
+        let mut at_detection = sim.nodes.clone();
+        at_detection.x = cd.detector.x_at_detection.clone();
+        let mut fresh = ContactDetection::default();
+        fresh.skin = Some(skin);
+        fresh.prepare();
+        update_pairs(
+            &mut fresh,
+            &at_detection,
+            &sim.tets,
+            &sim.bodies,
+            &sim.joints,
+        );
+        assert_eq!(fresh.surface, cd.surface, "round {round}: surfaces differ");
+        let (got, want) = (as_tets(&cd), as_tets(&fresh));
+        assert!(
+            got == want,
+            "round {round}: {} pairs incrementally, {} by a full detection",
+            got.len(),
+            want.len()
+        );
+        assert_eq!(cd.origins.len(), cd.pairs.len());
+    }
+    println!(
+        "{incremental} incremental, {full} full detections; {} pairs, {} surface tets at the end",
+        cd.pairs.len(),
+        cd.surface.len()
+    );
+    assert!(incremental >= 30, "the incremental path must be taken");
+    assert!(full >= 3, "rounds 20, 25 and 30 must detect in full");
+}

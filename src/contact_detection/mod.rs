@@ -38,8 +38,12 @@ pub struct Detector {
     pub skin: Real,
     /// Node positions at the last detection (only nodes of surface elements are checked).
     pub x_at_detection: Vec<Vec3>,
-    /// Detections done.
+    /// Detections done (full: NBS over every surface tet).
     pub detections: u64,
+    /// Incremental detections: joints broke, and only the pairs they made possible were
+    /// added ([`update_pairs`]).
+    #[serde(default)]
+    pub incremental: u64,
     /// Force a detection at the next step (topology changed, first step, …).
     pub stale: bool,
     #[serde(skip)]
@@ -54,6 +58,11 @@ impl Detector {
         if self.stale || self.x_at_detection.len() != x.len() {
             return true;
         }
+        self.moved_beyond_skin(x, nodes)
+    }
+
+    /// Some node in `nodes` moved more than skin/2 since the last detection.
+    fn moved_beyond_skin(&self, x: &[Vec3], nodes: &[u32]) -> bool {
         let half = 0.5 * self.skin;
         let limit = half * half;
         nodes.par_chunks(4096).any(|c| {
@@ -154,7 +163,18 @@ pub fn update_pairs(
     joints: &Joints,
 ) -> bool {
     if cd.surface_stale {
+        let detected_before = !cd.detector.stale
+            && cd.detector.x_at_detection.len() == nodes.x.len()
+            && cd.skin.is_none_or(|s| s == cd.detector.skin);
+        let before = Topology {
+            surface: cd.surface.clone(),
+            fragment: cd.fragment.clone(),
+            broken: cd.broken_faces.clone(),
+        };
         refresh_surface(cd, nodes, tets, bodies, joints);
+        if detected_before && add_pairs_of_broken_joints(cd, nodes, tets, bodies, &before) {
+            return true;
+        }
     } else if !cd.detector.needs_update(&nodes.x, &cd.surface_nodes) {
         return false;
     } else {
@@ -230,6 +250,137 @@ pub fn update_pairs(
     cd.detector.x_at_detection.extend_from_slice(x);
     cd.detector.stale = false;
     cd.detector.detections += 1;
+    true
+}
+
+/// The surface, fragments and broken faces before a refresh.
+struct Topology {
+    surface: Vec<u32>,
+    fragment: Vec<u32>,
+    broken: Vec<([u32; 2], u32)>,
+}
+
+/// Largest number of tets joining the surface at one refresh for which the incremental
+/// detection is used: it tests each against every surface box (a few ns each), a full
+/// detection costs ~1–3 µs per surface tet.
+const INCREMENTAL_LIMIT: usize = 256;
+
+/// Joints broke since the last detection, at positions x(t₀): instead of detecting anew,
+/// add the candidate pairs the breaks made possible — pairs of a tet that joined the surface,
+/// and the two sides of each newly broken joint — found as a detection at t₀ would find them
+/// (boxes and nearness from the positions at t₀, the skin test still measured from t₀). The
+/// list is then the one a full detection at t₀ with the new topology gives (breaking only
+/// lifts exclusions), so it holds every pair that can touch until the skin test fires.
+/// Declines (returns false, for a full detection) when a fragment split (pairs across the
+/// whole separating crack become candidates), a tet left the surface, a surface node moved
+/// more than skin/2 since t₀, or too many tets joined the surface.
+fn add_pairs_of_broken_joints(
+    cd: &mut ContactDetection,
+    nodes: &Nodes,
+    tets: &Tets,
+    bodies: &[Body],
+    before: &Topology,
+) -> bool {
+    if cd.fragment != before.fragment
+        || cd.surface.len() < before.surface.len()
+        || cd.surface.len() - before.surface.len() > INCREMENTAL_LIMIT
+        || cd.detector.moved_beyond_skin(&nodes.x, &cd.surface_nodes)
+    {
+        return false;
+    }
+    // Surface indices of the tets that joined (both lists are sorted by tet id).
+    let mut joined = Vec::new();
+    let mut k = 0;
+    for (i, &e) in cd.surface.iter().enumerate() {
+        while k < before.surface.len() && before.surface[k] < e {
+            k += 1;
+        }
+        if k == before.surface.len() || before.surface[k] != e {
+            joined.push(i as u32);
+        }
+    }
+    if cd.surface.len() - joined.len() != before.surface.len() {
+        return false; // a tet left the surface
+    }
+    let x = &cd.detector.x_at_detection;
+    let tn = &tets.nodes;
+    let half = 0.5 * cd.detector.skin;
+    cd.boxes.clear();
+    cd.boxes.par_extend(
+        cd.surface
+            .par_iter()
+            .map(|&e| Aabb::of_points(&tn[e as usize].map(|n| x[n as usize])).inflate(half)),
+    );
+    let continuous: Vec<bool> = bodies.iter().map(|b| b.layout != Layout::Jointed).collect();
+    let filter = CandidateFilter {
+        surface: &cd.surface,
+        fragment: &cd.fragment,
+        fragment0: &cd.fragment0,
+        broken: &cd.broken_faces,
+        tet_nodes: tn,
+        tet_body: &tets.body,
+        continuous: &continuous,
+        x,
+        x0: &nodes.x0,
+        skin: cd.detector.skin,
+    };
+    let boxes = &cd.boxes;
+    let test = |i: u32, j: u32| {
+        let (a, b) = (i.min(j), i.max(j));
+        (a != b && boxes[a as usize].overlaps(&boxes[b as usize]) && filter.keep(a, b))
+            .then_some([a, b])
+    };
+    let mut is_joined = vec![false; cd.surface.len()];
+    joined.iter().for_each(|&i| is_joined[i as usize] = true);
+    let (is_joined, test, n_surface) = (&is_joined, &test, cd.surface.len() as u32);
+    // A joined tet against every surface tet (a pair of two joined tets once: from the
+    // lower).
+    let mut added: Vec<[u32; 2]> = joined
+        .par_iter()
+        .flat_map_iter(|&n| {
+            (0..n_surface)
+                .filter(move |&i| !is_joined[i as usize] || i > n)
+                .filter_map(move |i| test(n, i))
+        })
+        .collect();
+    // The two sides of each newly broken joint, both on the surface before.
+    let index_of = |e: u32| cd.surface.binary_search(&e).ok().map(|i| i as u32);
+    for (pair, _) in &cd.broken_faces {
+        if before.broken.binary_search_by_key(pair, |b| b.0).is_ok() {
+            continue;
+        }
+        let (Some(i), Some(j)) = (index_of(pair[0]), index_of(pair[1])) else {
+            continue;
+        };
+        if !is_joined[i as usize] && !is_joined[j as usize] {
+            added.extend(test(i, j));
+        }
+    }
+    added.sort_unstable();
+    added.dedup();
+    // Merge into the renumbered list (sorted); a kept pair carries its history over.
+    let old = std::mem::take(&mut cd.pairs);
+    let mut merged = Vec::with_capacity(old.len() + added.len());
+    cd.origins.clear();
+    let (mut a, mut b) = (0, 0);
+    while a < old.len() || b < added.len() {
+        if b == added.len() || (a < old.len() && old[a] <= added[b]) {
+            if b < added.len() && old[a] == added[b] {
+                b += 1;
+            }
+            merged.push(old[a]);
+            cd.origins.push(PairOrigin::Kept(cd.carried[a]));
+            a += 1;
+        } else {
+            merged.push(added[b]);
+            cd.origins.push(filter.new_pair(added[b][0], added[b][1]));
+            b += 1;
+        }
+    }
+    cd.pairs = merged;
+    cd.carried = Vec::new();
+    cd.detector.stale = false;
+    cd.detector.incremental += 1;
     true
 }
 

@@ -121,6 +121,10 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
         m.insert("max_pressure".into(), c.last.max_pressure.into());
         m.insert("area".into(), c.last.area.into());
         m.insert("detections".into(), (cd.detector.detections as i64).into());
+        m.insert(
+            "incremental_detections".into(),
+            (cd.detector.incremental as i64).into(),
+        );
         m
     });
     engine.register_fn(

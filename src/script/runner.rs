@@ -904,13 +904,14 @@ pub fn summary(
     if sim.contact.is_enabled() {
         let (c, cd) = (&sim.contact, &sim.contact_detection);
         s.push_str(&format!(
-            "   {:<20} {:>12}   ({} surface tets, {} candidate pairs, {} touching, {} detections)\n",
+            "   {:<20} {:>12}   ({} surface tets, {} candidate pairs, {} touching, {} detections, {} incremental after fracture)\n",
             "contact (elastic)",
             joules(e.contact),
             cd.surface.len(),
             cd.pairs.len(),
             c.last.active,
-            cd.detector.detections
+            cd.detector.detections,
+            cd.detector.incremental
         ));
         s.push_str(&penetration_lines(&c.deepest));
     }
