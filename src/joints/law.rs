@@ -29,7 +29,12 @@ pub fn softening_z(d: Real) -> Real {
     let d = d.clamp(0.0, 1.0);
     let (a, b, c) = (Z_A, Z_B, Z_C);
     let e = (d * (a + c * b) / ((a + b) * (1.0 - a - b))).exp();
-    (1.0 - (a + b - 1.0) / (a + b) * e) * (a * (1.0 - d) + b * (1.0 - d).powf(c))
+    // (1 − D)^c with c = 6 by three products (`powf` was a tenth of a fracturing run's
+    // joint stage; the two differ by a few ulp).
+    const { assert!(Z_C == 6.0) };
+    let u = 1.0 - d;
+    let u2 = u * u;
+    (1.0 - (a + b - 1.0) / (a + b) * e) * (a * u + b * (u2 * u2 * u2))
 }
 
 /// Pre-peak shape g(x) = 2x − x² for x ∈ [0, 1], 1 beyond: g'(0) = 2, g(1) = 1, g'(1) = 0.
@@ -559,8 +564,11 @@ impl Cohesive {
             k.slip * kt * half_inv_fs
         };
         let mut dissipated = 0.0;
+        // z(D) once D is known: `soften` computes it when it runs.
+        let mut z = None;
         if s.damage < 1.0 && (softening || xn > 1.0 || xs > 1.0) {
-            dissipated = self.soften(c, k, (kn, kt, fs), xn, (&mut elastic, &mut xs), s);
+            let (d, z_new) = self.soften(c, k, (kn, kt, fs), xn, (&mut elastic, &mut xs), s);
+            (dissipated, z) = (d, Some(z_new));
         }
         if k.opening > s.max_opening {
             s.max_opening = k.opening;
@@ -571,7 +579,7 @@ impl Cohesive {
         if s.damage >= 1.0 {
             return self.broken_point(k, kn, kt, s, dissipated, want_energy);
         }
-        let z = self.z_of(s.damage);
+        let z = z.unwrap_or_else(|| self.z_of(s.damage));
         let mut t = PointTraction {
             normal: if k.opening > 0.0 {
                 z * self.tensile_strength * prepeak(xn)
@@ -608,7 +616,7 @@ impl Cohesive {
     /// The softening update of a point not yet broken, at the current kinematics: plastic
     /// slip beyond the shear peak (`elastic` and `xs` are returned to it), damage growth,
     /// and the anchor and last ψ₀ of the point's history. Returns what the step dissipates
-    /// [J/m²].
+    /// [J/m²] and z at the new damage.
     #[inline]
     fn soften(
         &self,
@@ -618,7 +626,7 @@ impl Cohesive {
         xn: Real,
         (elastic, xs): (&mut Vec3, &mut Real),
         s: &mut PointState,
-    ) -> Real {
+    ) -> (Real, Real) {
         let (dnp, dsp) = (2.0 * self.tensile_strength / kn, 2.0 * fs / kt);
         let z_old = self.z_of(s.damage);
         // Beyond the peak slip the shear slips plastically at z·f_s: the anchor moves
@@ -685,7 +693,7 @@ impl Cohesive {
         } else {
             Real::NAN
         };
-        dissipated
+        (dissipated, z_new)
     }
 
     /// A broken point (D = 1): the compression penalty on the gap δn − u_d (u_d the
