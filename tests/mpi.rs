@@ -253,3 +253,185 @@ fn a_reinforced_beam_under_a_rigid_weight_writes_the_single_process_files() {
         same_files(&reference, &out, &format!("rc beam on np {np}"));
     }
 }
+
+/// One `.vtu` read by vtkio: points, tets (4 node indices each), and each point and cell
+/// array by name with its values as f64 (Int32 arrays converted exactly).
+struct Grid {
+    points: Vec<f64>,
+    tets: Vec<u64>,
+    point: Vec<(String, Vec<f64>)>,
+    cell: Vec<(String, Vec<f64>)>,
+}
+
+fn read_grid(path: &Path) -> Grid {
+    use vtkio::model::{Attribute, DataSet, IOBuffer, VertexNumbers};
+    let vtk = vtkio::Vtk::import(path)
+        .unwrap_or_else(|e| panic!("vtkio cannot read {}: {e}", path.display()));
+    let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
+        panic!("{}: not an unstructured grid", path.display())
+    };
+    let piece = pieces
+        .into_iter()
+        .next()
+        .unwrap()
+        .into_loaded_piece_data(Some(path))
+        .unwrap();
+    let IOBuffer::F64(points) = piece.points else {
+        panic!("points not Float64")
+    };
+    let VertexNumbers::XML { connectivity, .. } = piece.cells.cell_verts else {
+        panic!("not XML cells")
+    };
+    let values = |attrs: Vec<Attribute>| -> Vec<(String, Vec<f64>)> {
+        attrs
+            .into_iter()
+            .map(|a| match a {
+                Attribute::DataArray(d) => {
+                    let v = match d.data {
+                        IOBuffer::F64(v) => v,
+                        IOBuffer::I32(v) => v.into_iter().map(f64::from).collect(),
+                        other => panic!("{}: unexpected array type {other:?}", d.name),
+                    };
+                    (d.name, v)
+                }
+                Attribute::Field { name, .. } => panic!("unexpected field {name}"),
+            })
+            .collect()
+    };
+    Grid {
+        points,
+        tets: connectivity,
+        point: values(piece.data.point),
+        cell: values(piece.data.cell),
+    }
+}
+
+/// `vtk_pieces: "per_rank"` (issue 17: output in ParaView's parallel format): on 1 to 3
+/// ranks each frame is a `.pvtu` naming one piece per rank, and the `.pvd` lists the
+/// `.pvtu` files. vtkio reads every piece; put back together by their `tet_id` and
+/// `node_id`, the pieces hold every tet once and the single-process frame's points, tets and
+/// arrays bit for bit (a node shared by pieces has the same values in each). The CSVs equal
+/// the single-process run's. Reference: the single-process run writing whole frames.
+/// Tolerance: none.
+#[test]
+#[ignore = "needs mpi"]
+fn frames_in_pieces_hold_the_single_process_frames() {
+    let root = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("mpi_pieces");
+    let _ = std::fs::remove_dir_all(&root);
+    let base64 = ["--set", "encoding=base64", "--overwrite"];
+    let single = root.join("single");
+    run_script(single_process(), CONTACT_SCRIPT, &single, &base64);
+    let reference = files(&single);
+    let frames: Vec<&str> = reference
+        .iter()
+        .map(|(n, _)| n.as_str())
+        .filter(|n| n.starts_with("decomposed_contact_0") && n.ends_with(".vtu"))
+        .collect();
+    assert_eq!(frames.len(), 4, "{frames:?}");
+    for np in 1..=3 {
+        let out = root.join(format!("np{np}"));
+        let mut cmd = mpirun(np);
+        cmd.arg(fdem());
+        let mut args = vec!["--set", "pieces=per_rank"];
+        args.extend(base64);
+        run_script(cmd, CONTACT_SCRIPT, &out, &args);
+        let got = files(&out);
+        for (name, bytes) in reference.iter().filter(|(n, _)| n.ends_with(".csv")) {
+            let other = got.iter().find(|(n, _)| n == name);
+            assert!(
+                other.is_some_and(|(_, b)| b == bytes),
+                "np {np}: {name} differs"
+            );
+        }
+        let pvd = std::fs::read_to_string(out.join("decomposed_contact.pvd")).unwrap();
+        for frame in &frames {
+            let stem = frame.trim_end_matches(".vtu");
+            assert!(
+                pvd.contains(&format!("file=\"{stem}.pvtu\"")),
+                "np {np}: {pvd}"
+            );
+            let pvtu = std::fs::read_to_string(out.join(format!("{stem}.pvtu"))).unwrap();
+            let sources: Vec<String> = (0..np).map(|r| format!("{stem}_p{r}.vtu")).collect();
+            for s in &sources {
+                assert!(pvtu.contains(&format!("<Piece Source=\"{s}\"/>")), "{pvtu}");
+            }
+            assert_eq!(pvtu.matches("<Piece ").count(), np);
+            let whole = read_grid(&single.join(frame));
+            let (n_nodes, n_tets) = (whole.points.len() / 3, whole.tets.len() / 4);
+            let mut points = vec![f64::NAN; 3 * n_nodes];
+            let mut tets = vec![u64::MAX; 4 * n_tets];
+            let mut point: Vec<Vec<f64>> = whole
+                .point
+                .iter()
+                .map(|(_, v)| vec![f64::NAN; v.len()])
+                .collect();
+            let mut cell: Vec<Vec<f64>> = whole
+                .cell
+                .iter()
+                .map(|(_, v)| vec![f64::NAN; v.len()])
+                .collect();
+            let mut seen = vec![0usize; n_tets];
+            for s in &sources {
+                let p = read_grid(&out.join(s));
+                let array = |list: &[(String, Vec<f64>)], name: &str| {
+                    list.iter()
+                        .find(|(n, _)| n == name)
+                        .unwrap_or_else(|| panic!("{s}: no {name}"))
+                        .1
+                        .clone()
+                };
+                let node_id: Vec<usize> = array(&p.point, "node_id")
+                    .iter()
+                    .map(|&v| v as usize)
+                    .collect();
+                let tet_id: Vec<usize> = array(&p.cell, "tet_id")
+                    .iter()
+                    .map(|&v| v as usize)
+                    .collect();
+                let put = |dst: &mut [f64], src: &[f64], ids: &[usize], what: &str| {
+                    let k = src.len() / ids.len().max(1);
+                    for (local, &global) in ids.iter().enumerate() {
+                        for c in 0..k {
+                            let (d, v) = (&mut dst[global * k + c], src[local * k + c]);
+                            assert!(
+                                d.is_nan() || d.to_bits() == v.to_bits(),
+                                "np {np} {s}: {what} of {global} differs between pieces"
+                            );
+                            *d = v;
+                        }
+                    }
+                };
+                put(&mut points, &p.points, &node_id, "position");
+                for (i, (name, _)) in whole.point.iter().enumerate() {
+                    put(&mut point[i], &array(&p.point, name), &node_id, name);
+                }
+                for (i, (name, _)) in whole.cell.iter().enumerate() {
+                    put(&mut cell[i], &array(&p.cell, name), &tet_id, name);
+                }
+                for (local, &global) in tet_id.iter().enumerate() {
+                    seen[global] += 1;
+                    for c in 0..4 {
+                        tets[4 * global + c] = node_id[p.tets[4 * local + c] as usize] as u64;
+                    }
+                }
+            }
+            assert!(
+                seen.iter().all(|&k| k == 1),
+                "np {np} {stem}: a tet not in exactly one piece"
+            );
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&points), bits(&whole.points), "np {np} {stem}: points");
+            assert_eq!(tets, whole.tets, "np {np} {stem}: tets");
+            for (i, (name, v)) in whole.point.iter().enumerate() {
+                assert_eq!(
+                    bits(&point[i]),
+                    bits(v),
+                    "np {np} {stem}: point array {name}"
+                );
+            }
+            for (i, (name, v)) in whole.cell.iter().enumerate() {
+                assert_eq!(bits(&cell[i]), bits(v), "np {np} {stem}: cell array {name}");
+            }
+        }
+    }
+}

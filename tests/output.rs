@@ -947,3 +947,78 @@ fn vtkio_reads_raw_crack_surface_and_joint_arrays_bit_for_bit() {
         [(sim.time, "bar_000000.vtu".to_string())]
     );
 }
+
+/// `vtk_pieces: "per_rank"` on one process: each frame is a `.pvtu` naming one piece, the
+/// `.pvd` lists the `.pvtu`, and the piece (read by vtkio) holds the whole frame: the same
+/// points, tets and arrays bit for bit as the frame written whole, plus `node_id` and
+/// `tet_id` counting 0, 1, 2, … A second run with `--overwrite` removes the pieces of the
+/// first. (The pieces of several ranks: tests/mpi.rs.) Reference: the whole frame.
+#[test]
+fn a_frame_in_one_piece_holds_the_whole_frame() {
+    use vtkio::model::{Attribute, IOBuffer};
+    let (whole_dir, _) = run("base64", "pieces-whole");
+    let dir = temp_dir("pieces-per-rank");
+    let source = model("base64").replace(
+        "vtk_encoding: \"base64\"",
+        "vtk_encoding: \"base64\", vtk_pieces: \"per_rank\"",
+    );
+    for overwrite in [false, true] {
+        let opts = RunOptions {
+            out_dir: Some(dir.to_path_buf()),
+            quiet: true,
+            overwrite,
+            ..Default::default()
+        };
+        run_source(&dir.join("frames.rhai"), &source, opts).unwrap_or_else(|e| panic!("{e}"));
+    }
+    let pvd = std::fs::read_to_string(dir.join("frames.pvd")).unwrap();
+    assert!(pvd.contains("file=\"frames_000001.pvtu\""), "{pvd}");
+    assert!(!dir.join("frames_000001.vtu").exists());
+    for k in 0..2 {
+        let pvtu = std::fs::read_to_string(dir.join(format!("frames_{k:06}.pvtu"))).unwrap();
+        assert!(
+            pvtu.contains(&format!("<Piece Source=\"frames_{k:06}_p0.vtu\"/>")),
+            "{pvtu}"
+        );
+        assert!(pvtu.contains(
+            "<PDataArray type=\"Float64\" Name=\"stress_pk1\" NumberOfComponents=\"9\"/>"
+        ));
+        let whole = vtkio_piece(&whole_dir.join(format!("frames_{k:06}.vtu")));
+        let piece = vtkio_piece(&dir.join(format!("frames_{k:06}_p0.vtu")));
+        let (IOBuffer::F64(a), IOBuffer::F64(b)) = (&whole.points, &piece.points) else {
+            panic!("points not Float64")
+        };
+        assert_eq!(a, b, "frame {k}: points");
+        assert_eq!(whole.cells, piece.cells, "frame {k}: cells");
+        let split = |attrs: Vec<Attribute>, id: &str| {
+            let mut ids = None;
+            let mut rest = Vec::new();
+            for a in attrs {
+                match a {
+                    Attribute::DataArray(d) if d.name == id => ids = Some(d.data),
+                    Attribute::DataArray(d) => rest.push(d),
+                    Attribute::Field { name, .. } => panic!("unexpected field {name}"),
+                }
+            }
+            let Some(IOBuffer::I32(ids)) = ids else {
+                panic!("no Int32 {id}")
+            };
+            (ids, rest)
+        };
+        let (node_id, point) = split(piece.data.point, "node_id");
+        let (tet_id, cell) = split(piece.data.cell, "tet_id");
+        assert_eq!(node_id, (0..a.len() as i32 / 3).collect::<Vec<_>>());
+        assert_eq!(tet_id, (0..tet_id.len() as i32).collect::<Vec<_>>());
+        let plain = |attrs: Vec<Attribute>| -> Vec<vtkio::model::DataArray> {
+            attrs
+                .into_iter()
+                .map(|a| match a {
+                    Attribute::DataArray(d) => d,
+                    Attribute::Field { name, .. } => panic!("unexpected field {name}"),
+                })
+                .collect()
+        };
+        assert_eq!(point, plain(whole.data.point), "frame {k}: point arrays");
+        assert_eq!(cell, plain(whole.data.cell), "frame {k}: cell arrays");
+    }
+}

@@ -1,6 +1,6 @@
 //! Build one ParaView frame of a simulation: point and cell fields in VTK layout.
 
-use super::vtu::{encode_vtu_with, DataArray, Encoding, Field, VtuFrame};
+use super::vtu::{encode_pvtu, encode_vtu_with, DataArray, Encoding, Field, VtuFrame};
 
 use crate::material::StressMeasure;
 use crate::math::von_mises;
@@ -31,6 +31,68 @@ pub fn encode_frame(
     encode_vtu_with(&frame, encoding)
 }
 
+/// One piece of a frame written in pieces (`vtk_pieces: "per_rank"`): the tets `keep`
+/// selects (in tet order) and the nodes they use (in node order, renumbered), with every
+/// array of [`encode_frame`] and two more, `tet_id` (cell data) and `node_id` (point data):
+/// the global tet and node ids, so the pieces can be put back together. Returns the piece's
+/// `.vtu` bytes and, built from its layout, the `.pvtu` that names `sources` as the pieces.
+pub fn encode_frame_piece(
+    sim: &Simulation,
+    extra: StressMeasure,
+    encoding: Encoding,
+    keep: impl Fn(usize) -> bool,
+    sources: &[String],
+) -> Result<(Vec<u8>, Vec<u8>), String> {
+    let data = FrameData::of(sim, extra);
+    let tets: Vec<u32> = (0..sim.tets.len())
+        .filter(|&e| keep(e))
+        .map(|e| e as u32)
+        .collect();
+    let mut local = vec![u32::MAX; sim.nodes.len()];
+    for &e in &tets {
+        for n in sim.tets.nodes[e as usize] {
+            local[n as usize] = 0;
+        }
+    }
+    let mut nodes: Vec<u32> = Vec::new();
+    for (n, l) in local.iter_mut().enumerate() {
+        if *l == 0 {
+            *l = nodes.len() as u32;
+            nodes.push(n as u32);
+        }
+    }
+    let piece = data.subset(&tets, &nodes);
+    let cells: Vec<[u32; 4]> = tets
+        .iter()
+        .map(|&e| sim.tets.nodes[e as usize].map(|n| local[n as usize]))
+        .collect();
+    let tet_id: Vec<i32> = tets.iter().map(|&e| e as i32).collect();
+    let node_id: Vec<i32> = nodes.iter().map(|&n| n as i32).collect();
+    let extra_name = format!("stress_{}", extra.name());
+    let mut point_data = piece.point_fields();
+    point_data.push(Field {
+        name: "node_id",
+        data: DataArray::ScalarI32(&node_id),
+    });
+    let mut cell_data = piece.cell_fields(&extra_name);
+    cell_data.push(Field {
+        name: "tet_id",
+        data: DataArray::ScalarI32(&tet_id),
+    });
+    let frame = VtuFrame {
+        points: &piece.points,
+        tets: &cells,
+        triangles: &[],
+        lines: &[],
+        point_data,
+        cell_data,
+    };
+    Ok((
+        encode_vtu_with(&frame, encoding)?,
+        encode_pvtu(&frame, sources),
+    ))
+}
+
 /// The arrays of one frame of [`encode_frame`], owned here and lent to the [`VtuFrame`].
 struct FrameData {
     /// Current node positions [m].
@@ -55,6 +117,8 @@ struct FrameData {
     damage: Vec<f64>,
     /// Fragment id per tetrahedron (empty without joints).
     fragment: Vec<i32>,
+    /// Whether the model has joints (then `damage` and `fragment` are written).
+    joints_on: bool,
     /// Whether contact is enabled (then the two contact arrays are filled).
     contact_on: bool,
     /// Largest mean contact pressure per tetrahedron over the last step [Pa].
@@ -104,11 +168,39 @@ impl FrameData {
             body,
             material,
             extra_stress,
+            joints_on: !damage.is_empty(),
             damage,
             fragment,
             contact_on,
             contact_pressure,
             contact_force,
+        }
+    }
+
+    /// The arrays of the tets `tets` and the nodes `nodes` only (both by global id).
+    fn subset(&self, tets: &[u32], nodes: &[u32]) -> Self {
+        fn pick<T: Copy>(v: &[T], ids: &[u32]) -> Vec<T> {
+            if v.is_empty() {
+                return Vec::new();
+            }
+            ids.iter().map(|&i| v[i as usize]).collect()
+        }
+        FrameData {
+            points: pick(&self.points, nodes),
+            displacement: pick(&self.displacement, nodes),
+            velocity: pick(&self.velocity, nodes),
+            cauchy: pick(&self.cauchy, tets),
+            principal: pick(&self.principal, tets),
+            von_mises: pick(&self.von_mises, tets),
+            body: pick(&self.body, tets),
+            material: pick(&self.material, tets),
+            extra_stress: self.extra_stress.as_ref().map(|s| pick(s, tets)),
+            damage: pick(&self.damage, tets),
+            fragment: pick(&self.fragment, tets),
+            joints_on: self.joints_on,
+            contact_on: self.contact_on,
+            contact_pressure: pick(&self.contact_pressure, tets),
+            contact_force: pick(&self.contact_force, nodes),
         }
     }
 
@@ -157,7 +249,7 @@ impl FrameData {
                 data: DataArray::ScalarI32(&self.material),
             },
         ];
-        if !self.damage.is_empty() {
+        if self.joints_on {
             fields.push(Field {
                 name: "damage",
                 data: DataArray::ScalarF64(&self.damage),

@@ -220,13 +220,10 @@ impl CsvStream {
 }
 
 enum Job {
-    /// Write the bytes to the path, then rewrite the pvd with these entries.
-    Frame {
-        path: PathBuf,
-        bytes: Vec<u8>,
-        pvd_path: PathBuf,
-        pvd: Vec<u8>,
-    },
+    /// Write the files in order (a frame or a piece, then the `.pvtu` and the `.pvd`, each
+    /// atomically), stopping at the first error. A file marked `true` is this rank's own (its
+    /// piece); the others are written by rank 0 only.
+    Frame(Vec<(PathBuf, Vec<u8>, bool)>),
     Flush(mpsc::Sender<std::io::Result<()>>),
 }
 
@@ -260,17 +257,18 @@ impl VtkSeries {
             self.worker = Some(std::thread::spawn(move || {
                 for job in rx {
                     match job {
-                        Job::Frame {
-                            path,
-                            bytes,
-                            pvd_path,
-                            pvd,
-                        } => {
-                            let r = write_atomic(&path, &bytes)
-                                .and_then(|_| write_atomic(&pvd_path, &pvd));
-                            if let Err(e) = r {
-                                *error.lock().unwrap() =
-                                    Some(format!("writing {}: {e}", path.display()));
+                        Job::Frame(files) => {
+                            for (path, bytes, own) in &files {
+                                let written = if *own {
+                                    vtu::write_atomic_on_this_rank(path, bytes)
+                                } else {
+                                    write_atomic(path, bytes)
+                                };
+                                if let Err(e) = written {
+                                    *error.lock().unwrap() =
+                                        Some(format!("writing {}: {e}", path.display()));
+                                    break;
+                                }
                             }
                         }
                         Job::Flush(ack) => {
@@ -292,18 +290,58 @@ impl VtkSeries {
         let file = format!("{}_{:06}.vtu", self.name, self.entries.len());
         self.entries.push((t, file.clone()));
         let path = self.dir.join(&file);
-        let pvd = vtu::encode_pvd(&self.entries);
-        let pvd_path = self.dir.join(format!("{}.pvd", self.name));
-        let job = Job::Frame {
-            path: path.clone(),
-            bytes,
-            pvd_path,
-            pvd,
-        };
-        self.sender()
-            .send(job)
-            .map_err(|_| format!("writing {}: the VTK writer thread stopped", path.display()))?;
+        let files = vec![(path.clone(), bytes, false), self.pvd()];
+        self.send(files, &path)?;
         Ok(path)
+    }
+
+    /// The piece file names of the next frame written in pieces ([`Self::push_piece`]),
+    /// one per rank, relative to the output directory.
+    pub fn piece_names(&self, ranks: usize) -> Vec<String> {
+        (0..ranks)
+            .map(|r| format!("{}_{:06}_p{r}.vtu", self.name, self.entries.len()))
+            .collect()
+    }
+
+    /// Queue this rank's piece of a frame written in pieces at simulated time `t`: every
+    /// rank writes its piece `NAME_NNNNNN_pR.vtu`; rank 0 (`pvtu` given) also writes
+    /// `NAME_NNNNNN.pvtu`, which names the pieces, and the `.pvd`, which names the `.pvtu`.
+    /// Returns the path of the `.pvtu`.
+    pub fn push_piece(
+        &mut self,
+        t: f64,
+        rank: usize,
+        piece: Vec<u8>,
+        pvtu: Option<Vec<u8>>,
+    ) -> Result<PathBuf, String> {
+        self.check()?;
+        create_dir(&self.dir)?;
+        let piece_path = self.dir.join(&self.piece_names(rank + 1)[rank]);
+        let file = format!("{}_{:06}.pvtu", self.name, self.entries.len());
+        self.entries.push((t, file.clone()));
+        let path = self.dir.join(&file);
+        let mut files = vec![(piece_path.clone(), piece, true)];
+        if let Some(p) = pvtu {
+            files.push((path.clone(), p, false));
+            files.push(self.pvd());
+        }
+        self.send(files, &piece_path)?;
+        Ok(path)
+    }
+
+    /// The `.pvd` of the entries so far: its path and bytes.
+    fn pvd(&self) -> (PathBuf, Vec<u8>, bool) {
+        (
+            self.dir.join(format!("{}.pvd", self.name)),
+            vtu::encode_pvd(&self.entries),
+            false,
+        )
+    }
+
+    fn send(&mut self, files: Vec<(PathBuf, Vec<u8>, bool)>, path: &Path) -> Result<(), String> {
+        self.sender()
+            .send(Job::Frame(files))
+            .map_err(|_| format!("writing {}: the VTK writer thread stopped", path.display()))
     }
 
     /// The first write error of the background writer so far, without waiting for it.

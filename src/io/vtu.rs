@@ -464,6 +464,12 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     if !crate::parallel::is_root() {
         return Ok(()); // rank 0 of a decomposed run writes the files
     }
+    write_atomic_on_this_rank(path, bytes)
+}
+
+/// [`write_atomic`] on any rank: for the files each rank writes itself (its piece of a
+/// frame written in pieces).
+pub fn write_atomic_on_this_rank(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let mut name = path
         .file_name()
         .ok_or_else(|| {
@@ -487,6 +493,44 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     }
     crate::limits::interrupt::end_temp(&tmp);
     result
+}
+
+/// Bytes of a `.pvtu` file: the parallel header of a frame split into pieces, one
+/// `<Piece Source=".."/>` per piece file (names relative to the `.pvtu`, in rank order).
+/// `layout` is any one piece (the pieces share their arrays' names, types and components).
+/// ParaView opens the `.pvtu` as one model.
+pub fn encode_pvtu(layout: &VtuFrame, sources: &[String]) -> Vec<u8> {
+    let mut xml = String::with_capacity(1024 + 64 * sources.len());
+    xml.push_str("<?xml version=\"1.0\"?>\n");
+    xml.push_str("<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n");
+    xml.push_str("  <PUnstructuredGrid GhostLevel=\"0\">\n");
+    let arrays = |xml: &mut String, tag: &str, fields: &[Field]| {
+        let _ = writeln!(xml, "    <{tag}>");
+        for f in fields {
+            let _ = write!(
+                xml,
+                "      <PDataArray type=\"{}\" Name=\"",
+                f.data.vtk_type()
+            );
+            push_escaped(xml, f.name);
+            xml.push('"');
+            if f.data.components() != 1 {
+                let _ = write!(xml, " NumberOfComponents=\"{}\"", f.data.components());
+            }
+            xml.push_str("/>\n");
+        }
+        let _ = writeln!(xml, "    </{tag}>");
+    };
+    arrays(&mut xml, "PPointData", &layout.point_data);
+    arrays(&mut xml, "PCellData", &layout.cell_data);
+    xml.push_str("    <PPoints>\n      <PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n    </PPoints>\n");
+    for source in sources {
+        xml.push_str("    <Piece Source=\"");
+        push_escaped(&mut xml, source);
+        xml.push_str("\"/>\n");
+    }
+    xml.push_str("  </PUnstructuredGrid>\n</VTKFile>\n");
+    xml.into_bytes()
 }
 
 /// Bytes of a .pvd collection: one `<DataSet timestep=".." file=".."/>` per

@@ -509,6 +509,14 @@ impl Simulation {
             .map_or((0, 1), |p| (p.rank(), p.comm.size()))
     }
 
+    /// The rank owning node `n` (0 unless decomposed).
+    pub fn node_owner(&self, n: usize) -> usize {
+        match &self.parallel {
+            Some(p) if p.comm.size() > 1 => p.partition.owner(n),
+            _ => 0,
+        }
+    }
+
     pub fn add_material(&mut self, m: Material) -> MaterialId {
         self.ready = false;
         self.materials.push(m);

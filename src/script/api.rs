@@ -123,6 +123,7 @@ pub const SIMULATION_KEYS: &[Key] = &[
     key("energy_every", "int", "steps", "50", "Sample the energy account every this many steps, and on the last step of every run (appended to energy.csv as sampled). Inverted elements and non-finite values are detected on every step, whatever this is."),
     key("stress_output", "string", "", "\"cauchy\"", "Extra stress field written to VTK besides the Cauchy stress: \"cauchy\", \"pk1\" or \"pk2\"."),
     key("vtk_encoding", "string", "", "\"raw\"", "Appended data of `.vtu` files: \"raw\" (fast; ParaView, VTK, meshio) or \"base64\" (for readers without raw support, e.g. vtkio)."),
+    key("vtk_pieces", "string", "", "\"one\"", "Frames as one `.vtu` each, written by rank 0 (\"one\"), or in pieces (\"per_rank\"): each rank writes the tets whose first node it owns as `NAME_NNNNNN_pR.vtu` (with `tet_id` and `node_id` arrays), rank 0 a `NAME_NNNNNN.pvtu` naming them, which the `.pvd` lists and ParaView opens as one model (docs/cluster.md). One piece on a single process."),
 ];
 
 pub const BOX_KEYS: &[Key] = &[

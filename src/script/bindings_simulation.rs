@@ -115,10 +115,14 @@ fn simulation(c: &ScriptContext, m: Map) -> RhaiResult<SimHandle> {
             ],
         )?
         .unwrap_or(crate::io::vtu::Encoding::Raw);
+    let vtk_pieces = o
+        .choice("vtk_pieces", &[("one", false), ("per_rank", true)])?
+        .unwrap_or(false);
     let handle = SimHandle(Rc::new(RefCell::new(SimState {
         sim,
         owner: super::types::Owner::new(&name),
         vtk_encoding,
+        vtk_pieces,
         vtk: VtkSeries::new(out_dir.clone(), name.clone()),
         cracks_vtk: VtkSeries::new(out_dir.clone(), format!("{name}_cracks")),
         bars_vtk: VtkSeries::new(out_dir.clone(), format!("{name}_bars")),
@@ -206,10 +210,17 @@ fn is_output_of(file: &str, name: &str) -> bool {
         .strip_prefix("_cracks")
         .or_else(|| rest.strip_prefix("_bars"))
         .unwrap_or(rest);
-    let frame = rest
-        .strip_prefix('_')
-        .and_then(|r| r.strip_suffix(".vtu"))
-        .is_some_and(|n| n.len() == 6 && n.bytes().all(|b| b.is_ascii_digit()));
+    let number = |n: &str| n.len() == 6 && n.bytes().all(|b| b.is_ascii_digit());
+    // NAME_NNNNNN.vtu, or in pieces NAME_NNNNNN.pvtu and NAME_NNNNNN_pR.vtu.
+    let frame = rest.strip_prefix('_').is_some_and(|r| {
+        r.strip_suffix(".pvtu").is_some_and(number)
+            || r.strip_suffix(".vtu").is_some_and(|r| {
+                number(r)
+                    || r.split_once("_p").is_some_and(|(n, p)| {
+                        number(n) && !p.is_empty() && p.bytes().all(|b| b.is_ascii_digit())
+                    })
+            })
+    });
     rest == ".pvd" || frame
 }
 

@@ -771,10 +771,16 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
     synchronize(s);
     let mut st = s.0.borrow_mut();
     st.sim.prepare().map_err(|e| format!("write_vtk(): {e}"))?;
+    // `fdem check` writes nothing; a restart replaying up to its checkpoint has these frames
+    // on disk already.
+    if st.dry || st.restore_pending {
+        return Ok(());
+    }
+    if st.vtk_pieces {
+        write_vtk_piece(&mut st)?;
+    }
     // On a decomposed model rank 0 writes the frames (its state is the whole model's now).
-    if st.dry || st.restore_pending || !crate::parallel::is_root() {
-        // `fdem check` writes nothing; a restart replaying up to its checkpoint has these
-        // frames on disk already.
+    if !crate::parallel::is_root() {
         return Ok(());
     }
     // No frame shows inverted elements: the last step's motion is checked before it is
@@ -784,12 +790,14 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
             .check_configuration()
             .map_err(|e| format!("write_vtk(): {e}"))?;
     }
-    let bytes = encode_frame(&st.sim, st.stress_output, st.vtk_encoding)
-        .map_err(|e| format!("write_vtk(): {e}"))?;
     let t = st.sim.time;
-    st.vtk
-        .push(t, bytes)
-        .map_err(|e| format!("write_vtk(): {e}"))?;
+    if !st.vtk_pieces {
+        let bytes = encode_frame(&st.sim, st.stress_output, st.vtk_encoding)
+            .map_err(|e| format!("write_vtk(): {e}"))?;
+        st.vtk
+            .push(t, bytes)
+            .map_err(|e| format!("write_vtk(): {e}"))?;
+    }
     // Crack frames start with the first crack (some readers, meshio among them, cannot read a
     // frame without cells).
     if !st.sim.break_events.is_empty() {
@@ -806,6 +814,34 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
             .push(t, bars)
             .map_err(|e| format!("write_vtk(): {e}"))?;
     }
+    Ok(())
+}
+
+/// This rank's piece of a frame written in pieces (`vtk_pieces: "per_rank"`): the tets whose
+/// first node it owns (every tet on one process), and on rank 0 the `.pvtu` naming every
+/// rank's piece. The crack and bar series stay whole, from rank 0.
+fn write_vtk_piece(st: &mut SimState) -> RhaiResult<()> {
+    if st.sim.step > 0 {
+        st.sim
+            .check_configuration()
+            .map_err(|e| format!("write_vtk(): {e}"))?;
+    }
+    let (rank, size) = st.sim.rank_and_size();
+    let sources = st.vtk.piece_names(size);
+    let sim = &st.sim;
+    let owner = |e: usize| sim.node_owner(sim.tets.nodes[e][0] as usize);
+    let (piece, pvtu) = crate::io::frame::encode_frame_piece(
+        sim,
+        st.stress_output,
+        st.vtk_encoding,
+        |e| owner(e) == rank,
+        &sources,
+    )
+    .map_err(|e| format!("write_vtk(): {e}"))?;
+    let t = st.sim.time;
+    st.vtk
+        .push_piece(t, rank, piece, (rank == 0).then_some(pvtu))
+        .map_err(|e| format!("write_vtk(): {e}"))?;
     Ok(())
 }
 

@@ -25,6 +25,8 @@ pub struct SimState {
     pub out_dir: PathBuf,
     pub stress_output: StressMeasure,
     pub vtk_encoding: crate::io::vtu::Encoding,
+    /// Frames in pieces, one per rank (`vtk_pieces: "per_rank"`): a `.pvtu` per frame.
+    pub vtk_pieces: bool,
     pub hooks: Vec<Hook>,
     pub monitors: Vec<MonitorHandle>,
     pub vtk: VtkSeries,
