@@ -206,6 +206,7 @@ fn a_value_not_among_a_keys_choices_is_named_with_the_allowed_ones() {
         ("box(#{ min: [0.0, 0.0, 0.0], max: [1.0, 1.0, 1.0] }).mesh(#{ divisions: [2, 2, 2], pattern: \"zigzag\" });", "mesh(): pattern \"zigzag\" is not \"kuhn\" or \"alternating\""),
         ("joint_law(\"cohesive/munjiza\", #{ tensile_strength: 1e6, cohesion: 2e6, friction_angle: 30.0, g_i: 10.0, g_ii: 50.0, calibration: \"y\" });", "calibration \"y\" is not \"exact\" or \"y_compatible\""),
         ("simulation(#{ vtk_encoding: \"ascii\" });", "simulation(): vtk_encoding \"ascii\" is not \"raw\" or \"base64\""),
+        ("simulation(#{ vtk_pieces: \"per_node\" });", "simulation(): vtk_pieces \"per_node\" is not \"one\" or \"per_rank\""),
         ("let b = sim.add_body(\"b\", mesh, m); straight_bar(b, #{ axis: \"w\", at: [0.5, 0.5] });", "straight_bar(): axis \"w\" is not \"x\", \"y\" or \"z\""),
     ] {
         let (ok, _, err) = run_text("choice", &format!("{head}{call}\n"), &[]);
@@ -604,7 +605,7 @@ fn every_documented_key_is_accepted() {
     let text = r#"fn spring(j, p) { #{ normal: p.k * j.opening, shear: p.k * j.slip, damage: 0.0 } }
 fn gate(j, p) { j.opening > p.limit || j.damage >= 1.0 }
 let p = params(#{ n: 2 });
-let sim = simulation(#{ name: "all", out_dir: "ignored", energy_every: 3, stress_output: "pk2", vtk_encoding: "base64" });
+let sim = simulation(#{ name: "all", out_dir: "ignored", energy_every: 3, stress_output: "pk2", vtk_encoding: "base64", vtk_pieces: "per_rank" });
 let m = material("elastic/neo_hookean", #{ density: 1000.0, young: 1e6, poisson: 0.3, viscosity: 1.0 });
 let mr = material("elastic/mooney_rivlin", #{ density: 1000.0, c10: 3e5, c01: 5e4, bulk: 1e7, viscosity: 1.0 });
 let mesh = box(#{ min: [0.0, 0.0, 0.0], max: [1.0, 0.5, 0.5] }).mesh(#{ divisions: [2, 1, 1], pattern: "alternating" });
