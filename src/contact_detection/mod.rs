@@ -197,12 +197,7 @@ pub fn update_pairs(
         cd.detector.skin = s;
     }
     let half = 0.5 * cd.detector.skin;
-    cd.boxes.clear();
-    cd.boxes.par_extend(
-        cd.surface
-            .par_iter()
-            .map(|&e| Aabb::of_points(&tn[e as usize].map(|n| x[n as usize])).inflate(half)),
-    );
+    surface_boxes(&mut cd.boxes, &cd.surface, tn, x, half);
     let continuous: Vec<bool> = bodies.iter().map(|b| b.layout != Layout::Jointed).collect();
     let filter = CandidateFilter {
         surface: &cd.surface,
@@ -251,6 +246,16 @@ pub fn update_pairs(
     cd.detector.stale = false;
     cd.detector.detections += 1;
     true
+}
+
+/// The box of each surface tet at the positions `x`, inflated by `half` (skin/2).
+fn surface_boxes(boxes: &mut Vec<Aabb>, surface: &[u32], tn: &[[u32; 4]], x: &[Vec3], half: Real) {
+    boxes.clear();
+    boxes.par_extend(
+        surface
+            .par_iter()
+            .map(|&e| Aabb::of_points(&tn[e as usize].map(|n| x[n as usize])).inflate(half)),
+    );
 }
 
 /// The surface, fragments and broken faces before a refresh.
@@ -305,12 +310,7 @@ fn add_pairs_of_broken_joints(
     let x = &cd.detector.x_at_detection;
     let tn = &tets.nodes;
     let half = 0.5 * cd.detector.skin;
-    cd.boxes.clear();
-    cd.boxes.par_extend(
-        cd.surface
-            .par_iter()
-            .map(|&e| Aabb::of_points(&tn[e as usize].map(|n| x[n as usize])).inflate(half)),
-    );
+    surface_boxes(&mut cd.boxes, &cd.surface, tn, x, half);
     let continuous: Vec<bool> = bodies.iter().map(|b| b.layout != Layout::Jointed).collect();
     let filter = CandidateFilter {
         surface: &cd.surface,

@@ -298,9 +298,12 @@ impl VtkSeries {
     /// The piece file names of the next frame written in pieces ([`Self::push_piece`]),
     /// one per rank, relative to the output directory.
     pub fn piece_names(&self, ranks: usize) -> Vec<String> {
-        (0..ranks)
-            .map(|r| format!("{}_{:06}_p{r}.vtu", self.name, self.entries.len()))
-            .collect()
+        (0..ranks).map(|r| self.piece_name(r)).collect()
+    }
+
+    /// Rank `rank`'s piece of the next frame written in pieces.
+    fn piece_name(&self, rank: usize) -> String {
+        format!("{}_{:06}_p{rank}.vtu", self.name, self.entries.len())
     }
 
     /// Queue this rank's piece of a frame written in pieces at simulated time `t`: every
@@ -316,7 +319,7 @@ impl VtkSeries {
     ) -> Result<PathBuf, String> {
         self.check()?;
         create_dir(&self.dir)?;
-        let piece_path = self.dir.join(&self.piece_names(rank + 1)[rank]);
+        let piece_path = self.dir.join(self.piece_name(rank));
         let file = format!("{}_{:06}.pvtu", self.name, self.entries.len());
         self.entries.push((t, file.clone()));
         let path = self.dir.join(&file);

@@ -776,11 +776,8 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
     if st.dry || st.restore_pending {
         return Ok(());
     }
-    if st.vtk_pieces {
-        write_vtk_piece(&mut st)?;
-    }
-    // On a decomposed model rank 0 writes the frames (its state is the whole model's now).
-    if !crate::parallel::is_root() {
+    // Rank 0 writes whole frames, cracks and bars; with pieces every rank writes its piece.
+    if !st.vtk_pieces && !crate::parallel::is_root() {
         return Ok(());
     }
     // No frame shows inverted elements: the last step's motion is checked before it is
@@ -791,12 +788,17 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
             .map_err(|e| format!("write_vtk(): {e}"))?;
     }
     let t = st.sim.time;
-    if !st.vtk_pieces {
+    if st.vtk_pieces {
+        write_vtk_piece(&mut st)?;
+    } else {
         let bytes = encode_frame(&st.sim, st.stress_output, st.vtk_encoding)
             .map_err(|e| format!("write_vtk(): {e}"))?;
         st.vtk
             .push(t, bytes)
             .map_err(|e| format!("write_vtk(): {e}"))?;
+    }
+    if !crate::parallel::is_root() {
+        return Ok(());
     }
     // Crack frames start with the first crack (some readers, meshio among them, cannot read a
     // frame without cells).
@@ -821,11 +823,6 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
 /// first node it owns (every tet on one process), and on rank 0 the `.pvtu` naming every
 /// rank's piece. The crack and bar series stay whole, from rank 0.
 fn write_vtk_piece(st: &mut SimState) -> RhaiResult<()> {
-    if st.sim.step > 0 {
-        st.sim
-            .check_configuration()
-            .map_err(|e| format!("write_vtk(): {e}"))?;
-    }
     let (rank, size) = st.sim.rank_and_size();
     let sources = st.vtk.piece_names(size);
     let sim = &st.sim;
