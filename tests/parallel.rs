@@ -639,3 +639,39 @@ fn a_launch_on_several_ranks_without_mpi_is_refused() {
         "{err}"
     );
 }
+
+/// The summary's load balance: after `gather_rank_timings` every rank holds every rank's
+/// stage and exchange times, each rank's entry equal to that rank's own timers (the values
+/// are sent as they are, in one exact sum with one rank non-zero per entry).
+#[test]
+fn every_rank_sees_every_ranks_stage_times() {
+    let runs = ThreadComm::run(3, |comm| {
+        let mut sim = continuous_bodies();
+        sim.decompose(comm);
+        for _ in 0..20 {
+            sim.step().unwrap();
+        }
+        sim.gather_rank_timings();
+        let (rank, _) = sim.rank_and_size();
+        let own = fdem::parallel::RankSeconds {
+            stages: sim.timers.seconds,
+            exchange: sim.exchanged().0,
+        };
+        (rank, own, sim.rank_seconds().to_vec())
+    });
+    let own: Vec<_> = {
+        let mut v: Vec<_> = runs.iter().map(|(r, o, _)| (*r, *o)).collect();
+        v.sort_by_key(|(r, _)| *r);
+        v.into_iter().map(|(_, o)| o).collect()
+    };
+    for (rank, _, seen) in &runs {
+        assert_eq!(
+            seen, &own,
+            "rank {rank} sees other times than the ranks' own"
+        );
+        assert!(
+            seen.iter().all(|r| r.stages[0] > 0.0),
+            "stage 1 ran on every rank"
+        );
+    }
+}

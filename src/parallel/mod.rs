@@ -262,6 +262,17 @@ pub struct Parallel {
     pub nodes_shared_at: Option<u64>,
     pub joints_shared_at: Option<u64>,
     pub contact_shared_at: Option<u64>,
+    /// Every rank's seconds per stage and in exchanges, as of the last
+    /// [`Parallel::gather_timings`] (empty before): the load balance the summary reports.
+    pub rank_seconds: Vec<RankSeconds>,
+}
+
+/// One rank's wall time: per stage (in [`crate::pipeline::Stage::ALL`] order) and in
+/// exchanges [s].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RankSeconds {
+    pub stages: [f64; 7],
+    pub exchange: f64,
 }
 
 impl std::fmt::Debug for Parallel {
@@ -301,6 +312,7 @@ impl Parallel {
             nodes_shared_at: None,
             joints_shared_at: None,
             contact_shared_at: None,
+            rank_seconds: Vec::new(),
         }
     }
 
@@ -555,6 +567,25 @@ impl Parallel {
         self.values_of_ranks(value)
             .iter()
             .fold(Real::NEG_INFINITY, |a, &b| a.max(b))
+    }
+
+    /// Every rank's stage times and exchange time into [`Parallel::rank_seconds`] (a
+    /// collective: one sum of 8 numbers per rank). The exchange time is this rank's up to the
+    /// call; the gather itself is not counted.
+    pub fn gather_timings(&mut self, stages: &[f64; 7]) {
+        const PER_RANK: usize = 8;
+        let (n, rank) = (self.comm.size(), self.comm.rank());
+        let mut buf = vec![0.0; n * PER_RANK];
+        buf[rank * PER_RANK..rank * PER_RANK + 7].copy_from_slice(stages);
+        buf[rank * PER_RANK + 7] = self.seconds;
+        self.comm.sum_f64(&mut buf);
+        self.rank_seconds = buf
+            .chunks_exact(PER_RANK)
+            .map(|c| RankSeconds {
+                stages: c[..7].try_into().expect("7 stages"),
+                exchange: c[7],
+            })
+            .collect();
     }
 
     /// Every rank's `value`, indexed by rank (a collective).

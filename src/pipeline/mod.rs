@@ -466,6 +466,23 @@ impl Simulation {
         }
     }
 
+    /// On a decomposed model, every rank's stage and exchange times to every rank
+    /// ([`crate::parallel::Parallel::rank_seconds`], for the summary's load balance). A
+    /// collective: the script layer calls it when a run returns normally, on every rank.
+    pub fn gather_rank_timings(&mut self) {
+        if let Some(par) = &mut self.parallel {
+            if !par.partition.node_ranges.is_empty() {
+                par.gather_timings(&self.timers.seconds);
+            }
+        }
+    }
+
+    /// Every rank's stage and exchange times as of the last run ([`Simulation::gather_rank_timings`]);
+    /// empty unless decomposed.
+    pub fn rank_seconds(&self) -> &[crate::parallel::RankSeconds] {
+        self.parallel.as_ref().map_or(&[], |p| &p.rank_seconds)
+    }
+
     /// Wall time this rank spent exchanging data with the others [s], and the bytes it
     /// received ((0, 0) unless decomposed).
     pub fn exchanged(&self) -> (Real, u64) {

@@ -119,6 +119,11 @@ fn run_within(
         st.runs += 1;
         st.run_start = None;
     }
+    // Every rank's timings for the summary's load balance (a collective: every rank of a
+    // decomposed model ends a run at the same step, and errors that stop a run are agreed).
+    if result.is_ok() {
+        s.0.borrow_mut().sim.gather_rank_timings();
+    }
     // Output is finished whether the run ended normally or not.
     let written = finish_run_output(s);
     result?;
@@ -1030,6 +1035,47 @@ fn stage_table(sim: &Simulation) -> String {
             "exchange",
             seconds,
             sig(per_step / 1e6, 3)
+        ));
+        s.push_str(&rank_table(sim.rank_seconds()));
+    }
+    s
+}
+
+/// The load balance of a decomposed run: each rank's time per stage, all stages and
+/// exchange, and the imbalance (the slowest rank's stages over the mean: a step waits for
+/// the slowest rank, and the others spend the difference in the exchange).
+fn rank_table(ranks: &[crate::parallel::RankSeconds]) -> String {
+    if ranks.len() < 2 {
+        return String::new();
+    }
+    let mut s = String::from("   per rank [s]        ");
+    for r in 0..ranks.len() {
+        s.push_str(&format!(" {:>9}", format!("rank {r}")));
+    }
+    s.push('\n');
+    let row = |label: &str, value: &dyn Fn(&crate::parallel::RankSeconds) -> f64| {
+        let mut line = format!("   {label:<20}");
+        for r in ranks {
+            line.push_str(&format!(" {:>9.3}", value(r)));
+        }
+        line.push('\n');
+        line
+    };
+    for (i, stage) in Stage::ALL.iter().enumerate() {
+        if ranks.iter().any(|r| r.stages[i] > 0.0005) {
+            s.push_str(&row(stage.name(), &|r| r.stages[i]));
+        }
+    }
+    let total = |r: &crate::parallel::RankSeconds| r.stages.iter().sum::<f64>();
+    s.push_str(&row("all stages", &total));
+    s.push_str(&row("exchange", &|r| r.exchange));
+    let slowest = ranks.iter().map(total).fold(0.0, f64::max);
+    let mean = ranks.iter().map(total).sum::<f64>() / ranks.len() as f64;
+    if mean > 0.0 {
+        s.push_str(&format!(
+            "   {:<20} {:>9.3}   (the slowest rank's stages over the mean; the others wait in the exchange)\n",
+            "imbalance",
+            slowest / mean
         ));
     }
     s
