@@ -290,7 +290,17 @@ fn execute(cli: Cli) -> i32 {
                 restart,
                 ..Default::default()
             };
-            run_script(&script, &set, options)
+            let code = run_script(&script, &set, options);
+            if code != 0 && _ranks.is_some() {
+                // A rank that stops with an error leaves without MPI's finalisation, which
+                // waits for every rank: a rank whose error the others did not meet (a piece
+                // of a frame it could not write) would wait there for ever, and the others
+                // in their next exchange. The launcher sees the exit and stops the others.
+                #[allow(forgetting_copy_types)] // () without the `mpi` feature
+                std::mem::forget(_ranks);
+                std::process::exit(code);
+            }
+            code
         }
         Command::Check {
             mesh: Some(mesh),
@@ -383,7 +393,13 @@ fn run_script(script: &Path, set: &[String], mut options: RunOptions) -> i32 {
     match result {
         Ok(()) => 0,
         Err(e) => {
-            fail(&e.to_string());
+            // Every rank of a decomposed run runs the same script and meets the same errors:
+            // rank 0 prints them. Another rank prints only its own (a piece it could not
+            // write), which name it.
+            let msg = e.to_string();
+            if crate::parallel::is_root() || crate::parallel::names_this_rank(&msg) {
+                fail(&msg);
+            }
             // 128 + the signal number when SIGINT or SIGTERM stopped the run, as shells do.
             crate::limits::interrupt::requested().map_or(1, |sig| 128 + sig)
         }

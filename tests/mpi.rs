@@ -435,3 +435,72 @@ fn frames_in_pieces_hold_the_single_process_frames() {
         }
     }
 }
+
+/// Runs `cmd` to its end, or kills it after `limit` and fails: a decomposed run that hangs
+/// must fail the test, not the CI job.
+fn output_within(mut cmd: Command, limit: std::time::Duration) -> std::process::Output {
+    use std::process::Stdio;
+    let mut child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start the run");
+    let start = std::time::Instant::now();
+    while child.try_wait().expect("wait for the run").is_none() {
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let o = child.wait_with_output().expect("collect the output");
+            panic!(
+                "{cmd:?} still running after {limit:?} (ranks waiting for each other):\n{}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    child.wait_with_output().expect("collect the output")
+}
+
+/// Errors on several ranks. An error every rank meets (the script's) is printed once, by
+/// rank 0. An error only rank 0 meets (output of an earlier run in the directory: rank 0
+/// checks it) stops every rank: the rank leaves without MPI's finalisation, which would wait
+/// for the others while they wait in their next exchange (it hung before 2026-11-29).
+#[test]
+#[ignore = "needs mpi"]
+fn an_error_is_printed_once_and_stops_every_rank() {
+    let root = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("mpi_errors");
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&root).unwrap();
+    let script = root.join("wrong.rhai");
+    std::fs::write(&script, "throw \"deliberately wrong model\";\n").unwrap();
+    let limit = std::time::Duration::from_secs(120);
+    let mut cmd = mpirun(3);
+    cmd.arg(fdem()).args(["run", "--quiet"]).arg(&script);
+    let o = output_within(cmd, limit);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert_eq!(
+        stderr.matches("error: deliberately wrong model").count(),
+        1,
+        "the script's error once, from rank 0:\n{stderr}"
+    );
+
+    let out = root.join("earlier");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(
+        out.join("decomposed_contact_000000.vtu"),
+        "an earlier run's",
+    )
+    .unwrap();
+    let mut cmd = mpirun(2);
+    cmd.arg(fdem())
+        .args(["run", CONTACT_SCRIPT, "--quiet", "--threads", "1", "--out"])
+        .arg(&out);
+    let o = output_within(cmd, limit);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{stderr}");
+    assert_eq!(
+        stderr.matches("already holds output").count(),
+        1,
+        "rank 0's error once:\n{stderr}"
+    );
+}

@@ -71,6 +71,24 @@ pub fn is_root() -> bool {
     WORLD.get().is_none_or(|w| w.rank() == 0)
 }
 
+/// An error only this rank met (writing its piece of a frame), for the console: prefixed
+/// with "rank R of N: " on a decomposed run, unchanged on one process. Errors every rank
+/// meets alike (the script's) are printed by rank 0 alone; these by the rank that met them
+/// ([`names_this_rank`]).
+pub fn on_this_rank(msg: String) -> String {
+    match WORLD.get() {
+        Some(w) if w.size() > 1 => format!("rank {} of {}: {msg}", w.rank(), w.size()),
+        _ => msg,
+    }
+}
+
+/// Whether `msg` is an error of this rank alone ([`on_this_rank`]).
+pub fn names_this_rank(msg: &str) -> bool {
+    WORLD
+        .get()
+        .is_some_and(|w| msg.contains(&format!("rank {} of {}: ", w.rank(), w.size())))
+}
+
 /// The split of one model's nodes and work between ranks, as seen from one rank.
 #[derive(Clone, Debug, Default)]
 pub struct Partition {

@@ -766,7 +766,14 @@ fn finish_run_output(s: &SimHandle) -> Result<(), String> {
     }
     let mut st = s.0.borrow_mut();
     append_histories(&mut st)?;
-    st.vtk.flush()?;
+    // Frames in pieces are written by every rank: a failure is that rank's own.
+    st.vtk.flush().map_err(|e| {
+        if st.vtk_pieces {
+            crate::parallel::on_this_rank(e)
+        } else {
+            e
+        }
+    })?;
     st.cracks_vtk.flush()?;
     st.bars_vtk.flush()
 }
@@ -843,7 +850,7 @@ fn write_vtk_piece(st: &mut SimState) -> RhaiResult<()> {
     let t = st.sim.time;
     st.vtk
         .push_piece(t, rank, piece, (rank == 0).then_some(pvtu))
-        .map_err(|e| format!("write_vtk(): {e}"))?;
+        .map_err(|e| crate::parallel::on_this_rank(format!("write_vtk(): {e}")))?;
     Ok(())
 }
 
