@@ -273,7 +273,7 @@ fn execute(cli: Cli) -> i32 {
                 Err(e) => return fail(&e),
             };
             // Under `mpirun`: MPI lives until this run returns (dropping it finalises).
-            let _ranks = match start_ranks() {
+            let ranks = match start_ranks() {
                 Ok(r) => r,
                 Err(e) => return fail(&e),
             };
@@ -290,17 +290,7 @@ fn execute(cli: Cli) -> i32 {
                 restart,
                 ..Default::default()
             };
-            let code = run_script(&script, &set, options);
-            if code != 0 && _ranks.is_some() {
-                // A rank that stops with an error leaves without MPI's finalisation, which
-                // waits for every rank: a rank whose error the others did not meet (a piece
-                // of a frame it could not write) would wait there for ever, and the others
-                // in their next exchange. The launcher sees the exit and stops the others.
-                #[allow(forgetting_copy_types)] // () without the `mpi` feature
-                std::mem::forget(_ranks);
-                std::process::exit(code);
-            }
-            code
+            leave_if_failed(run_script(&script, &set, options), ranks)
         }
         Command::Check {
             mesh: Some(mesh),
@@ -404,6 +394,20 @@ fn run_script(script: &Path, set: &[String], mut options: RunOptions) -> i32 {
             crate::limits::interrupt::requested().map_or(1, |sig| 128 + sig)
         }
     }
+}
+
+/// The exit code of a run, after which `ranks` (MPI, under `mpirun`) is finalised. A rank
+/// that stops with an error leaves at once instead, without MPI's finalisation, which waits
+/// for every rank: a rank whose error the others did not meet (rank 0's check of earlier
+/// output, a piece of a frame it could not write) would wait there for ever, and the others
+/// in their next exchange. The launcher sees the exit and stops the others.
+fn leave_if_failed<R>(code: i32, ranks: Option<R>) -> i32 {
+    if code != 0 && ranks.is_some() {
+        std::mem::forget(ranks);
+        std::process::exit(code);
+    }
+    drop(ranks);
+    code
 }
 
 /// `fdem plot DIR`: write the figures, one line per file; the exit code.
