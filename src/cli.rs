@@ -1095,11 +1095,16 @@ pub fn bench_fragmented(tets: usize, steps: u64) -> Result<serde_json::Value, St
     let (kernel_pairs, kernel_ns) =
         sim.contact
             .kernel_ns_per_touching_pair(&sim.contact_detection, &sim.tets.material, 5);
+    let (oracle_force, oracle_energy) = sim
+        .contact
+        .kernel_oracle_deviation(&sim.contact_detection, &sim.tets.material);
     let contact_bytes = sim.contact.bytes() + sim.contact_detection.bytes();
     Ok(serde_json::json!({
         "case": "fragmented",
         "kernel_pairs": kernel_pairs,
         "kernel_ns_per_pair": kernel_ns,
+        "kernel_oracle_deviation": oracle_force,
+        "kernel_oracle_energy_deviation": oracle_energy,
         "tets": n,
         "blocks": sim.bodies.len() - 1,
         "surface_elements": sim.contact_detection.surface.len(),

@@ -38,6 +38,7 @@
 
 pub mod friction;
 pub mod law;
+pub mod oracle;
 pub mod potential;
 
 pub use friction::{FrictionInputs, FrictionLawFailure, FRICTION_LAW, FRICTION_LAW_PARAMS};
@@ -495,17 +496,15 @@ impl ContactInteraction {
         (0..self.slots.len()).map(|k| self.pair_state(k))
     }
 
-    /// Single-thread cost of the stage 5 kernel on the pairs that touched in the last step
-    /// (their geometry as of the last step), in ns per pair: the best of `repeats` passes,
-    /// so it is a stable figure on a noisy machine. (touching pairs, ns per pair)
-    pub fn kernel_ns_per_touching_pair(
+    /// The pairs that touched in the last step, with their geometry as of the last step and
+    /// their penalty (for the bench's kernel figures).
+    fn touching_pairs(
         &self,
         detection: &ContactDetection,
         tet_material: &[u32],
-        repeats: usize,
-    ) -> (usize, f64) {
+    ) -> Vec<(TetGeom, TetGeom, Real)> {
         let surface = &detection.surface;
-        let touching: Vec<(TetGeom, TetGeom, Real)> = detection
+        detection
             .pairs
             .iter()
             .enumerate()
@@ -517,7 +516,19 @@ impl ContactInteraction {
                     .props_of(tet_material[ea as usize], tet_material[eb as usize]);
                 Some((self.geom[a as usize]?, self.geom[b as usize]?, p.penalty))
             })
-            .collect();
+            .collect()
+    }
+
+    /// Single-thread cost of the stage 5 kernel on the pairs that touched in the last step
+    /// (their geometry as of the last step), in ns per pair: the best of `repeats` passes,
+    /// so it is a stable figure on a noisy machine. (touching pairs, ns per pair)
+    pub fn kernel_ns_per_touching_pair(
+        &self,
+        detection: &ContactDetection,
+        tet_material: &[u32],
+        repeats: usize,
+    ) -> (usize, f64) {
+        let touching = self.touching_pairs(detection, tet_material);
         let mut best = f64::INFINITY;
         for _ in 0..repeats.max(1) {
             let t = std::time::Instant::now();
@@ -529,6 +540,28 @@ impl ContactInteraction {
             best = best.min(t.elapsed().as_secs_f64());
         }
         (touching.len(), best * 1e9 / touching.len().max(1) as f64)
+    }
+
+    /// How far the kernel is from the test oracle ([`oracle`], the kernel before issue
+    /// 14's speed work) on the pairs that touched in the last step: the largest, over the
+    /// pairs, of max_i |F_i − F_i^oracle| / max_i |F_i^oracle| over the pair's 8 nodes; and
+    /// Σ|E − E^oracle| / Σ|E^oracle| over the pairs (single pairs that barely touch differ
+    /// more: both kernels' energy is accurate to ≈ ulp(H)·H/d² of itself for an overlap of
+    /// depth d, and at rest under gravity d/H ≈ 1e-8 that is the energy's size).
+    /// (force deviation, energy deviation)
+    pub fn kernel_oracle_deviation(
+        &self,
+        detection: &ContactDetection,
+        tet_material: &[u32],
+    ) -> (f64, f64) {
+        let (df, de, e) = self
+            .touching_pairs(detection, tet_material)
+            .iter()
+            .map(|(c, t, p)| potential::deviation(c, t, *p))
+            .fold((0.0 as Real, 0.0, 0.0), |a, b| {
+                (a.0.max(b.0), a.1 + b.1, a.2 + b.2.abs())
+            });
+        (df, if de == 0.0 { 0.0 } else { de / e })
     }
 
     /// Bytes held by each stage 5 buffer (capacity), by name (for the bench).
