@@ -7,8 +7,9 @@
 //! ∫φ N_i dA on every facet, where the kernel in use integrates only ∫φ dA and ∫φ·x dA and
 //! maps them to the nodes once per pair. The two agree to rounding: issue 14 asks 1e-12 of
 //! the largest force of every pair, checked by `oracle_agrees_with_the_kernel` on random
-//! pairs and by `fdem bench` on every touching pair of its model
-//! (`kernel_oracle_deviation`).
+//! and thin-overlap pairs, and by `fdem bench` on every touching pair of its model
+//! (`kernel_oracle_deviation`; `tests/contact.rs`,
+//! `the_kernel_agrees_with_its_oracle_on_a_settled_stack`).
 
 // Index loops over the 4 nodes / faces mirror the equations; iterators would obscure them.
 #![allow(clippy::needless_range_loop)]
