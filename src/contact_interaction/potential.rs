@@ -487,24 +487,30 @@ pub(crate) fn face_pieces<V: ClipVertex>(
     }
     let mut p1 = Poly::new();
     let mut p2 = Poly::new();
-    'region: for m in 0..4 {
-        let mut crossing = [false; 4];
+    // Per region: the planes that cross the polygon (bit j), and whether one plane leaves
+    // nothing of it; decided for all four at once, without a branch per plane.
+    let mut crossing = [0u8; 4];
+    let mut empty = 0u8;
+    for m in 0..4 {
         for j in 0..4 {
-            if j == m {
-                continue;
-            }
             let (lo, hi) = range[m][j];
-            if hi <= SNAP && lo < -SNAP {
-                continue 'region; // nothing of the polygon has λ_m ≤ λ_j
-            }
-            crossing[j] = lo < -SNAP;
+            let here = j != m;
+            // Nothing of the polygon has λ_m ≤ λ_j.
+            empty |= u8::from(here & (hi <= SNAP) & (lo < -SNAP)) << m;
+            crossing[m] |= u8::from(here & (lo < -SNAP)) << j;
         }
+    }
+    'region: for m in 0..4 {
+        if empty & (1 << m) != 0 {
+            continue;
+        }
+        let crossing = crossing[m];
         let mut first = true;
         let (mut cur, mut next) = (&mut p1, &mut p2);
-        for j in 0..4 {
-            if !crossing[j] {
-                continue;
-            }
+        let mut planes = crossing;
+        while planes != 0 {
+            let j = planes.trailing_zeros() as usize;
+            planes &= planes - 1;
             let s = |v: &V| v.bo()[j] - v.bo()[m];
             if first {
                 poly.clip_into(next, s);
