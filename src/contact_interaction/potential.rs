@@ -548,12 +548,10 @@ pub(crate) fn kink_energy(
 ) -> Real {
     let b_centroid = other.bary(&own.centroid);
     let mut sum = 0.0;
-    for (m, j) in KINKS {
+    for ((m, j), (p, q)) in KINKS.into_iter().zip(KINK_EDGES) {
         if regions & (1 << m) == 0 || regions & (1 << j) == 0 {
             continue;
         }
-        // The edge shared by faces m and j: the other two nodes.
-        let (p, q) = edge_off(m, j);
         let tri_bo = [b_centroid, b_own_in_other[p], b_own_in_other[q]];
         if outside_a_plane(&tri_bo) {
             continue;
@@ -624,12 +622,9 @@ fn clip_to_other<'p, V: ClipVertex>(
 /// The six kink planes of a tetrahedron's φ: λ_m = λ_j for m < j.
 const KINKS: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
 
-/// The two nodes other than m and j (the edge faces m and j share).
-#[inline(always)]
-fn edge_off(m: usize, j: usize) -> (usize, usize) {
-    let mut e = (0..4).filter(|&x| x != m && x != j);
-    (e.next().unwrap(), e.next().unwrap())
-}
+/// For each kink plane of [`KINKS`], the two nodes other than m and j (the edge faces m
+/// and j share).
+const KINK_EDGES: [(usize, usize); 6] = [(2, 3), (1, 3), (1, 2), (0, 3), (0, 2), (0, 1)];
 
 /// One planar facet on face k of `own` (outward normal n_k), inside region m of `other`
 /// (φ_other = 4λ_m): its area, first moment and depth, its surface integrals ∫φ_other dA
