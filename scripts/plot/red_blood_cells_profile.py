@@ -3,7 +3,7 @@
 
     python3 -m pip install -r requirements-docs.txt
     fdem run scripts/red_blood_cells.rhai --threads 2 --set cells=1000 --set width=60e-6 ...
-    python3 scripts/plot/red_blood_cells_profile.py out/red_blood_cells 60e-6 [--slab 4e-6] [--frame N]
+    python3 scripts/plot/red_blood_cells_profile.py out/red_blood_cells 60e-6 [--slab 4e-6] [--frame N] [--quadrants ZTOP]
 
 Arguments: the run's output directory and the tray's width [m]. Reads the last frame
 (red_blood_cells_*.vtu, or frame N) and prints two Markdown tables over height z (the floor
@@ -11,6 +11,10 @@ at z = 0): the cells' solid fraction in horizontal slabs of the core column (one
 diameter D = 7.82 µm in from the walls, as the script's core), and the cells' mean vertical
 velocity in slabs twice as thick (each cell counted once, at its centroid, with the mean
 velocity of its nodes), which tells a bed at rest from cells still sinking.
+
+With `--quadrants ZTOP` (the core's top [m], as the script prints it: the core runs from
+z = D to ZTOP) it also prints the solid fraction of the core's four quarters in x and y, a
+measure of the packing's spread within one run.
 
 The solid fraction bins each tetrahedron's volume by its centroid: exact for the whole core,
 within about a tet's height (~1 µm at the default cell size) at the slab boundaries. The
@@ -47,6 +51,7 @@ def main():
     ap.add_argument("width", type=float)
     ap.add_argument("--slab", type=float, default=4e-6, help="slab height for the solid fraction [m]")
     ap.add_argument("--frame", type=int, default=None)
+    ap.add_argument("--quadrants", type=float, default=None, metavar="ZTOP", help="core top [m]: print the core's quarters")
     a = ap.parse_args()
 
     path = last_frame(a.out, a.frame)
@@ -92,6 +97,20 @@ def main():
     print("|---|" + "---|" * len(mean_vz))
     print("| cells | " + " | ".join(f"{n}" for n in counts) + " |")
     print("| mean v_z [mm/s] | " + " | ".join("—" if np.isnan(u) else f"{u * 1e3:+.3f}" for u in mean_vz) + " |")
+
+    if a.quadrants is not None:
+        mid = 0.5 * (lo + hi)
+        height = a.quadrants - D
+        inz = core & (c[:, 2] > D) & (c[:, 2] < a.quadrants)
+        whole = vol[inz].sum() / (area * height)
+        cols = []
+        for qx, qy in ((0, 0), (1, 0), (0, 1), (1, 1)):
+            sel = inz & ((c[:, 0] > mid) == bool(qx)) & ((c[:, 1] > mid) == bool(qy))
+            cols.append(vol[sel].sum() / (0.25 * area * height))
+        print()
+        print(f"| core, z {D * 1e6:.1f}–{a.quadrants * 1e6:.1f} µm | whole | x−y− | x+y− | x−y+ | x+y+ | spread (std) |")
+        print("|---|---|---|---|---|---|---|")
+        print(f"| solid fraction | {whole:.4f} | " + " | ".join(f"{f:.4f}" for f in cols) + f" | {np.std(cols, ddof=1):.4f} |")
 
 
 if __name__ == "__main__":
