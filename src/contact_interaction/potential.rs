@@ -443,28 +443,32 @@ pub(crate) fn face_pieces<V: ClipVertex>(
 ) {
     let f = TET_FACES[k];
     let tri_bo = f.map(|v| b_own_in_other[v]);
+    let planes = PlaneMasks::of(&tri_bo);
     // (A face lying in a plane of the other is kept: its coincident partner of opposite
     // normal is kept too, and their cone terms cancel.)
-    if outside_a_plane(&tri_bo) {
+    if planes.outside() {
         return;
     }
     // A target face lying in a contactor face plane with the same outward normal (the flush
     // sides of matching meshes) bounds the overlap where the contactor's face does: that
     // facet is counted once, from the contactor. (φ_c = φ_t = 0 on it, so it only adds
     // cones, and the contactor's facet adds both.)
-    if side == Side::Target
-        && (0..4).any(|j| {
-            tri_bo.iter().all(|b| b[j].abs() <= SNAP) && own.normal[k].dot(&other.normal[j]) > 0.0
-        })
-    {
-        return;
+    if side == Side::Target && planes.on != 0 {
+        let mut on = planes.on;
+        while on != 0 {
+            let j = on.trailing_zeros() as usize;
+            on &= on - 1;
+            if own.normal[k].dot(&other.normal[j]) > 0.0 {
+                return;
+            }
+        }
     }
     let mut a = Poly::new();
     let mut b = Poly::new();
     for (&v, bo) in f.iter().zip(tri_bo) {
         a.push(vertex(own.x[v], v, bo));
     }
-    let Some(poly) = clip_to_other(&mut a, &mut b, &tri_bo) else {
+    let Some(poly) = clip_to_other(&mut a, &mut b, planes.cut) else {
         return;
     };
     // Split by the other's regions R_m = {λ_m ≤ λ_j ∀j}. A region is clipped only by the
@@ -473,17 +477,21 @@ pub(crate) fn face_pieces<V: ClipVertex>(
     // skipped when one plane leaves nothing of it: typically one or two regions, one clip.
     // Range of λ_j − λ_m over the vertices, once per unordered pair m < j (that of
     // λ_m − λ_j is its exact negation).
-    let mut range = [[(0.0, 0.0); 4]; 4];
-    for (m, j) in KINKS {
-        let (mut lo, mut hi) = (Real::INFINITY, Real::NEG_INFINITY);
-        for i in 0..poly.n {
-            let b = poly.get(i).bo();
+    // (One loop over the vertices, the six kinks inside it: one data-dependent loop exit.)
+    let mut lo6 = [Real::INFINITY; 6];
+    let mut hi6 = [Real::NEG_INFINITY; 6];
+    for i in 0..poly.n {
+        let b = poly.get(i).bo();
+        for (q, (m, j)) in KINKS.into_iter().enumerate() {
             let s = b[j] - b[m];
-            lo = lo.min(s);
-            hi = hi.max(s);
+            lo6[q] = lo6[q].min(s);
+            hi6[q] = hi6[q].max(s);
         }
-        range[m][j] = (lo, hi);
-        range[j][m] = (-hi, -lo);
+    }
+    let mut range = [[(0.0, 0.0); 4]; 4];
+    for (q, (m, j)) in KINKS.into_iter().enumerate() {
+        range[m][j] = (lo6[q], hi6[q]);
+        range[j][m] = (-hi6[q], -lo6[q]);
     }
     let mut p1 = Poly::new();
     let mut p2 = Poly::new();
@@ -553,13 +561,14 @@ pub(crate) fn kink_energy(
             continue;
         }
         let tri_bo = [b_centroid, b_own_in_other[p], b_own_in_other[q]];
-        if outside_a_plane(&tri_bo) {
+        let planes = PlaneMasks::of(&tri_bo);
+        if planes.outside() {
             continue;
         }
         let gd = own.g[m] - own.g[j];
         let gn = gd.norm();
         let n = gd / gn;
-        let area = clipped_area([own.centroid, own.x[p], own.x[q]], tri_bo, &n);
+        let area = clipped_area([own.centroid, own.x[p], own.x[q]], tri_bo, planes.cut, &n);
         if area == 0.0 {
             continue;
         }
@@ -570,15 +579,16 @@ pub(crate) fn kink_energy(
 }
 
 /// Area [m²] of the triangle `x` (barycentric coordinates `bo` of its vertices in the other
-/// element) inside the other element, measured along the triangle's normal `n`.
+/// element, `cut` its [`PlaneMasks::cut`]) inside the other element, measured along the
+/// triangle's normal `n`.
 #[inline(always)]
-fn clipped_area(x: [Vec3; 3], bo: [[Real; 4]; 3], n: &Vec3) -> Real {
+fn clipped_area(x: [Vec3; 3], bo: [[Real; 4]; 3], cut: u8, n: &Vec3) -> Real {
     let mut a = Poly::new();
     let mut b = Poly::new();
     for (x, bo) in x.into_iter().zip(bo) {
         a.push(Vert { x, bo });
     }
-    let Some(p) = clip_to_other(&mut a, &mut b, &bo) else {
+    let Some(p) = clip_to_other(&mut a, &mut b, cut) else {
         return 0.0;
     };
     let v0 = p.get(0).x;
@@ -590,26 +600,60 @@ fn clipped_area(x: [Vec3; 3], bo: [[Real; 4]; 3], n: &Vec3) -> Real {
     area.abs()
 }
 
-/// The triangle with vertex values `bo` (its barycentric coordinates in the other element)
-/// lies outside, or on, one plane λ_l = 0 of the other: nothing of it is inside.
-#[inline(always)]
-fn outside_a_plane(bo: &[[Real; 4]; 3]) -> bool {
-    (0..4).any(|l| bo.iter().all(|b| b[l] <= SNAP) && bo.iter().any(|b| b[l] < -SNAP))
+/// Where a triangle lies against the other element's four face planes λ_l = 0 (bit l),
+/// from its vertex values (their barycentric coordinates in the other element), decided
+/// without a branch per vertex or plane (short-circuit tests here were a tenth of the
+/// kernel's mispredicted branches).
+#[derive(Clone, Copy)]
+struct PlaneMasks {
+    /// Some vertex lies outside plane l (λ_l < −SNAP): the clipping must cut by it.
+    cut: u8,
+    /// No vertex lies inside plane l (every λ_l ≤ SNAP).
+    not_inside: u8,
+    /// Every vertex lies on plane l (|λ_l| ≤ SNAP).
+    on: u8,
 }
 
-/// The triangle in `a` (vertex values `bo`) clipped by the other element's planes that cut
-/// it, ping-ponging between `a` and `b`; None when less than a triangle is left.
+impl PlaneMasks {
+    #[inline(always)]
+    fn of(bo: &[[Real; 4]; 3]) -> Self {
+        let (mut cut, mut not_inside, mut on) = (0u8, 0u8, 0u8);
+        for l in 0..4 {
+            let (a, b, c) = (bo[0][l], bo[1][l], bo[2][l]);
+            cut |= (u8::from(a < -SNAP) | u8::from(b < -SNAP) | u8::from(c < -SNAP)) << l;
+            not_inside |= (u8::from(a <= SNAP) & u8::from(b <= SNAP) & u8::from(c <= SNAP)) << l;
+            on |=
+                (u8::from(a.abs() <= SNAP) & u8::from(b.abs() <= SNAP) & u8::from(c.abs() <= SNAP))
+                    << l;
+        }
+        PlaneMasks {
+            cut,
+            not_inside,
+            on,
+        }
+    }
+
+    /// The triangle lies outside, or on, one plane of the other: nothing of it is inside.
+    #[inline(always)]
+    fn outside(&self) -> bool {
+        self.cut & self.not_inside != 0
+    }
+}
+
+/// The triangle in `a` clipped by the other element's planes that cut it (`cut`, bit l:
+/// [`PlaneMasks::cut`]; a plane no vertex lies outside of keeps all, snapped values
+/// included), ping-ponging between `a` and `b`; None when less than a triangle is left.
 #[inline(always)]
 fn clip_to_other<'p, V: ClipVertex>(
     a: &'p mut Poly<V>,
     b: &'p mut Poly<V>,
-    bo: &[[Real; 4]; 3],
+    cut: u8,
 ) -> Option<&'p Poly<V>> {
     let (mut cur, mut next) = (a, b);
-    for l in 0..4 {
-        if bo.iter().all(|b| b[l] >= -SNAP) {
-            continue; // entirely inside this half-space (snapped values are kept)
-        }
+    let mut planes = cut;
+    while planes != 0 {
+        let l = planes.trailing_zeros() as usize;
+        planes &= planes - 1;
         cur.clip_into(next, |v| v.bo()[l]);
         std::mem::swap(&mut cur, &mut next);
         if cur.n < 3 {
