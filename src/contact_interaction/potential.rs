@@ -684,23 +684,25 @@ fn integrate_piece(
     acc: &mut Acc,
 ) {
     let n = own.normal[k];
-    // Per vertex: φ_other, and the depth (distance to the nearest face of the other).
-    let mut phi = [0.0; MAX_POLY];
-    for i in 0..poly.n {
+    // Per vertex: φ_other, and the depth (distance to the nearest face of the other),
+    // vertex c's inside the fan's loop (one loop: its exit is a mispredicted branch).
+    let phi = |i: usize| 4.0 * poly.get(i).bo[m];
+    let depth = |i: usize| {
         let bo = &poly.get(i).bo;
-        phi[i] = 4.0 * bo[m];
-        let d = (0..4)
+        (0..4)
             .map(|k| bo[k] * other.height[k])
-            .fold(Real::INFINITY, Real::min);
-        acc.depth = acc.depth.max(d);
-    }
+            .fold(Real::INFINITY, Real::min)
+    };
+    acc.depth = acc.depth.max(depth(0)).max(depth(1));
     let x0 = poly.get(0).x;
+    let pa = phi(0);
     let mut area = 0.0;
     let mut first = Vec3::zeros(); // ∫ x dA
     let mut i_phi = 0.0; // ∫ φ dA
     let mut i_phi_x = Vec3::zeros(); // ∫ φ x dA
     for tri in 1..poly.n - 1 {
         let (b, c) = (tri, tri + 1);
+        acc.depth = acc.depth.max(depth(c));
         let (xb, xc) = (poly.get(b).x, poly.get(c).x);
         let at = 0.5 * (xb - x0).cross(&(xc - x0)).dot(&n);
         if at == 0.0 {
@@ -709,7 +711,7 @@ fn integrate_piece(
         area += at;
         let sx = x0 + xb + xc;
         first += sx * (at / 3.0);
-        let (pa, pb, pc) = (phi[0], phi[b], phi[c]);
+        let (pb, pc) = (phi(b), phi(c));
         let sphi = pa + pb + pc;
         i_phi += at * sphi / 3.0;
         // ∫ f g = A/12 · (Σ f_v g_v + Σf · Σg) for linear f, g on a triangle.
