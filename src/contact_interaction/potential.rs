@@ -221,8 +221,21 @@ impl<V: ClipVertex> Poly<V> {
     /// plane).
     #[inline(always)]
     fn clip_into(&self, out: &mut Poly<V>, s: impl Fn(&V) -> Real) {
+        self.clip_n_into(self.n, out, s);
+    }
+
+    /// [`Poly::clip_into`] for a triangle: its loops' length is known when compiled, so
+    /// their exits are not mispredicted (a polygon's first loop is: its length is data).
+    #[inline(always)]
+    fn clip_triangle_into(&self, out: &mut Poly<V>, s: impl Fn(&V) -> Real) {
+        debug_assert_eq!(self.n, 3);
+        self.clip_n_into(3, out, s);
+    }
+
+    /// The clip of the first `n` vertices (`n` = `self.n`).
+    #[inline(always)]
+    fn clip_n_into(&self, n: usize, out: &mut Poly<V>, s: impl Fn(&V) -> Real) {
         out.n = 0;
-        let n = self.n;
         if n == 0 {
             return;
         }
@@ -653,8 +666,13 @@ fn clip_to_other<'p, V: ClipVertex>(
     let mut planes = cut;
     while planes != 0 {
         let l = planes.trailing_zeros() as usize;
+        let first = planes == cut;
         planes &= planes - 1;
-        cur.clip_into(next, |v| v.bo()[l]);
+        if first {
+            cur.clip_triangle_into(next, |v| v.bo()[l]);
+        } else {
+            cur.clip_into(next, |v| v.bo()[l]);
+        }
         std::mem::swap(&mut cur, &mut next);
         if cur.n < 3 {
             return None;
