@@ -346,3 +346,81 @@ fn checkpoints_of_other_models_or_damaged_files_are_refused_with_the_reason() {
         "{err}"
     );
 }
+
+/// A cantilever sagging under gravity, brought to rest, then run on with a checkpoint in the
+/// second run; `CRASH` as in [`MODEL`]. The last line prints what `bring_to_rest` returned
+/// and checks it: on a restart that call is skipped (the checkpoint is past it).
+const REST_MODEL: &str = r#"
+let sim = simulation(#{ name: "rest" });
+let steel = material("elastic/munjiza", #{ density: 7850.0, young: 2.0e9, poisson: 0.2 });
+let beam = sim.add_body("beam", box(#{ min: [0.0, 0.0, 0.0], max: [0.5, 0.05, 0.05] }).mesh(#{ divisions: [10, 1, 1] }), steel);
+sim.fix(beam.nodes(half_space(#{ point: [0.0, 0.0, 0.0], normal: [-1.0, 0.0, 0.0] })));
+sim.gravity([0.0, 0.0, -9.81]);
+let rest = sim.bring_to_rest(#{ ratio: 1e-4, max_steps: 20000 });
+sim.every(#{ steps: 50 }, |s| { s.checkpoint(); CRASH });
+sim.run(#{ steps: 120 });
+print(`rest ${rest.converged} ${rest.steps} ${rest.time} ${rest.kinetic} ${rest.work} ${rest.ratio} ${rest.damping}`);
+expect_within("bring_to_rest's steps", rest.steps, 1, 20000);
+"#;
+
+/// `sim.bring_to_rest`'s result, returned by a call a restart skips, is the one the
+/// interrupted run got (kept in the checkpoint), not a skipped call's zeros: a script's
+/// checks after the restart see the real values (before, `steps` came back 0 and `ratio` 0,
+/// and a check `ratio ≤ 1e-4` passed on them). Oracle: the uninterrupted run's printed line.
+#[test]
+fn a_restart_returns_what_the_skipped_bring_to_rest_returned() {
+    let dir = common::temp_dir("ck-rest");
+    let write = |sub: &str, crash: &str| {
+        let d = dir.join(sub);
+        std::fs::create_dir_all(&d).unwrap();
+        let path = d.join("model.rhai");
+        std::fs::write(&path, REST_MODEL.replace("CRASH", crash)).unwrap();
+        path
+    };
+    let line = |stdout: &[u8]| {
+        String::from_utf8_lossy(stdout)
+            .lines()
+            .find(|l| l.starts_with("rest "))
+            .map(str::to_string)
+    };
+    let reference = write("a", "");
+    let out = common::fdem()
+        .arg("run")
+        .arg(&reference)
+        .arg("--out")
+        .arg(dir.join("a/out"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let want = line(&out.stdout).expect("the reference prints its rest line");
+    assert!(!want.starts_with("rest true 0 "), "{want}");
+    // Crash in the second run, 100 steps in (its checkpoints every 50 steps before that are
+    // written; the one asked for in the throwing step is not), then restart.
+    let crashed = write("b", "if s.step >= rest.steps + 100 { throw \"crash\" }");
+    let out_b = dir.join("b/out");
+    let run = common::fdem()
+        .arg("run")
+        .arg(&crashed)
+        .arg("--out")
+        .arg(&out_b)
+        .output()
+        .unwrap();
+    assert!(!run.status.success(), "the crash run must fail");
+    let again = common::fdem()
+        .arg("run")
+        .arg(write("c", ""))
+        .arg("--out")
+        .arg(&out_b)
+        .arg("--restart")
+        .arg(out_b.join("checkpoint.fdemck"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&again.stderr);
+    assert!(again.status.success(), "{err}");
+    let got = line(&again.stdout).expect("the restart prints its rest line");
+    assert_eq!(got, want);
+}

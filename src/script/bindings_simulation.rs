@@ -152,6 +152,7 @@ fn simulation(c: &ScriptContext, m: Map) -> RhaiResult<SimHandle> {
         checkpoint_requested: false,
         run_start: None,
         native_run: false,
+        rest_results: Vec::new(),
     })));
     c.sims.borrow_mut().push(handle.clone());
     Ok(handle)

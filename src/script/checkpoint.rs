@@ -11,7 +11,9 @@
 //!
 //! What is not restored: values the script itself computed from the model before the
 //! restored run (they see the model as built, not as stepped), and variables a closure
-//! changes. Keep such values in monitors, or compute them after the last run.
+//! changes. Keep such values in monitors, or compute them after the last run. What a skipped
+//! `bring_to_rest` returns is restored: the checkpoint keeps each call's result
+//! ([`RestRecord`]).
 
 use super::types::{MonitorHandle, SimHandle, SimState};
 use super::ScriptContext;
@@ -52,6 +54,31 @@ pub struct ScriptState {
     pub hook_times: Vec<f64>,
     /// Frames of the body, crack and bar series: (time, file name).
     pub frames: [Vec<(f64, String)>; 3],
+    /// What the completed `bring_to_rest` calls returned.
+    pub rest_results: Vec<RestRecord>,
+}
+
+/// What one `sim.bring_to_rest` returned (its map's entries), and after which completed run
+/// (`runs`, counting it): a restart returns it again from the call it skips, so a script's
+/// checks of it see the values of the run that wrote the checkpoint, not a skipped call's.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct RestRecord {
+    pub runs: usize,
+    pub converged: bool,
+    pub steps: u64,
+    pub time: f64,
+    pub kinetic: f64,
+    pub work: f64,
+    pub ratio: f64,
+    pub damping: f64,
+}
+
+/// The record of the `bring_to_rest` a restart is skipping (the `runs`-th run), from the
+/// pending checkpoint; None when not replaying or not recorded.
+pub fn recorded_rest(ctx: &ScriptContext, runs: usize) -> Option<RestRecord> {
+    let pending = ctx.restart.borrow();
+    let ss = &pending.as_ref()?.loaded.head.script_state;
+    ss.rest_results.iter().find(|r| r.runs == runs).cloned()
 }
 
 /// A checkpoint given with `--restart`, waiting for its simulation's run.
@@ -136,6 +163,7 @@ pub fn write(
             st.cracks_vtk.entries.clone(),
             st.bars_vtk.entries.clone(),
         ],
+        rest_results: st.rest_results.clone(),
     };
     let head = Head {
         fdem_version: env!("CARGO_PKG_VERSION").to_string(),
@@ -278,6 +306,7 @@ fn apply_script_state(st: &mut SimState, ss: &ScriptState) -> Result<(), String>
         };
     }
     st.runs = ss.runs;
+    st.rest_results = ss.rest_results.clone();
     st.wall = ss.wall;
     st.steps_in_runs = ss.steps_in_runs;
     st.events_dispatched = ss.events_dispatched;

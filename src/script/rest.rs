@@ -6,6 +6,7 @@
 //! estimate at every check (Underwood's adaptive dynamic relaxation in its simplest form).
 
 use super::api::keys_of;
+use super::checkpoint::{self, RestRecord};
 use super::numbers::sig;
 use super::opts::{err, Opts, RhaiResult};
 use super::runner;
@@ -101,7 +102,21 @@ fn bring_to_rest(
     let mut st = s.0.borrow_mut();
     let alpha = st.sim.settings.mass_damping;
     st.sim.settings.mass_damping = before;
-    let converged = result?;
+    let Some(converged) = result? else {
+        // A restart skipped this call: return what it returned in the run that wrote the
+        // checkpoint (nothing is printed while the script replays).
+        let r = checkpoint::recorded_rest(ctx, st.runs).unwrap_or(RestRecord {
+            runs: st.runs,
+            converged: true,
+            steps: 0,
+            time: st.sim.time,
+            kinetic: 0.0,
+            work: 0.0,
+            ratio: 0.0,
+            damping: alpha,
+        });
+        return Ok(rest_map(&r));
+    };
     let (ke, w) = last.get();
     let achieved = if w > 0.0 { ke / w } else { 0.0 };
     let steps = st.sim.step - start_step;
@@ -125,13 +140,29 @@ fn bring_to_rest(
             sig(alpha, 4)
         ));
     }
+    let record = RestRecord {
+        runs: st.runs,
+        converged,
+        steps,
+        time: st.sim.time,
+        kinetic: ke,
+        work: w,
+        ratio: achieved,
+        damping: alpha,
+    };
+    st.rest_results.push(record.clone());
+    Ok(rest_map(&record))
+}
+
+/// `bring_to_rest`'s result as the script sees it.
+fn rest_map(r: &RestRecord) -> Map {
     let mut out = Map::new();
-    out.insert("converged".into(), converged.into());
-    out.insert("steps".into(), (steps as i64).into());
-    out.insert("time".into(), st.sim.time.into());
-    out.insert("kinetic".into(), ke.into());
-    out.insert("work".into(), w.into());
-    out.insert("ratio".into(), achieved.into());
-    out.insert("damping".into(), alpha.into());
-    Ok(out)
+    out.insert("converged".into(), r.converged.into());
+    out.insert("steps".into(), (r.steps as i64).into());
+    out.insert("time".into(), r.time.into());
+    out.insert("kinetic".into(), r.kinetic.into());
+    out.insert("work".into(), r.work.into());
+    out.insert("ratio".into(), r.ratio.into());
+    out.insert("damping".into(), r.damping.into());
+    out
 }

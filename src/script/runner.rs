@@ -52,7 +52,8 @@ pub fn run(nc: &NativeCallContext, ctx: &ScriptContext, s: &SimHandle, o: Opts) 
 pub type NativeStop = Box<dyn FnMut(&mut Simulation) -> bool>;
 
 /// Run `steps` steps at most, asking `stop` every `check_every` steps: a run as `run` does it
-/// (monitors, hooks, output), ended by a rule in Rust. Returns whether `stop` ended it.
+/// (monitors, hooks, output), ended by a rule in Rust. Returns whether `stop` ended it, or
+/// None when a restart skipped the run (the checkpoint is past it).
 pub fn run_native(
     nc: &NativeCallContext,
     ctx: &ScriptContext,
@@ -60,7 +61,7 @@ pub fn run_native(
     steps: u64,
     check_every: u64,
     stop: NativeStop,
-) -> RhaiResult<bool> {
+) -> RhaiResult<Option<bool>> {
     prepare_run(ctx, s)?;
     if ctx.options.check_only {
         return Err(
@@ -69,7 +70,7 @@ pub fn run_native(
     }
     // Checkpoints are never taken inside a native run, so a restore is never into one.
     if let RunAction::Skip = checkpoint::at_run(ctx, s).map_err(|e| format!("run(): {e}"))? {
-        return Ok(true);
+        return Ok(None);
     }
     s.0.borrow_mut().native_run = true;
     let mut limits = Limits::new(s, None, None, None, Some(steps), None, check_every);
@@ -84,7 +85,7 @@ pub fn run_native(
     let r = run_within(nc, ctx, s, limits);
     s.0.borrow_mut().native_run = false;
     r?;
-    Ok(stopped.get())
+    Ok(Some(stopped.get()))
 }
 
 /// The run itself: first monitor values, the time loop, the run's bookkeeping and output.

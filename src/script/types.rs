@@ -76,6 +76,9 @@ pub struct SimState {
     /// The run in progress is ended by a rule in Rust (`bring_to_rest`), whose own state a
     /// checkpoint cannot hold: checkpoints wait for its end.
     pub native_run: bool,
+    /// What each completed `bring_to_rest` returned: a checkpoint keeps them, and a restart
+    /// replaying the script returns them again from the calls it skips.
+    pub rest_results: Vec<super::checkpoint::RestRecord>,
 }
 
 /// Error unless `name` can name a file: not empty, not `.` or `..`, no path separator,
