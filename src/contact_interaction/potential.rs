@@ -888,6 +888,54 @@ mod tests {
         }
     }
 
+    /// The plane masks decide as the plain definitions do, on values at and around the
+    /// snapping bounds ±SNAP, 0 and ±1 (the masks replaced short-circuit `any`/`all` tests,
+    /// so any slip in a comparison or a bit would show here): for every one of 7⁶ triangles
+    /// of two planes' values and a random pair of planes, cut = some vertex < −SNAP,
+    /// not_inside = every vertex ≤ SNAP, on = every |value| ≤ SNAP, outside = both for
+    /// one plane.
+    #[test]
+    fn plane_masks_match_their_definitions() {
+        let values = [-1.0, -2.0 * SNAP, -SNAP, 0.0, SNAP, 2.0 * SNAP, 1.0];
+        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let mut outside_seen = [0usize; 2];
+        for code in 0..values.len().pow(6) {
+            let (l1, l2) = (
+                (rng.next() * 4.0) as usize % 4,
+                (rng.next() * 4.0) as usize % 4,
+            );
+            let mut bo = [[0.5; 4]; 3];
+            let mut c = code;
+            for v in &mut bo {
+                v[l1] = values[c % 7];
+                c /= 7;
+                v[l2] = values[c % 7];
+                c /= 7;
+            }
+            let m = PlaneMasks::of(&bo);
+            for l in 0..4 {
+                let bit = |mask: u8| mask & (1 << l) != 0;
+                assert_eq!(bit(m.cut), bo.iter().any(|b| b[l] < -SNAP), "{bo:?} {l}");
+                assert_eq!(
+                    bit(m.not_inside),
+                    bo.iter().all(|b| b[l] <= SNAP),
+                    "{bo:?} {l}"
+                );
+                assert_eq!(
+                    bit(m.on),
+                    bo.iter().all(|b| b[l].abs() <= SNAP),
+                    "{bo:?} {l}"
+                );
+            }
+            let outside =
+                (0..4).any(|l| bo.iter().all(|b| b[l] <= SNAP) && bo.iter().any(|b| b[l] < -SNAP));
+            assert_eq!(m.outside(), outside, "{bo:?}");
+            outside_seen[usize::from(outside)] += 1;
+        }
+        // Both answers occur often (the test is not vacuous).
+        assert!(outside_seen.iter().all(|&n| n > 1000), "{outside_seen:?}");
+    }
+
     /// Random overlapping pairs: the exact energy agrees with brute-force quadrature of
     /// p∫(φ_c + φ_t) over a 160³ grid. The midpoint rule on a discontinuous (at the overlap
     /// boundary) integrand converges as O(1/n): 2 % covers it for overlaps that are not tiny.
