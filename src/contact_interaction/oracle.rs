@@ -93,11 +93,8 @@ pub fn overlapping_tet_tet(c: &TetGeom, t: &TetGeom, p: Real) -> PairForces {
         Vert { x, bo, bs }
     };
     for k in 0..4 {
-        for (own, other, b, b_other, side) in [
-            (c, t, &bt, &bc, Side::Contactor),
-            (t, c, &bc, &bt, Side::Target),
-        ] {
-            face_pieces(own, other, k, b, b_other, side, vertex, |poly, m| {
+        for (own, other, b, side) in [(c, t, &bt, Side::Contactor), (t, c, &bc, Side::Target)] {
+            face_pieces(own, other, k, b, side, vertex, |poly, m| {
                 integrate_piece(other, poly, k, m, own.normal[k], side, &mut acc)
             });
         }

@@ -403,11 +403,8 @@ pub fn overlapping_tet_tet(c: &TetGeom, t: &TetGeom, p: Real) -> PairForces {
         regions_t: 0,
     };
     for k in 0..4 {
-        for (own, other, b, b_other, side) in [
-            (c, t, &bt, &bc, Side::Contactor),
-            (t, c, &bc, &bt, Side::Target),
-        ] {
-            face_pieces(own, other, k, b, b_other, side, Vert::of, |poly, m| {
+        for (own, other, b, side) in [(c, t, &bt, Side::Contactor), (t, c, &bc, Side::Target)] {
+            face_pieces(own, other, k, b, side, Vert::of, |poly, m| {
                 integrate_piece(own, other, poly, k, m, side, &mut acc)
             });
         }
@@ -445,15 +442,14 @@ impl Vert {
 
 /// Face k of `own` clipped by `other` and split by the other's sub-tetrahedra R_m (where
 /// φ_other = 4λ_m is linear): calls `piece(polygon, m)` for each piece of at least a
-/// triangle. `b_own_in_other[v][j]` = λ_j^other(own vertex v), `b_other_in_own` the
-/// other way round; `vertex(x, v, bo)` makes the polygon vertex of own node v.
+/// triangle. `b_own_in_other[v][j]` = λ_j^other(own vertex v); `vertex(x, v, bo)` makes
+/// the polygon vertex of own node v.
 #[inline(always)]
 pub(crate) fn face_pieces<V: ClipVertex>(
     own: &TetGeom,
     other: &TetGeom,
     k: usize,
     b_own_in_other: &[[Real; 4]; 4],
-    b_other_in_own: &[[Real; 4]; 4],
     side: Side,
     vertex: impl Fn(Vec3, usize, [Real; 4]) -> V,
     mut piece: impl FnMut(&Poly<V>, usize),
@@ -469,23 +465,13 @@ pub(crate) fn face_pieces<V: ClipVertex>(
     // A target face lying in a contactor face plane with the same outward normal (the flush
     // sides of matching meshes) bounds the overlap where the contactor's face does: that
     // facet is counted once, from the contactor. (φ_c = φ_t = 0 on it, so it only adds
-    // cones, and the contactor's facet adds both.) Only when each face lies in the other's
-    // plane (within SNAP of its own element's size): then the contactor's face is kept
-    // whole by the target's plane as this one is by the contactor's. Faces a hair apart in
-    // angle can lie in the other's plane one way and not the other (a 0.03 m face within
-    // SNAP of a 0.1 m element's plane, whose far corners are 3e-9 of 0.03 m off this one's):
-    // the contactor's face is then clipped to nothing, and skipping this facet too left the
-    // overlap open, a cone of the size of the element in its energy (4.7e-3 J for a pair
-    // of 4e-10 J on a settled stack).
+    // cones, and the contactor's facet adds both.)
     if side == Side::Target && planes.on != 0 {
         let mut on = planes.on;
         while on != 0 {
             let j = on.trailing_zeros() as usize;
             on &= on - 1;
-            let mutual = TET_FACES[j]
-                .iter()
-                .all(|&v| b_other_in_own[v][k].abs() <= SNAP);
-            if mutual && own.normal[k].dot(&other.normal[j]) > 0.0 {
+            if own.normal[k].dot(&other.normal[j]) > 0.0 {
                 return;
             }
         }
@@ -948,79 +934,6 @@ mod tests {
         }
         // Both answers occur often (the test is not vacuous).
         assert!(outside_seen.iter().all(|&n| n > 1000), "{outside_seen:?}");
-    }
-
-    /// A floor tet and a block's corner tet from a settled stack (overlap 0.4–1.6 nm deep,
-    /// vertex offsets ~1e-11 m): the block's side face lies within SNAP of the floor tet's
-    /// face plane, but not the floor's face within SNAP of the block's (its corners are
-    /// 0.1 m away). The energy p∫(φ_c + φ_t) does not depend on which element is the
-    /// contactor, nor do the forces: the two orders must agree. Before the flush-face rule
-    /// asked for both ways, (c, t) gave E = −4.73e-3 J and a 0.54 N nodal force against
-    /// 3.80e-10 J for (t, c). Now the forces agree within 1.7e-9 of the largest (0.55 N;
-    /// tolerance 1e-8: the overlap is ~1e-8 of the elements, so the cone and kink sums
-    /// cancel ~8 digits) and the energies within 2.2 % (3.889e-10 and 3.803e-10 J;
-    /// tolerance 5 %): an energy of 4e-17 p·H³, where facets of 1e-18 m² that snapping
-    /// keeps on one side and not the other still count. The defect was 1e7 times it.
-    #[test]
-    fn a_nearly_flush_face_pair_is_the_same_either_way_round() {
-        let tet = |x: [[Real; 3]; 4]| TetGeom::new(x.map(|a| Vec3::new(a[0], a[1], a[2]))).unwrap();
-        let c = tet([
-            [0.09999999999999998, 0.09999999999999998, -0.1],
-            [0.09999999999999998, 0.09999999999999998, 0.0],
-            [0.19999999999999998, 0.09999999999999998, 0.0],
-            [0.19999999999999998, 0.19999999999999998, 0.0],
-        ]);
-        let t = tet([
-            [
-                0.10000000000016403,
-                0.10000000000018484,
-                -1.5382791911724457e-9,
-            ],
-            [
-                0.13333333333529387,
-                0.100000000002302,
-                -1.2351410704881635e-9,
-            ],
-            [
-                0.13333333333818448,
-                0.13333333333818054,
-                -3.775487902806805e-10,
-            ],
-            [
-                0.13333333332941222,
-                0.13333333332941236,
-                0.04999999473309036,
-            ],
-        ]);
-        let p = 1e10;
-        let (a, b) = (tet_tet(&c, &t, p), tet_tet(&t, &c, p));
-        assert!(
-            a.energy > 0.0 && b.energy > 0.0,
-            "{:e} {:e}",
-            a.energy,
-            b.energy
-        );
-        assert!(
-            (a.energy - b.energy).abs() <= 0.05 * b.energy,
-            "E = {:e} as (c, t), {:e} as (t, c)",
-            a.energy,
-            b.energy
-        );
-        let largest =
-            a.fc.iter()
-                .chain(&a.ft)
-                .map(|f| f.norm())
-                .fold(0.0, Real::max);
-        for i in 0..4 {
-            assert!(
-                (a.fc[i] - b.ft[i]).norm() <= 1e-8 * largest,
-                "node {i} of c"
-            );
-            assert!(
-                (a.ft[i] - b.fc[i]).norm() <= 1e-8 * largest,
-                "node {i} of t"
-            );
-        }
     }
 
     /// Random overlapping pairs: the exact energy agrees with brute-force quadrature of
