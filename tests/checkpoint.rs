@@ -51,9 +51,14 @@ print(`broken ${sim.energy().fracture} J, ${sim.step} steps`);
 
 /// Write the model with `crash` as `dir/model.rhai` (the file name a checkpoint records).
 fn write_model(dir: &Path, crash: &str) -> PathBuf {
+    write_script(dir, MODEL, crash)
+}
+
+/// Write `model` with `CRASH` replaced by `crash` as `dir/model.rhai`.
+fn write_script(dir: &Path, model: &str, crash: &str) -> PathBuf {
     std::fs::create_dir_all(dir).unwrap();
     let path = dir.join("model.rhai");
-    std::fs::write(&path, MODEL.replace("CRASH", crash)).unwrap();
+    std::fs::write(&path, model.replace("CRASH", crash)).unwrap();
     path
 }
 
@@ -370,13 +375,7 @@ expect_within("bring_to_rest's steps", rest.steps, 1, 20000);
 #[test]
 fn a_restart_returns_what_the_skipped_bring_to_rest_returned() {
     let dir = common::temp_dir("ck-rest");
-    let write = |sub: &str, crash: &str| {
-        let d = dir.join(sub);
-        std::fs::create_dir_all(&d).unwrap();
-        let path = d.join("model.rhai");
-        std::fs::write(&path, REST_MODEL.replace("CRASH", crash)).unwrap();
-        path
-    };
+    let write = |sub: &str, crash: &str| write_script(&dir.join(sub), REST_MODEL, crash);
     let line = |stdout: &[u8]| {
         String::from_utf8_lossy(stdout)
             .lines()
