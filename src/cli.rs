@@ -1098,6 +1098,9 @@ pub fn bench_fragmented(tets: usize, steps: u64) -> Result<serde_json::Value, St
     let (oracle_force, oracle_energy) = sim
         .contact
         .kernel_oracle_deviation(&sim.contact_detection, &sim.tets.material);
+    let (swap_force, swap_energy, negative_energy) = sim
+        .contact
+        .kernel_swap_deviation(&sim.contact_detection, &sim.tets.material);
     let contact_bytes = sim.contact.bytes() + sim.contact_detection.bytes();
     Ok(serde_json::json!({
         "case": "fragmented",
@@ -1105,6 +1108,9 @@ pub fn bench_fragmented(tets: usize, steps: u64) -> Result<serde_json::Value, St
         "kernel_ns_per_pair": kernel_ns,
         "kernel_oracle_deviation": oracle_force,
         "kernel_oracle_energy_deviation": oracle_energy,
+        "kernel_swap_deviation": swap_force,
+        "kernel_swap_energy_deviation": swap_energy,
+        "kernel_negative_energy_pairs": negative_energy,
         "tets": n,
         "blocks": sim.bodies.len() - 1,
         "surface_elements": sim.contact_detection.surface.len(),

@@ -564,6 +564,39 @@ impl ContactInteraction {
         (df, if de == 0.0 { 0.0 } else { de / e })
     }
 
+    /// How far the kernel's result on each pair that touched in the last step moves when
+    /// contactor and target swap roles (E and the forces are symmetric in them; the
+    /// clipping and the cones are not, so this sees what the oracle, which shares them,
+    /// cannot): (the largest over the pairs of max_i |F_i − F_i^swapped|, over the largest
+    /// nodal force of all the pairs; Σ|E − E^swapped| / Σ|E|; the number of pairs with
+    /// E < 0, which the exact energy never is). (Over the model's largest force, not each
+    /// pair's own: pairs that overlap by a rounding error, 1e-14 m, have forces of 1e-9 N
+    /// that differ by 1e-4 of themselves.)
+    pub fn kernel_swap_deviation(
+        &self,
+        detection: &ContactDetection,
+        tet_material: &[u32],
+    ) -> (f64, f64, usize) {
+        let (df, scale, de, e, negative) = self
+            .touching_pairs(detection, tet_material)
+            .iter()
+            .map(|(c, t, p)| potential::swap_deviation(c, t, *p))
+            .fold((0.0 as Real, 0.0 as Real, 0.0, 0.0, 0), |a, b| {
+                (
+                    a.0.max(b.0),
+                    a.1.max(b.1),
+                    a.2 + b.2,
+                    a.3 + b.3.abs(),
+                    a.4 + usize::from(b.3 < 0.0),
+                )
+            });
+        (
+            if df == 0.0 { 0.0 } else { df / scale },
+            if de == 0.0 { 0.0 } else { de / e },
+            negative,
+        )
+    }
+
     /// Bytes held by each stage 5 buffer (capacity), by name (for the bench).
     pub fn bytes_by_buffer(&self) -> serde_json::Value {
         use std::mem::size_of;

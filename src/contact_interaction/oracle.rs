@@ -15,7 +15,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::potential::{
-    face_pieces, kink_energy, ClipVertex, PairForces, Poly, Side, TetGeom, MAX_POLY,
+    face_pieces, kink_energy, ClipVertex, PairForces, Poly, RegionCones, Side, TetGeom, MAX_POLY,
 };
 use crate::math::{Real, Vec3};
 
@@ -59,11 +59,8 @@ struct Acc {
     area: Real,
     moment: Vec3,
     depth: Real,
-    apex: Option<Vec3>,
-    apex_c: [Real; 4],
-    apex_t: [Real; 4],
-    regions_c: u8,
-    regions_t: u8,
+    cones_c: RegionCones,
+    cones_t: RegionCones,
 }
 
 /// The oracle's [`super::potential::overlapping_tet_tet`].
@@ -81,11 +78,8 @@ pub fn overlapping_tet_tet(c: &TetGeom, t: &TetGeom, p: Real) -> PairForces {
         area: 0.0,
         moment: Vec3::zeros(),
         depth: 0.0,
-        apex: None,
-        apex_c: [0.0; 4],
-        apex_t: [0.0; 4],
-        regions_c: 0,
-        regions_t: 0,
+        cones_c: RegionCones::new(),
+        cones_t: RegionCones::new(),
     };
     let vertex = |x: Vec3, v: usize, bo: [Real; 4]| {
         let mut bs = [0.0; 4];
@@ -94,17 +88,16 @@ pub fn overlapping_tet_tet(c: &TetGeom, t: &TetGeom, p: Real) -> PairForces {
     };
     for k in 0..4 {
         for (own, other, b, side) in [(c, t, &bt, Side::Contactor), (t, c, &bc, Side::Target)] {
-            face_pieces(own, other, k, b, side, vertex, |poly, m| {
-                integrate_piece(other, poly, k, m, own.normal[k], side, &mut acc)
+            face_pieces(own, k, b, vertex, |poly, m| {
+                integrate_piece(own, other, poly, k, m, side, &mut acc)
             });
         }
     }
     if acc.area <= 0.0 {
         return out;
     }
-    let apex = acc.apex.expect("a facet was found");
-    acc.e_c += kink_energy(c, t, &bt, apex, acc.regions_c);
-    acc.e_t += kink_energy(t, c, &bc, apex, acc.regions_t);
+    acc.e_c += kink_energy(c, t, &bt, &acc.cones_c);
+    acc.e_t += kink_energy(t, c, &bc, &acc.cones_t);
     for i in 0..4 {
         out.fc[i] = -p * (c.g[i] * acc.e_c + acc.sc[i]);
         out.ft[i] = -p * (t.g[i] * acc.e_t + acc.st[i]);
@@ -118,16 +111,18 @@ pub fn overlapping_tet_tet(c: &TetGeom, t: &TetGeom, p: Real) -> PairForces {
 }
 
 /// One planar facet on face k of `own` (outward normal n), inside region m of `other`
-/// (φ_other = 4λ_m): its surface integrals per node, and its cones from the apex.
+/// (φ_other = 4λ_m): its surface integrals per node, and its cone from the other's apex
+/// of region m (the cone over it from its own region k's apex is 0: φ_own = 0 on face k).
 fn integrate_piece(
+    own: &TetGeom,
     other: &TetGeom,
     poly: &Poly<Vert>,
     k: usize,
     m: usize,
-    n: Vec3,
     side: Side,
     acc: &mut Acc,
 ) {
+    let n = own.normal[k];
     let mut phi = [0.0; MAX_POLY];
     for i in 0..poly.n {
         let bo = &poly.get(i).bo;
@@ -166,38 +161,19 @@ fn integrate_piece(
     if area <= 0.0 {
         return;
     }
-    let centroid = first / area;
-    let phi_c = i_phi / area;
     acc.area += area;
     acc.moment += first;
-    let apex = *acc.apex.get_or_insert_with(|| {
-        let v = poly.get(0);
-        let (bc, bt) = match side {
-            Side::Contactor => (v.bs, v.bo),
-            Side::Target => (v.bo, v.bs),
-        };
-        acc.apex_c = bc;
-        acc.apex_t = bt;
-        v.x
-    });
-    let (apex_own, apex_oth) = match side {
-        Side::Contactor => (&acc.apex_c, &acc.apex_t),
-        Side::Target => (&acc.apex_t, &acc.apex_c),
+    let (own_cones, oth_cones) = match side {
+        Side::Contactor => (&mut acc.cones_c, &mut acc.cones_t),
+        Side::Target => (&mut acc.cones_t, &mut acc.cones_c),
     };
-    let (reg_own, reg_oth) = match side {
-        Side::Contactor => (&mut acc.regions_c, &mut acc.regions_t),
-        Side::Target => (&mut acc.regions_t, &mut acc.regions_c),
+    own_cones.apex(own, k, v0.x, 0.0);
+    let apex = oth_cones.apex(other, m, v0.x, v0.bo[m]);
+    let e_oth = (first / area - apex).dot(&n) * i_phi * 0.25;
+    let (e_oth_sum, s_own, s_oth) = match side {
+        Side::Contactor => (&mut acc.e_t, &mut acc.sc, &mut acc.st),
+        Side::Target => (&mut acc.e_c, &mut acc.st, &mut acc.sc),
     };
-    *reg_own |= 1 << k;
-    *reg_oth |= 1 << m;
-    let cone = (centroid - apex).dot(&n) * area / 3.0;
-    let e_own = cone * apex_own[k];
-    let e_oth = cone * (apex_oth[m] + 0.75 * phi_c);
-    let (e_own_sum, e_oth_sum, s_own, s_oth) = match side {
-        Side::Contactor => (&mut acc.e_c, &mut acc.e_t, &mut acc.sc, &mut acc.st),
-        Side::Target => (&mut acc.e_t, &mut acc.e_c, &mut acc.st, &mut acc.sc),
-    };
-    *e_own_sum += e_own;
     *e_oth_sum += e_oth;
     for q in 0..4 {
         s_own[q] += n * i_own[q];
