@@ -220,6 +220,44 @@ impl<V: ClipVertex> Poly<V> {
         self.clip_n_into(self.n, out, s);
     }
 
+    /// Both sides at once: into `above` the part where `s(v) ≥ 0`, into `below` the part
+    /// where `s(v) ≤ 0` (values within SNAP of 0 go to both), branch-free as
+    /// [`Poly::clip_into`], whose `above` it equals bit for bit; `below` equals the clip by
+    /// −s (the crossing's t = a/(a − b) is the same number for −a, −b).
+    #[inline(always)]
+    fn split_into(&self, below: &mut Poly<V>, above: &mut Poly<V>, s: impl Fn(&V) -> Real) {
+        let n = self.n;
+        below.n = 0;
+        above.n = 0;
+        if n == 0 {
+            return;
+        }
+        let mut sv = [0.0; MAX_POLY + 1];
+        for i in 0..n {
+            let x = s(self.get(i));
+            sv[i] = if x.abs() <= SNAP { 0.0 } else { x };
+        }
+        sv[n] = sv[0];
+        let (mut ma, mut mb) = (0, 0);
+        for i in 0..n {
+            let (a, b) = (sv[i], sv[i + 1]);
+            let j = if i + 1 == n { 0 } else { i + 1 };
+            let v = *self.get(i);
+            above.v[ma].write(v);
+            ma = (ma + usize::from(a >= 0.0)).min(MAX_POLY);
+            below.v[mb].write(v);
+            mb = (mb + usize::from(a <= 0.0)).min(MAX_POLY);
+            let x = v.lerp(self.get(j), a / (a - b));
+            let crosses = usize::from(a * b < 0.0);
+            above.v[ma].write(x);
+            ma = (ma + crosses).min(MAX_POLY);
+            below.v[mb].write(x);
+            mb = (mb + crosses).min(MAX_POLY);
+        }
+        above.n = ma;
+        below.n = mb;
+    }
+
     /// [`Poly::clip_into`] for a triangle: its loops' length is known when compiled, so
     /// their exits are not mispredicted (a polygon's first loop is: its length is data).
     #[inline(always)]
@@ -501,12 +539,10 @@ pub(crate) fn face_pieces<V: ClipVertex>(
     let Some(poly) = clip_to_other(&mut a, &mut b, planes.cut) else {
         return;
     };
-    // Split by the other's regions R_m = {λ_m ≤ λ_j ∀j}. A region is clipped only by the
-    // planes λ_j = λ_m that cross the polygon (decided from the vertex values, with the
-    // clipping's own snapping, so the result is the same as clipping by all three), and is
-    // skipped when one plane leaves nothing of it: typically one or two regions, one clip.
-    // Range of λ_j − λ_m over the vertices, once per unordered pair m < j (that of
-    // λ_m − λ_j is its exact negation).
+    // Split by the other's regions R_m = {λ_m ≤ λ_j ∀j} ([`split_regions`]), skipping
+    // first the regions one plane λ_j = λ_m leaves nothing of (decided from the vertex
+    // values, with the clipping's own snapping). Range of λ_j − λ_m over the vertices, once
+    // per unordered pair m < j (that of λ_m − λ_j is its exact negation).
     // (One loop over the vertices, the six kinks inside it: one data-dependent loop exit.)
     let mut lo6 = [Real::INFINITY; 6];
     let mut hi6 = [Real::NEG_INFINITY; 6];
@@ -523,11 +559,8 @@ pub(crate) fn face_pieces<V: ClipVertex>(
         range[m][j] = (lo6[q], hi6[q]);
         range[j][m] = (-hi6[q], -lo6[q]);
     }
-    let mut p1 = Poly::new();
-    let mut p2 = Poly::new();
-    // Per region: the planes that cross the polygon (bit j), and whether one plane leaves
-    // nothing of it; decided for all four at once, without a branch per plane.
-    let mut crossing = [0u8; 4];
+    // The regions one plane leaves nothing of; decided for all four at once, without a
+    // branch per plane.
     let mut empty = 0u8;
     for m in 0..4 {
         for j in 0..4 {
@@ -535,33 +568,69 @@ pub(crate) fn face_pieces<V: ClipVertex>(
             let here = j != m;
             // Nothing of the polygon has λ_m ≤ λ_j.
             empty |= u8::from(here & (hi <= SNAP) & (lo < -SNAP)) << m;
-            crossing[m] |= u8::from(here & (lo < -SNAP)) << j;
         }
     }
-    'region: for m in 0..4 {
-        if empty & (1 << m) != 0 {
-            continue;
-        }
-        let crossing = crossing[m];
-        let mut first = true;
-        let (mut cur, mut next) = (&mut p1, &mut p2);
-        let mut planes = crossing;
-        while planes != 0 {
-            let j = planes.trailing_zeros() as usize;
-            planes &= planes - 1;
-            let s = |v: &V| v.bo()[j] - v.bo()[m];
-            if first {
-                poly.clip_into(next, s);
-                first = false;
-            } else {
-                cur.clip_into(next, s);
+    split_regions(poly, !empty & 0b1111, &mut piece);
+}
+
+/// Split `poly` among the other element's regions `cand` (bit m: R_m may hold a part of
+/// it) and call `piece(part, m)` for each part of at least a triangle. Two candidates a < b
+/// are compared by s = λ_b − λ_a over the vertices: one that is nowhere below the other
+/// (beyond SNAP) is dropped, else the polygon is cut by s = 0 into the side where λ_a ≤ λ_b
+/// (b dropped) and the side where λ_b ≤ λ_a (a dropped), each split on: one cut gives both
+/// sides, where clipping each region by its own planes cuts twice (−5 % instructions and
+/// −23 % mispredicted branches per touching pair, docs/performance.md). A polygon lying in
+/// the plane (|s| ≤ SNAP throughout) goes to both, as clipping each region would. At most
+/// three levels (four regions). Test: `the_region_split_equals_clipping_each_region`.
+fn split_regions<V: ClipVertex>(
+    poly: &Poly<V>,
+    mut cand: u8,
+    piece: &mut impl FnMut(&Poly<V>, usize),
+) {
+    loop {
+        if cand & cand.wrapping_sub(1) == 0 {
+            if cand != 0 {
+                piece(poly, cand.trailing_zeros() as usize);
             }
-            std::mem::swap(&mut cur, &mut next);
-            if cur.n < 3 {
-                continue 'region;
-            }
+            return;
         }
-        piece(if first { poly } else { cur }, m);
+        let a = cand.trailing_zeros() as usize;
+        let b = (cand & (cand - 1)).trailing_zeros() as usize;
+        let (mut lo, mut hi) = (Real::INFINITY, Real::NEG_INFINITY);
+        for i in 0..poly.n {
+            let bo = poly.get(i).bo();
+            let s = bo[b] - bo[a];
+            lo = lo.min(s);
+            hi = hi.max(s);
+        }
+        match (lo >= -SNAP, hi <= SNAP) {
+            // In the plane λ_a = λ_b (within SNAP): both regions take it, as the oracle's
+            // per-region split does (neither plane clips, neither region is empty).
+            (true, true) => {
+                split_regions(poly, cand & !(1 << b), piece);
+                cand &= !(1 << a);
+                continue;
+            }
+            (true, false) => {
+                cand &= !(1 << b);
+                continue;
+            }
+            (false, true) => {
+                cand &= !(1 << a);
+                continue;
+            }
+            (false, false) => {}
+        }
+        let mut below = Poly::new();
+        let mut above = Poly::new();
+        poly.split_into(&mut below, &mut above, |v| v.bo()[b] - v.bo()[a]);
+        if above.n >= 3 {
+            split_regions(&above, cand & !(1 << b), piece);
+        }
+        if below.n >= 3 {
+            split_regions(&below, cand & !(1 << a), piece);
+        }
+        return;
     }
 }
 
@@ -1343,6 +1412,113 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Area and first moment ∫x dA of each of the other element's regions' part of face k
+    /// of `own`, as [`face_pieces`] splits it.
+    fn region_parts(own: &TetGeom, k: usize, b: &[[Real; 4]; 4]) -> [(Real, Vec3); 4] {
+        let mut parts = [(0.0, Vec3::zeros()); 4];
+        face_pieces(own, k, b, Vert::of, |poly: &Poly<Vert>, m| {
+            parts[m] = add_polygon(parts[m], poly, own.normal[k]);
+        });
+        parts
+    }
+
+    /// The same by the definition: face k clipped by the other element, then for each
+    /// region m clipped by every plane λ_j − λ_m ≥ 0, j ≠ m (no plane skipped, no tree).
+    fn region_parts_by_clipping(own: &TetGeom, k: usize, b: &[[Real; 4]; 4]) -> [(Real, Vec3); 4] {
+        let mut parts = [(0.0, Vec3::zeros()); 4];
+        let mut face = Poly::new();
+        for v in TET_FACES[k] {
+            face.push(Vert {
+                x: own.x[v],
+                bo: b[v],
+            });
+        }
+        for l in 0..4 {
+            let mut next = Poly::new();
+            face.clip_into(&mut next, |v: &Vert| v.bo[l]);
+            face = next;
+        }
+        if face.n < 3 {
+            return parts;
+        }
+        for m in 0..4 {
+            let mut part = Poly::new();
+            face.clip_into(&mut part, |_: &Vert| 1.0); // a copy
+            for j in (0..4).filter(|&j| j != m) {
+                let mut next = Poly::new();
+                part.clip_into(&mut next, |v: &Vert| v.bo[j] - v.bo[m]);
+                part = next;
+            }
+            if part.n >= 3 {
+                parts[m] = add_polygon(parts[m], &part, own.normal[k]);
+            }
+        }
+        parts
+    }
+
+    fn add_polygon((area, first): (Real, Vec3), poly: &Poly<Vert>, n: Vec3) -> (Real, Vec3) {
+        let x0 = poly.get(0).x;
+        let (mut a, mut f) = (area, first);
+        for i in 1..poly.n - 1 {
+            let (xb, xc) = (poly.get(i).x, poly.get(i + 1).x);
+            let at = 0.5 * (xb - x0).cross(&(xc - x0)).dot(&n);
+            a += at;
+            f += (x0 + xb + xc) * (at / 3.0);
+        }
+        (a, f)
+    }
+
+    /// The kernel's region split (a tree of two-sided cuts, `split_regions`) gives each
+    /// region of the other element the same part of every face as clipping the face by
+    /// that region's three planes: area and first moment within 1e-12 of the face's area
+    /// (and its size) on 2 000 random overlapping pairs, every face of both elements. Both
+    /// cut along the same planes from the same vertex values; they differ in the order of
+    /// the cuts, so by rounding only.
+    #[test]
+    fn the_region_split_equals_clipping_each_region() {
+        let mut rng = Rng(77);
+        let (mut faces, mut split_faces, mut worst) = (0, 0, 0.0 as Real);
+        while faces < 8 * 2000 {
+            let c = rng.tet(Vec3::new(0.3, -0.2, 0.1), 1.0);
+            let shift = Vec3::new(rng.next(), rng.next(), rng.next()) * 0.5;
+            let t = rng.tet(Vec3::new(0.3, -0.2, 0.1) + shift, 1.0);
+            if separating_axis(&c, &t, 0).is_some() {
+                continue;
+            }
+            let bt: [[Real; 4]; 4] = c.x.map(|x| t.bary(&x));
+            let bc: [[Real; 4]; 4] = t.x.map(|x| c.bary(&x));
+            for (own, b) in [(&c, &bt), (&t, &bc)] {
+                for k in 0..4 {
+                    faces += 1;
+                    let f = TET_FACES[k];
+                    let face_area = 0.5
+                        * (own.x[f[1]] - own.x[f[0]])
+                            .cross(&(own.x[f[2]] - own.x[f[0]]))
+                            .norm();
+                    let size = (own.x[f[1]] - own.x[f[0]]).norm();
+                    let (a, r) = (region_parts(own, k, b), region_parts_by_clipping(own, k, b));
+                    split_faces += usize::from(r.iter().filter(|p| p.0 > 0.0).count() > 1);
+                    for m in 0..4 {
+                        let da = (a[m].0 - r[m].0).abs() / face_area;
+                        let df = (a[m].1 - r[m].1).norm() / (face_area * size);
+                        worst = worst.max(da).max(df);
+                        assert!(
+                            da <= 1e-12 && df <= 1e-12,
+                            "region {m}: area {:e} vs {:e}",
+                            a[m].0,
+                            r[m].0
+                        );
+                    }
+                }
+            }
+        }
+        println!("{split_faces} of {faces} faces span two regions or more; worst {worst:e}");
+        assert!(
+            split_faces > faces / 4,
+            "the split is exercised: {split_faces} of {faces}"
+        );
     }
 
     /// The kernel agrees with the test oracle (the kernel of 2026-11-28, which integrated
