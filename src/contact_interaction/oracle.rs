@@ -88,8 +88,8 @@ pub fn overlapping_tet_tet(c: &TetGeom, t: &TetGeom, p: Real) -> PairForces {
     };
     for k in 0..4 {
         for (own, other, b, side) in [(c, t, &bt, Side::Contactor), (t, c, &bc, Side::Target)] {
-            face_pieces(own, k, b, vertex, |poly, m| {
-                integrate_piece(own, other, poly, k, m, side, &mut acc)
+            face_pieces(own, k, b, vertex, |poly, m, also| {
+                integrate_piece(own, other, poly, k, (m, also), side, &mut acc)
             });
         }
     }
@@ -118,7 +118,7 @@ fn integrate_piece(
     other: &TetGeom,
     poly: &Poly<Vert>,
     k: usize,
-    m: usize,
+    (m, also): (usize, u8),
     side: Side,
     acc: &mut Acc,
 ) {
@@ -169,6 +169,10 @@ fn integrate_piece(
     };
     own_cones.apex(own, k, v0.x, 0.0);
     let apex = oth_cones.apex(other, m, v0.x, v0.bo[m]);
+    if also != 0 {
+        let j = also.trailing_zeros() as usize;
+        oth_cones.apex(other, j, v0.x, v0.bo[j]);
+    }
     let e_oth = (first / area - apex).dot(&n) * i_phi * 0.25;
     let (e_oth_sum, s_own, s_oth) = match side {
         Side::Contactor => (&mut acc.e_t, &mut acc.sc, &mut acc.st),
