@@ -94,9 +94,6 @@ pub struct StepParams {
     /// Velocity that mass damping measures against (the ground's under a base motion) [m/s].
     pub frame_velocity: Vec3,
     pub sample: bool,
-    /// The nodes this process advances (a rank of a decomposed model, its range aligned to
-    /// `CHUNK`); `None`: all. The other nodes' forces are only cleared.
-    pub owned: Option<(usize, usize)>,
 }
 
 /// The coefficients of one central-difference step that nodes and rigid bodies share:
@@ -134,11 +131,13 @@ impl StepParams {
 /// `body_frame` (the body of every node and each body's velocity), mass damping acts on the
 /// velocity relative to the node's body, −α·m·(v − V_body), instead of relative to
 /// `p.frame_velocity`: a body's translation is then not damped, only its deformation and
-/// rotation.
+/// rotation. `owned_chunks` (a rank of a decomposed model): the chunks of `CHUNK` nodes this
+/// process advances; the other chunks' forces are only cleared (`None`: all).
 pub fn central_difference(
     nodes: &mut Nodes,
     p: StepParams,
     body_frame: Option<(&[u32], &[Vec3])>,
+    owned_chunks: Option<&[bool]>,
     partials: &mut Vec<IntegrationSums>,
 ) -> IntegrationSums {
     let StepCoefficients {
@@ -172,7 +171,7 @@ pub fn central_difference(
         .map(|(chunk, (((xs, vs), fs), rs))| {
             let base = chunk * CHUNK;
             let mut s = IntegrationSums::default();
-            if p.owned.is_some_and(|(a, b)| base < a || base >= b) {
+            if owned_chunks.is_some_and(|o| !o[chunk]) {
                 fs.fill(Vec3::zeros());
                 return s;
             }

@@ -11,6 +11,7 @@ mod generators;
 pub mod gmsh;
 pub mod locate;
 pub mod masonry;
+pub mod order;
 pub mod overlap;
 pub mod packing;
 pub mod quality;

@@ -221,12 +221,6 @@ fn as_bytes(data: &[f64]) -> &[u8] {
     unsafe { std::slice::from_raw_parts(data.as_ptr().cast::<u8>(), std::mem::size_of_val(data)) }
 }
 
-/// A slice of 3-vectors as the flat f64 slice they are stored as.
-pub fn flat_mut(v: &mut [crate::math::Vec3]) -> &mut [f64] {
-    // SAFETY: nalgebra's Vector3<f64> is a repr(C) [f64; 3] without padding.
-    unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<f64>(), 3 * v.len()) }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -2,9 +2,11 @@
 //! tests), giving the same bits as one rank.
 //!
 //! **How the work is split.** Every rank builds the whole model (SPMD: each runs the script).
-//! The nodes are split into one contiguous range per rank, aligned to stage 7's chunks
-//! (`integration::CHUNK` nodes) and never through a rigid body, balanced by tet corners. A
-//! rank *owns* its nodes: it alone integrates them (stage 7). After each step every rank
+//! Stage 7's chunks of `integration::CHUNK` nodes (never splitting a rigid body) are given to
+//! ranks by recursive bisection of their places, balanced by tet corners ([`Partition`]);
+//! bodies larger than a chunk are stored in spatial order (`mesh::order`), so a chunk is a
+//! compact piece of its body and a rank's chunks one region of the model. A rank *owns* the
+//! nodes of its chunks: it alone integrates them (stage 7). After each step every rank
 //! receives the x and v of the nodes other ranks read while stepping (each rank's *exports*:
 //! the nodes of work units that span ranks, and of nodal force sets); the rest of the model
 //! (all nodes' x, v, reactions; every joint's history) is shared only when the script reads
@@ -46,7 +48,7 @@ pub mod comm;
 use crate::fracture::{BreakEvent, JointMask};
 use crate::integration::IntegrationSums;
 use crate::joints::{JointSums, Joints};
-use crate::math::Real;
+use crate::math::{Real, Vec3};
 use crate::state::{Body, Layout, Tets};
 pub use comm::{Comm, Serial, ThreadComm};
 use std::ops::Range;
@@ -90,11 +92,31 @@ pub fn names_this_rank(msg: &str) -> bool {
 }
 
 /// The split of one model's nodes and work between ranks, as seen from one rank.
+///
+/// **Ownership by place.** The nodes are cut into stage 7's chunks of
+/// [`crate::integration::CHUNK`] consecutive nodes (chunks a rigid body spans stay
+/// together: a *group*), and the groups are given to ranks by recursive coordinate
+/// bisection of their centres, each cut at the weighted median along the widest extent, so
+/// that every rank's nodes form one compact region of the model. A group weighs the tet
+/// corners at its nodes (a node of no tet weighs one). A body larger than a chunk is stored
+/// along a Z-order curve (`mesh::order`), so each of its chunks is a compact piece of it; a
+/// large body is split between ranks by place, and many small bodies are grouped by where
+/// they lie, not by when they were added. (Until 2026-11-29 each rank owned one contiguous
+/// range of node indices: a body whose nodes came first, a slab or a container, went whole
+/// to rank 0 with all its contact pairs.)
 #[derive(Clone, Debug, Default)]
 pub struct Partition {
     pub rank: usize,
-    /// Each rank's nodes.
-    pub node_ranges: Vec<Range<usize>>,
+    /// The number of ranks.
+    pub ranks: usize,
+    /// The rank owning each chunk of [`crate::integration::CHUNK`] nodes.
+    pub chunk_owner: Vec<u32>,
+    /// Each rank's chunks, in chunk order.
+    pub rank_chunks: Vec<Vec<u32>>,
+    /// The number of nodes each rank owns.
+    pub nodes_per_rank: Vec<usize>,
+    /// The number of nodes.
+    pub n_nodes: usize,
     /// The lowest rank owning one of the tet's nodes.
     pub tet_min_rank: Vec<u32>,
     /// The tet has a node of this rank.
@@ -102,54 +124,69 @@ pub struct Partition {
 }
 
 impl Partition {
-    /// Split `n_nodes` nodes between `size` ranks: contiguous ranges, boundaries at multiples
-    /// of `align` nodes (and never inside a rigid body's nodes), balanced by the number of
-    /// tet corners at each node (a node of no tet weighs one): each boundary is the aligned
-    /// one nearest in weight to its share.
-    pub fn new(rank: usize, size: usize, n_nodes: usize, tets: &Tets, bodies: &[Body]) -> Self {
-        let align = crate::integration::CHUNK;
+    /// Split `x.len()` nodes between `size` ranks by place: chunks of
+    /// [`crate::integration::CHUNK`] nodes (never splitting a rigid body's nodes) given to
+    /// ranks by recursive coordinate bisection of their weighted centres, balanced by the
+    /// number of tet corners at each node (a node of no tet weighs one). Every rank computes
+    /// the same split from the same model.
+    pub fn new(rank: usize, size: usize, x: &[Vec3], tets: &Tets, bodies: &[Body]) -> Self {
+        let chunk = crate::integration::CHUNK;
+        let n_nodes = x.len();
+        let n_chunks = n_nodes.div_ceil(chunk);
         let mut weight = vec![0u32; n_nodes];
         for t in &tets.nodes {
             for &n in t {
                 weight[n as usize] += 1;
             }
         }
-        let mut prefix = Vec::with_capacity(n_nodes + 1);
-        let mut acc = 0u64;
-        prefix.push(0);
-        for w in &weight {
-            acc += u64::from((*w).max(1));
-            prefix.push(acc);
-        }
-        let rigid: Vec<Range<usize>> = bodies
-            .iter()
-            .filter(|b| b.layout == Layout::Rigid)
-            .map(|b| b.nodes.clone())
-            .collect();
-        let mut bounds = vec![0usize];
-        for k in 1..size {
-            let target = acc * k as u64 / size as u64;
-            let i = prefix.partition_point(|&p| p < target).min(n_nodes);
-            // The aligned bound on either side whose weight is nearer the target (a heavy
-            // run of nodes, a continuous body's, can put the nearest index far off in weight).
-            let below = i / align * align;
-            let above = (below + align).min(n_nodes);
-            let off = |b: usize| prefix[b].abs_diff(target);
-            let mut b = if off(above) < off(below) {
-                above
-            } else {
-                below
-            };
-            if let Some(r) = rigid.iter().find(|r| r.start < b && b < r.end) {
-                b = r.end;
+        // Chunk c joins chunk c − 1 when a rigid body spans both.
+        let mut joins_previous = vec![false; n_chunks];
+        for b in bodies.iter().filter(|b| b.layout == Layout::Rigid) {
+            if b.nodes.is_empty() {
+                continue;
             }
-            bounds.push(b.max(*bounds.last().expect("a bound")));
+            let (first, last) = (b.nodes.start / chunk, (b.nodes.end - 1) / chunk);
+            for j in joins_previous.iter_mut().take(last + 1).skip(first + 1) {
+                *j = true;
+            }
         }
-        bounds.push(n_nodes);
-        let node_ranges: Vec<Range<usize>> = bounds.windows(2).map(|w| w[0]..w[1]).collect();
+        // Groups of chunks: their chunk range, weight and weighted centre.
+        let mut groups: Vec<(Range<usize>, u64, Vec3)> = Vec::new();
+        for (c, &joins) in joins_previous.iter().enumerate() {
+            if !joins || groups.is_empty() {
+                groups.push((c..c + 1, 0, Vec3::zeros()));
+            }
+            let g = groups.last_mut().expect("a group");
+            g.0.end = c + 1;
+            for n in c * chunk..((c + 1) * chunk).min(n_nodes) {
+                let w = u64::from(weight[n].max(1));
+                g.1 += w;
+                g.2 += x[n] * w as Real;
+            }
+        }
+        for g in &mut groups {
+            g.2 /= g.1.max(1) as Real;
+        }
+        let mut group_rank = vec![0u32; groups.len()];
+        let mut order: Vec<usize> = (0..groups.len()).collect();
+        bisect(&groups, &mut order, 0..size, &mut group_rank);
+        let mut chunk_owner = vec![0u32; n_chunks];
+        for (g, &r) in groups.iter().zip(&group_rank) {
+            chunk_owner[g.0.clone()].fill(r);
+        }
+        let mut rank_chunks = vec![Vec::new(); size];
+        let mut nodes_per_rank = vec![0usize; size];
+        for (c, &r) in chunk_owner.iter().enumerate() {
+            rank_chunks[r as usize].push(c as u32);
+            nodes_per_rank[r as usize] += ((c + 1) * chunk).min(n_nodes) - c * chunk;
+        }
         let mut p = Partition {
             rank,
-            node_ranges,
+            ranks: size,
+            chunk_owner,
+            rank_chunks,
+            nodes_per_rank,
+            n_nodes,
             tet_min_rank: Vec::new(),
             tet_relevant: Vec::new(),
         };
@@ -172,18 +209,37 @@ impl Partition {
     }
 
     pub fn size(&self) -> usize {
-        self.node_ranges.len()
+        self.ranks
+    }
+
+    /// Whether the model has been split ([`Partition::new`]).
+    pub fn is_split(&self) -> bool {
+        self.ranks > 0
     }
 
     /// The rank owning node `n`.
+    #[inline]
     pub fn owner(&self, n: usize) -> usize {
-        self.node_ranges
-            .partition_point(|r| r.end <= n)
-            .min(self.size() - 1)
+        self.chunk_owner[n / crate::integration::CHUNK] as usize
     }
 
+    #[inline]
     pub fn owns(&self, n: usize) -> bool {
-        self.node_ranges[self.rank].contains(&n)
+        self.owner(n) == self.rank
+    }
+
+    /// Whether this rank owns chunk `c` of [`crate::integration::CHUNK`] nodes.
+    #[inline]
+    pub fn owns_chunk(&self, c: usize) -> bool {
+        self.chunk_owner[c] as usize == self.rank
+    }
+
+    /// Rank `r`'s nodes, chunk by chunk in chunk order.
+    pub fn nodes_of(&self, r: usize) -> impl Iterator<Item = Range<usize>> + '_ {
+        let chunk = crate::integration::CHUNK;
+        self.rank_chunks[r]
+            .iter()
+            .map(move |&c| c as usize * chunk..((c as usize + 1) * chunk).min(self.n_nodes))
     }
 
     /// The joints at this rank's nodes, and those designated to it (the lowest rank owning
@@ -229,9 +285,68 @@ impl Partition {
     }
 }
 
+/// Recursive coordinate bisection: give the groups `order` (indices into `groups`: chunk
+/// range, weight, centre) to `ranks`. The groups are sorted along the widest extent of
+/// their centres (ties by index: the same on every rank) and cut where the weight before
+/// the cut is nearest to the first half's share of the ranks (⌊n/2⌋ of n), leaving each
+/// side a group per rank where there are enough; each side is bisected on.
+fn bisect(
+    groups: &[(Range<usize>, u64, Vec3)],
+    order: &mut [usize],
+    ranks: Range<usize>,
+    group_rank: &mut [u32],
+) {
+    if ranks.len() <= 1 || order.len() <= 1 {
+        for &g in order.iter() {
+            group_rank[g] = ranks.start as u32;
+        }
+        return;
+    }
+    let (mut lo, mut hi) = (
+        Vec3::repeat(Real::INFINITY),
+        Vec3::repeat(Real::NEG_INFINITY),
+    );
+    for &g in order.iter() {
+        lo = lo.inf(&groups[g].2);
+        hi = hi.sup(&groups[g].2);
+    }
+    let axis = (hi - lo).imax();
+    order.sort_by(|&a, &b| {
+        groups[a].2[axis]
+            .total_cmp(&groups[b].2[axis])
+            .then(a.cmp(&b))
+    });
+    let left_ranks = ranks.len() / 2;
+    let total: u64 = order.iter().map(|&g| groups[g].1).sum();
+    let target = total as f64 * left_ranks as f64 / ranks.len() as f64;
+    // The cut i (groups 0..i to the left) whose weight before it is nearest the target,
+    // with at least one group on each side (more where there are groups enough).
+    let min_left = left_ranks.min(order.len() - 1).max(1);
+    let min_right = (ranks.len() - left_ranks)
+        .min(order.len() - min_left)
+        .max(1);
+    let (mut best, mut best_off) = (min_left, f64::INFINITY);
+    let mut before = 0u64;
+    for i in 1..order.len() {
+        before += groups[order[i - 1]].1;
+        if i < min_left || order.len() - i < min_right {
+            continue;
+        }
+        let off = (before as f64 - target).abs();
+        if off < best_off {
+            (best, best_off) = (i, off);
+        }
+    }
+    let (left, right) = order.split_at_mut(best);
+    let mid = ranks.start + left_ranks;
+    bisect(groups, left, ranks.start..mid, group_rank);
+    bisect(groups, right, mid..ranks.end, group_rank);
+}
+
 /// What [`Parallel::split`] reads of a model.
 pub struct ModelToSplit<'a> {
-    pub n_nodes: usize,
+    /// The nodes' positions (where the model is when it is split).
+    pub x: &'a [Vec3],
     pub tets: &'a Tets,
     pub bodies: &'a [Body],
     /// Stage 1's units (see `ElementsWorkspace::units`).
@@ -262,6 +377,9 @@ pub struct Parallel {
     pub joint_blocks: UnitFlags,
     /// Stage 3's joints.
     pub joints: JointMask,
+    /// Per chunk of [`crate::integration::CHUNK`] nodes: this rank owns it (advances its
+    /// nodes in stage 7).
+    pub owned_chunks: Vec<bool>,
     /// Each rank's nodes that other ranks read while stepping (its *exports*, in node
     /// order): the nodes of every work unit that spans two ranks or more, and the nodes of
     /// nodal force sets. Shared every step; the rest of the model at [`Parallel::share_nodes`].
@@ -297,10 +415,10 @@ impl std::fmt::Debug for Parallel {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "Parallel {{ rank {} of {}, nodes {:?} }}",
+            "Parallel {{ rank {} of {}, nodes per rank {:?} }}",
             self.comm.rank(),
             self.comm.size(),
-            self.partition.node_ranges
+            self.partition.nodes_per_rank
         )
     }
 }
@@ -321,6 +439,7 @@ impl Parallel {
             elements: UnitFlags::default(),
             joint_blocks: UnitFlags::default(),
             joints: JointMask::default(),
+            owned_chunks: Vec::new(),
             exports: Vec::new(),
             export_ranges: Vec::new(),
             export_buffer: Vec::new(),
@@ -338,7 +457,7 @@ impl Parallel {
     /// rank's exports.
     pub fn split(&mut self, model: ModelToSplit) {
         let ModelToSplit {
-            n_nodes,
+            x,
             tets,
             bodies,
             element_units,
@@ -347,7 +466,8 @@ impl Parallel {
             contact,
         } = model;
         let comm = &self.comm;
-        let partition = Partition::new(comm.rank(), comm.size(), n_nodes, tets, bodies);
+        let n_nodes = x.len();
+        let partition = Partition::new(comm.rank(), comm.size(), x, tets, bodies);
         let p = &partition;
         let elements = p.unit_flags(
             element_units
@@ -395,11 +515,10 @@ impl Parallel {
             // pair may join any two nodes: every node is exported.
             exported.iter_mut().for_each(|e| *e = true);
         }
-        self.exports = p
-            .node_ranges
-            .iter()
+        self.exports = (0..p.size())
             .map(|r| {
-                r.clone()
+                p.nodes_of(r)
+                    .flatten()
                     .filter(|&n| exported[n])
                     .map(|n| n as u32)
                     .collect()
@@ -419,6 +538,9 @@ impl Parallel {
         self.elements = elements;
         self.joint_blocks = joint_blocks;
         self.joints = joint_mask;
+        self.owned_chunks = (0..partition.chunk_owner.len())
+            .map(|c| partition.owns_chunk(c))
+            .collect();
         self.partition = partition;
     }
 
@@ -450,12 +572,6 @@ impl Parallel {
 
     pub fn rank(&self) -> usize {
         self.comm.rank()
-    }
-
-    /// This rank's nodes as (start, end).
-    pub fn owned(&self) -> (usize, usize) {
-        let r = &self.partition.node_ranges[self.rank()];
-        (r.start, r.end)
     }
 
     /// Replace every unit's partial sums with the designated rank's, on every rank.
@@ -491,14 +607,11 @@ impl Parallel {
         }
     }
 
-    /// The integration chunks' partials: each chunk is one rank's (ranges are aligned).
+    /// The integration chunks' partials: each chunk is one rank's.
     pub fn exchange_chunk_partials(&mut self, partials: &mut [IntegrationSums]) {
-        let chunk = crate::integration::CHUNK;
-        let (a, b) = self.owned();
+        let p = &self.partition;
         let t = std::time::Instant::now();
-        Self::exchange(&*self.comm, &mut self.buffer, partials, |c| {
-            (a..b).contains(&(c * chunk))
-        });
+        Self::exchange(&*self.comm, &mut self.buffer, partials, |c| p.owns_chunk(c));
         self.seconds += t.elapsed().as_secs_f64();
         self.bytes += (self.buffer.len() * 8 * (self.comm.size() - 1)) as u64;
     }
@@ -623,18 +736,45 @@ impl Parallel {
     /// model current on every rank (before the script reads it, before output).
     pub fn share_nodes(&mut self, nodes: &mut crate::state::Nodes) {
         let t = std::time::Instant::now();
-        let ranges: Vec<Range<usize>> = self
-            .partition
-            .node_ranges
+        // Each rank's nodes, chunk by chunk, 9 numbers a node (x, v, reaction), one
+        // segment per rank in rank order.
+        const PER_NODE: usize = 9;
+        let p = &self.partition;
+        let mut at = 0;
+        let segments: Vec<Range<usize>> = p
+            .nodes_per_rank
             .iter()
-            .map(|r| 3 * r.start..3 * r.end)
+            .map(|&n| {
+                at += PER_NODE * n;
+                at - PER_NODE * n..at
+            })
             .collect();
-        for field in [&mut nodes.x, &mut nodes.v, &mut nodes.reaction] {
-            self.comm
-                .allgather_ranges_f64(comm::flat_mut(field), &ranges);
+        let buf = &mut self.buffer;
+        buf.clear();
+        buf.resize(at, 0.0);
+        let mut fields = [&mut nodes.x, &mut nodes.v, &mut nodes.reaction];
+        let mut k = segments[self.comm.rank()].start;
+        for n in p.nodes_of(self.comm.rank()).flatten() {
+            for field in &fields {
+                buf[k..k + 3].copy_from_slice(field[n].as_slice());
+                k += 3;
+            }
         }
-        let mine = self.partition.node_ranges[self.rank()].len();
-        self.bytes += (72 * (nodes.len() - mine)) as u64;
+        self.comm.allgather_ranges_f64(buf, &segments);
+        for (r, seg) in segments.iter().enumerate() {
+            if r == self.comm.rank() {
+                continue;
+            }
+            let mut k = seg.start;
+            for n in p.nodes_of(r).flatten() {
+                for field in fields.iter_mut() {
+                    field[n] = Vec3::new(buf[k], buf[k + 1], buf[k + 2]);
+                    k += 3;
+                }
+            }
+        }
+        let mine = p.nodes_per_rank[self.comm.rank()];
+        self.bytes += (8 * PER_NODE * (nodes.len() - mine)) as u64;
         self.seconds += t.elapsed().as_secs_f64();
     }
 }
@@ -837,5 +977,131 @@ impl Partial for IntegrationSums {
             non_finite: v[6] as usize,
             momentum: crate::math::Vec3::new(v[7], v[8], v[9]),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integration::CHUNK;
+
+    /// A body of `chunks` chunks of nodes, the nodes of chunk k at x = `place(k)` (y, z
+    /// spread a little so that x is the widest extent).
+    fn body(name: &str, first: usize, chunks: usize, layout: Layout) -> Body {
+        Body {
+            name: name.into(),
+            layout,
+            material: 0,
+            tets: 0..0,
+            nodes: first..first + chunks * CHUNK,
+            boundary: Vec::new(),
+            mesh: crate::mesh::Mesh::default(),
+        }
+    }
+
+    /// The case the contiguous node ranges got wrong: a slab whose nodes come first and a
+    /// row of small bodies above it, added in an order unrelated to their place. Split by
+    /// place, every rank owns a slice of the slab and the small bodies over that slice:
+    /// the ranks' chunk centres do not interleave along x, and each rank's nodes are its
+    /// share within one chunk (the bisection cuts between chunks).
+    #[test]
+    fn ranks_own_compact_regions_in_balanced_shares() {
+        let slab = 16;
+        let small = 16;
+        let n = (slab + small) * CHUNK;
+        let mut x = vec![Vec3::zeros(); n];
+        for (i, p) in x.iter_mut().enumerate() {
+            let c = i / CHUNK;
+            let along = if c < slab {
+                (i as Real + 0.5) / (slab * CHUNK) as Real
+            } else {
+                // Small bodies added out of place: chunk k of them at ((7k mod 16) + ½)/16.
+                (((c - slab) * 7 % small) as Real + 0.5) / small as Real
+            };
+            *p = Vec3::new(
+                along,
+                0.01 * (i % 7) as Real,
+                if c < slab { 0.0 } else { 0.05 },
+            );
+        }
+        let bodies = vec![body("slab", 0, slab, Layout::Continuous)];
+        let tets = Tets::default();
+        for size in 1..=5 {
+            let parts: Vec<Partition> = (0..size)
+                .map(|r| Partition::new(r, size, &x, &tets, &bodies))
+                .collect();
+            // Every rank computes the same split.
+            for p in &parts[1..] {
+                assert_eq!(p.chunk_owner, parts[0].chunk_owner, "np {size}");
+            }
+            let p = &parts[0];
+            assert_eq!(p.nodes_per_rank.iter().sum::<usize>(), n);
+            let share = n as Real / size as Real;
+            for (r, &nodes) in p.nodes_per_rank.iter().enumerate() {
+                assert!(
+                    (nodes as Real - share).abs() <= CHUNK as Real,
+                    "np {size}: rank {r} owns {nodes} nodes, share {share}"
+                );
+            }
+            // Each rank's chunk centres along x form an interval that no other rank's
+            // centre falls inside.
+            let centre = |c: usize| {
+                (c * CHUNK..(c + 1) * CHUNK).map(|i| x[i].x).sum::<Real>() / CHUNK as Real
+            };
+            let span: Vec<(Real, Real)> = (0..size)
+                .map(|r| {
+                    p.rank_chunks[r]
+                        .iter()
+                        .fold((Real::INFINITY, Real::NEG_INFINITY), |s, &c| {
+                            (s.0.min(centre(c as usize)), s.1.max(centre(c as usize)))
+                        })
+                })
+                .collect();
+            for (c, &owner) in p.chunk_owner.iter().enumerate() {
+                for (r, &(lo, hi)) in span.iter().enumerate() {
+                    if r != owner as usize {
+                        assert!(
+                            !(lo < centre(c) && centre(c) < hi),
+                            "np {size}: chunk {c} of rank {owner} inside rank {r}'s span"
+                        );
+                    }
+                }
+            }
+            // The slab is shared by every rank (it went whole to rank 0 with ranges).
+            let slab_ranks: std::collections::BTreeSet<u32> =
+                p.chunk_owner[..slab].iter().copied().collect();
+            assert_eq!(
+                slab_ranks.len(),
+                size,
+                "np {size}: slab on ranks {slab_ranks:?}"
+            );
+        }
+    }
+
+    /// A rigid body's nodes are never split between ranks (its owner gathers its force and
+    /// torque), even where it spans several chunks; and with fewer groups than ranks, the
+    /// ranks left without nodes own nothing rather than a part of one.
+    #[test]
+    fn a_rigid_body_stays_on_one_rank() {
+        let n = 6 * CHUNK;
+        let x: Vec<Vec3> = (0..n).map(|i| Vec3::new(i as Real, 0.0, 0.0)).collect();
+        // A rigid body over chunks 1 to 4, starting and ending inside a chunk.
+        let mut rigid = body("rigid", CHUNK + 100, 3, Layout::Rigid);
+        rigid.nodes.end += 50;
+        let bodies = vec![rigid.clone()];
+        let tets = Tets::default();
+        for size in 2..=4 {
+            let p = Partition::new(0, size, &x, &tets, &bodies);
+            let owner = p.owner(rigid.nodes.start);
+            assert!(
+                rigid.nodes.clone().all(|i| p.owner(i) == owner),
+                "np {size}: the rigid body is split"
+            );
+            assert_eq!(p.nodes_per_rank.iter().sum::<usize>(), n);
+        }
+        // Three groups (chunk 0, chunks 1–4, chunk 5) on five ranks.
+        let p = Partition::new(0, 5, &x, &tets, &bodies);
+        let owning = p.nodes_per_rank.iter().filter(|&&k| k > 0).count();
+        assert_eq!(owning, 3, "{:?}", p.nodes_per_rank);
     }
 }

@@ -432,7 +432,7 @@ impl Simulation {
     pub fn synchronize_nodes(&mut self) {
         let step = self.step;
         if let Some(par) = &mut self.parallel {
-            if par.nodes_shared_at != Some(step) && !par.partition.node_ranges.is_empty() {
+            if par.nodes_shared_at != Some(step) && par.partition.is_split() {
                 par.share_nodes(&mut self.nodes);
                 par.nodes_shared_at = Some(step);
             }
@@ -443,7 +443,7 @@ impl Simulation {
     pub fn synchronize_joints(&mut self) {
         let step = self.step;
         if let Some(par) = &mut self.parallel {
-            if par.joints_shared_at != Some(step) && !par.partition.node_ranges.is_empty() {
+            if par.joints_shared_at != Some(step) && par.partition.is_split() {
                 par.share_joint_histories(&mut self.joints);
                 par.joints_shared_at = Some(step);
             }
@@ -456,7 +456,7 @@ impl Simulation {
         let step = self.step;
         if let Some(par) = &mut self.parallel {
             if par.contact_shared_at != Some(step)
-                && !par.partition.node_ranges.is_empty()
+                && par.partition.is_split()
                 && self.contact.is_enabled()
                 && self.contact.mask.compute.len() == self.contact.slots.len()
             {
@@ -471,7 +471,7 @@ impl Simulation {
     /// collective: the script layer calls it when a run returns normally, on every rank.
     pub fn gather_rank_timings(&mut self) {
         if let Some(par) = &mut self.parallel {
-            if !par.partition.node_ranges.is_empty() {
+            if par.partition.is_split() {
                 par.gather_timings(&self.timers.seconds);
             }
         }
@@ -507,12 +507,12 @@ impl Simulation {
     /// nodes each step exchanges (None unless decomposed).
     pub fn split_summary(&self) -> Option<String> {
         let par = self.parallel.as_ref()?;
-        let ranges = &par.partition.node_ranges;
-        let nodes: Vec<String> = ranges.iter().map(|r| r.len().to_string()).collect();
+        let per_rank = &par.partition.nodes_per_rank;
+        let nodes: Vec<String> = per_rank.iter().map(|n| n.to_string()).collect();
         let exported: usize = par.exports.iter().map(Vec::len).sum();
         Some(format!(
             "split over {} ranks: nodes per rank [{}]; {} nodes ({:.1} %) exchanged every step",
-            ranges.len(),
+            per_rank.len(),
             nodes.join(", "),
             exported,
             100.0 * exported as f64 / self.nodes.len().max(1) as f64
@@ -572,6 +572,21 @@ impl Simulation {
             ));
         }
         self.ready = false;
+        // A body larger than one of stage 7's chunks is stored in spatial order (Z-order of
+        // its tets, `mesh::order`): every stage's runs of consecutive tets, joints and nodes,
+        // and a rank's chunks on a decomposed model, are then compact pieces of it. (Smaller
+        // bodies fit one chunk and keep the mesher's order.)
+        let layout_nodes = match layout {
+            Layout::Jointed => 4 * mesh.tets.len(),
+            Layout::Continuous | Layout::Rigid => mesh.nodes.len(),
+        };
+        let ordered;
+        let mesh = if layout_nodes > integration::CHUNK {
+            ordered = crate::mesh::order::spatially_ordered(mesh);
+            &ordered
+        } else {
+            mesh
+        };
         let id = self.bodies.len();
         let node_start = self.nodes.len();
         let tet_start = self.tets.len();
@@ -810,7 +825,7 @@ impl Simulation {
             .chain(rebar_nodes.chain(hosts).map(|n| n as u32))
             .collect();
         par.split(crate::parallel::ModelToSplit {
-            n_nodes: self.nodes.len(),
+            x: &self.nodes.x,
             tets: &self.tets,
             bodies: &self.bodies,
             element_units: &units,
@@ -968,7 +983,6 @@ impl Simulation {
             mass_damping: self.settings.mass_damping,
             frame_velocity: self.loads.frame_velocity,
             sample,
-            owned: self.parallel.as_ref().map(|p| p.owned()),
         };
         let body_frame = self.settings.damping_relative_to_body && params.mass_damping > 0.0;
         if body_frame {
@@ -1018,6 +1032,7 @@ impl Simulation {
                 &mut self.nodes,
                 params,
                 frame,
+                self.parallel.as_ref().map(|p| &p.owned_chunks[..]),
                 &mut self.integration_partials,
             );
             integration::rigid::gather_loads(&mut self.rigid, &mut self.nodes);
