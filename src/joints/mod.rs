@@ -994,6 +994,18 @@ pub fn add_joint_forces(
         let mut frame = compiled::Frame::new();
         let mut scaled: (JointLaw, CohesiveConsts);
         for j in range.clone() {
+            #[cfg(target_arch = "x86_64")]
+            if let Some(ahead) = faces.get(j + 8) {
+                use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+                for side in ahead {
+                    let n = side[0] as usize;
+                    // SAFETY: a prefetch is a hint; the address is inside the arrays.
+                    unsafe {
+                        _mm_prefetch::<_MM_HINT_T0>(x.as_ptr().add(n).cast::<i8>());
+                        _mm_prefetch::<_MM_HINT_T0>(fp.get().add(n).cast::<i8>());
+                    }
+                }
+            }
             // SAFETY: as for the state (each joint is read and written by its block only).
             if j < n_handed && unsafe { *hp.get().add(j) } {
                 continue;
