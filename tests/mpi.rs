@@ -218,6 +218,47 @@ fn contact_writes_the_single_process_files_on_any_rank_count() {
     );
 }
 
+/// Ranks export only the contact surface's nodes between detections, and share every node
+/// before one (a detection records every node's position, and joints breaking expose tets
+/// whose nodes only their owner kept current). The bar at twice the length, dropped from
+/// 10 µm (it breaks at once, so stage 4 adds pairs after fracture almost every step from
+/// the start): the same files on 2 and 3 ranks. Without the sharing before a detection, 2
+/// ranks wrote different cracks and frames here (checked 2026-11-29), while the default
+/// bar of the test above still agreed.
+#[test]
+#[ignore = "needs mpi"]
+fn contact_after_fracture_writes_the_single_process_files() {
+    let root = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("mpi_contact_after_fracture");
+    let _ = std::fs::remove_dir_all(&root);
+    let set = [
+        "--set",
+        "cells=48",
+        "--set",
+        "across=4",
+        "--set",
+        "gap=1e-5",
+        "--overwrite",
+    ];
+    let single = root.join("single");
+    run_script(single_process(), CONTACT_SCRIPT, &single, &set);
+    let reference = files(&single);
+    assert!(
+        reference.iter().any(|(n, _)| n == "cracks.csv"),
+        "cracks.csv missing"
+    );
+    for np in 2..=3 {
+        let out = root.join(format!("np{np}"));
+        let mut cmd = mpirun(np);
+        cmd.arg(fdem());
+        run_script(cmd, CONTACT_SCRIPT, &out, &set);
+        same_files(
+            &reference,
+            &out,
+            &format!("contact after fracture on np {np}"),
+        );
+    }
+}
+
 /// Rebars and rigid bodies: the reinforced concrete beam struck by a rigid weight on a rigid
 /// plate (`scripts/rc_beam_impact.rhai`, quick mode) writes the same files on 2 to 4 ranks
 /// as in one process: the weight's force, m·a, velocity and displacement, the bars' frames

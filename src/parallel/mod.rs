@@ -25,7 +25,8 @@
 //! (each joint's by its designated rank), merged in joint order, and every rank marks them
 //! broken, so the surfaces that contact detection derives from them agree.
 //!
-//! **Contact.** Every rank runs stage 4 on the whole model (every node is exported), so all
+//! **Contact.** Every rank runs stage 4 on the whole model (the surface tets' nodes are
+//! exported, [`Parallel::follow_surface`], and every node is shared before a detection), so all
 //! have the same candidate pairs in the same order. A rank computes in stage 5 every pair
 //! with a node of its own ([`Parallel::contact_mask`]: a choice fixed by the pair's two
 //! tets, so its history is current wherever it is computed), and the designated rank of
@@ -387,6 +388,12 @@ pub struct Parallel {
     /// Each rank's exports' place in `export_buffer`, and the buffer (reused every step).
     export_ranges: Vec<Range<usize>>,
     export_buffer: Vec<f64>,
+    /// The nodes exported whatever the contact surface (spanning units, force sets, rebars);
+    /// with contact, the nodes of the surface tets are added ([`Parallel::follow_surface`]).
+    base_exported: Vec<bool>,
+    /// The number of surface tets the exports were last made for (`usize::MAX`: every node
+    /// is exported, until stage 4 first reports its surface).
+    surface_exported: usize,
     /// Exchange buffer (reused).
     buffer: Vec<f64>,
     /// Wall time spent in exchanges [s].
@@ -443,6 +450,8 @@ impl Parallel {
             exports: Vec::new(),
             export_ranges: Vec::new(),
             export_buffer: Vec::new(),
+            base_exported: Vec::new(),
+            surface_exported: usize::MAX,
             buffer: Vec::new(),
             seconds: 0.0,
             bytes: 0,
@@ -510,11 +519,26 @@ impl Parallel {
         for &n in loaded {
             exported[n as usize] = true;
         }
+        self.base_exported = exported.clone();
+        self.surface_exported = usize::MAX;
         if contact {
-            // Stage 4 finds candidate pairs among all surface tets, on every rank, and a
-            // pair may join any two nodes: every node is exported.
+            // Stage 4 finds candidate pairs among all surface tets, on every rank: until it
+            // first reports its surface, every node is exported ([`Parallel::follow_surface`]).
             exported.iter_mut().for_each(|e| *e = true);
         }
+        self.set_exports(&partition, &exported);
+        self.elements = elements;
+        self.joint_blocks = joint_blocks;
+        self.joints = joint_mask;
+        self.owned_chunks = (0..partition.chunk_owner.len())
+            .map(|c| partition.owns_chunk(c))
+            .collect();
+        self.partition = partition;
+    }
+
+    /// Each rank's exports: its nodes marked in `exported`, in node order, and their places in
+    /// the exchange buffer (x and v, 6 numbers a node).
+    fn set_exports(&mut self, p: &Partition, exported: &[bool]) {
         self.exports = (0..p.size())
             .map(|r| {
                 p.nodes_of(r)
@@ -524,7 +548,6 @@ impl Parallel {
                     .collect()
             })
             .collect();
-        // Where each rank's exports (x and v, 6 numbers a node) sit in the exchange buffer.
         let mut at = 0;
         self.export_ranges = self
             .exports
@@ -534,14 +557,30 @@ impl Parallel {
                 at - 6 * e.len()..at
             })
             .collect();
-        self.export_buffer = vec![0.0; at];
-        self.elements = elements;
-        self.joint_blocks = joint_blocks;
-        self.joints = joint_mask;
-        self.owned_chunks = (0..partition.chunk_owner.len())
-            .map(|c| partition.owns_chunk(c))
-            .collect();
-        self.partition = partition;
+        self.export_buffer.clear();
+        self.export_buffer.resize(at, 0.0);
+    }
+
+    /// After stage 4: export the nodes of stage 4's `surface` tets (every rank reads them all:
+    /// the detection's boxes and margins, and stage 5's pairs) besides the base exports,
+    /// instead of every node. Called every step; the exports change only when the surface
+    /// does (it grows as joints break; every rank has the same). A detection reads every
+    /// node (it records their positions, and joints breaking expose tets whose nodes no
+    /// other rank kept current): the pipeline shares all nodes before one.
+    pub fn follow_surface(&mut self, tets: &crate::state::Tets, surface: &[u32]) {
+        if surface.len() == self.surface_exported || self.base_exported.is_empty() {
+            return;
+        }
+        let mut exported = self.base_exported.clone();
+        for &t in surface {
+            for &n in &tets.nodes[t as usize] {
+                exported[n as usize] = true;
+            }
+        }
+        let p = std::mem::take(&mut self.partition);
+        self.set_exports(&p, &exported);
+        self.partition = p;
+        self.surface_exported = surface.len();
     }
 
     /// After stage 7: every rank's exported nodes' positions and velocities to every rank

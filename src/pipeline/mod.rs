@@ -1124,8 +1124,17 @@ impl Simulation {
     /// its pair history; stage 5 adds the contact forces, and the joints whose faces contact
     /// took over stop acting. A friction law's invalid result stops the run.
     fn contact_stages(&mut self) -> Result<(), SimError> {
+        self.contact_detection.joints_broke(self.break_events.len());
+        if let Some(par) = &mut self.parallel {
+            // A detection (full, or of the tets that joints breaking exposed) reads and
+            // records every node's position: all current first (timed as exchange). Between
+            // detections stage 4 reads only the surface tets' nodes, which are exported.
+            let cd = &self.contact_detection;
+            if cd.surface_stale || cd.detector.needs_update(&self.nodes.x, &cd.surface_nodes) {
+                par.share_nodes(&mut self.nodes);
+            }
+        }
         timed(&mut self.timers, Stage::ContactDetection, || {
-            self.contact_detection.joints_broke(self.break_events.len());
             if contact_detection::update_pairs(
                 &mut self.contact_detection,
                 &self.nodes,
@@ -1137,11 +1146,12 @@ impl Simulation {
                 let n_surface = self.contact_detection.surface.len();
                 self.contact.carry_history(remap, n_surface);
             }
-            if let Some(par) = &self.parallel {
+            if let Some(par) = &mut self.parallel {
                 let cd = &self.contact_detection;
                 if self.contact.mask.compute.len() != cd.pairs.len() {
                     self.contact.mask = par.contact_mask(&cd.surface, &cd.pairs);
                 }
+                par.follow_surface(&self.tets, &cd.surface);
             }
         });
         let mut cs = timed(&mut self.timers, Stage::ContactInteraction, || {
