@@ -510,8 +510,13 @@ impl Simulation {
         let per_rank = &par.partition.nodes_per_rank;
         let nodes: Vec<String> = per_rank.iter().map(|n| n.to_string()).collect();
         let exported: usize = par.exports.iter().map(Vec::len).sum();
+        let when = if self.contact.is_enabled() {
+            "in the first step (then the contact surface's nodes and those of work shared between ranks, and every node before a contact detection)"
+        } else {
+            "every step"
+        };
         Some(format!(
-            "split over {} ranks: nodes per rank [{}]; {} nodes ({:.1} %) exchanged every step",
+            "split over {} ranks: nodes per rank [{}]; {} nodes ({:.1} %) exchanged {when}",
             per_rank.len(),
             nodes.join(", "),
             exported,
@@ -572,8 +577,8 @@ impl Simulation {
             ));
         }
         self.ready = false;
-        // A body larger than one of stage 7's chunks is stored in spatial order (Z-order of
-        // its tets, `mesh::order`): every stage's runs of consecutive tets, joints and nodes,
+        // A body larger than one of stage 7's chunks is stored in spatial order (its tets
+        // layer by layer, a Z-order curve within each layer, `mesh::order`): every stage's runs of consecutive tets, joints and nodes,
         // and a rank's chunks on a decomposed model, are then compact pieces of it. (Smaller
         // bodies fit one chunk and keep the mesher's order.)
         let layout_nodes = match layout {
