@@ -526,7 +526,6 @@ impl Parallel {
             // first reports its surface, every node is exported ([`Parallel::follow_surface`]).
             exported.iter_mut().for_each(|e| *e = true);
         }
-        self.set_exports(&partition, &exported);
         self.elements = elements;
         self.joint_blocks = joint_blocks;
         self.joints = joint_mask;
@@ -534,11 +533,13 @@ impl Parallel {
             .map(|c| partition.owns_chunk(c))
             .collect();
         self.partition = partition;
+        self.set_exports(&exported);
     }
 
     /// Each rank's exports: its nodes marked in `exported`, in node order, and their places in
     /// the exchange buffer (x and v, 6 numbers a node).
-    fn set_exports(&mut self, p: &Partition, exported: &[bool]) {
+    fn set_exports(&mut self, exported: &[bool]) {
+        let p = &self.partition;
         self.exports = (0..p.size())
             .map(|r| {
                 p.nodes_of(r)
@@ -577,9 +578,7 @@ impl Parallel {
                 exported[n as usize] = true;
             }
         }
-        let p = std::mem::take(&mut self.partition);
-        self.set_exports(&p, &exported);
-        self.partition = p;
+        self.set_exports(&exported);
         self.surface_exported = surface.len();
     }
 
