@@ -1009,7 +1009,8 @@ fn blocks_slide_at_the_coulomb_acceleration_at_the_defaults() {
 /// nodes were moved (less than half the skin) since the last full detection (the mutation
 /// "boxes from the current positions" fails it). Rounds that
 /// split off a fragment, or bring too many tets to the surface, take the full path, and so
-/// does a node moved past half the skin; both paths must be taken.
+/// does a node moved past half the skin; both paths must be taken. The boxes the incremental
+/// path carries over must equal the full detection's.
 #[test]
 fn incremental_detection_after_fracture_equals_a_full_detection() {
     use fdem::contact_detection::{update_pairs, ContactDetection};
@@ -1134,6 +1135,9 @@ fn incremental_detection_after_fracture_equals_a_full_detection() {
             want.len()
         );
         assert_eq!(cd.origins.len(), cd.pairs.len());
+        // The incremental path keeps the boxes of the tets that stayed on the surface and
+        // computes the joined tets' only: bit for bit the boxes of a full detection.
+        assert!(cd.boxes == fresh.boxes, "round {round}: boxes differ");
     }
     println!(
         "{incremental} incremental, {full} full detections; {} pairs, {} surface tets at the end",

@@ -48,6 +48,11 @@ pub struct Detector {
     pub stale: bool,
     #[serde(skip)]
     pub workspace: NbsWorkspace,
+    /// `x_at_detection` of the surface nodes, in the order of
+    /// [`ContactDetection::surface_nodes`] (rebuilt when either changes; empty after a
+    /// restart until then, when the skin test reads `x_at_detection`).
+    #[serde(skip)]
+    surface_x: Vec<Vec3>,
 }
 
 impl Detector {
@@ -61,10 +66,23 @@ impl Detector {
         self.moved_beyond_skin(x, nodes)
     }
 
-    /// Some node in `nodes` moved more than skin/2 since the last detection.
+    /// Some node in `nodes` moved more than skin/2 since the last detection. When `nodes`
+    /// are the surface nodes whose positions at detection `surface_x` holds, those are read
+    /// in order instead of from `x_at_detection` (the surface nodes of a large body in
+    /// spatial order are scattered through the node arrays).
     fn moved_beyond_skin(&self, x: &[Vec3], nodes: &[u32]) -> bool {
         let half = 0.5 * self.skin;
         let limit = half * half;
+        if self.surface_x.len() == nodes.len() {
+            return nodes
+                .par_chunks(4096)
+                .zip(self.surface_x.par_chunks(4096))
+                .any(|(c, at)| {
+                    c.iter()
+                        .zip(at)
+                        .any(|(&n, x0)| (x[n as usize] - x0).norm_squared() > limit)
+                });
+        }
         nodes.par_chunks(4096).any(|c| {
             c.iter()
                 .any(|&n| (x[n as usize] - self.x_at_detection[n as usize]).norm_squared() > limit)
@@ -133,6 +151,20 @@ impl ContactDetection {
         }
     }
 
+    /// Copy the surface nodes' positions at the last detection into `detector.surface_x`
+    /// (nothing when no detection has recorded every node's position).
+    fn record_surface_positions(&mut self) {
+        let d = &mut self.detector;
+        d.surface_x.clear();
+        if let Some(&last) = self.surface_nodes.last() {
+            if (last as usize) < d.x_at_detection.len() {
+                let at = &d.x_at_detection;
+                d.surface_x
+                    .extend(self.surface_nodes.iter().map(|&n| at[n as usize]));
+            }
+        }
+    }
+
     /// The old→new remap of the last detection, for stage 5 (the buffer goes with it, so the
     /// remap costs no memory between detections).
     pub fn take_remap(&mut self) -> Vec<PairOrigin> {
@@ -147,7 +179,8 @@ impl ContactDetection {
             + self.origins.capacity() * size_of::<PairOrigin>()
             + self.boxes.capacity() * size_of::<Aabb>()
             + (self.surface.capacity() + self.surface_nodes.capacity()) * 4
-            + self.detector.x_at_detection.capacity() * size_of::<Vec3>()
+            + (self.detector.x_at_detection.capacity() + self.detector.surface_x.capacity())
+                * size_of::<Vec3>()
     }
 }
 
@@ -243,6 +276,7 @@ pub fn update_pairs(
     cd.carried = Vec::new();
     cd.detector.x_at_detection.clear();
     cd.detector.x_at_detection.extend_from_slice(x);
+    cd.record_surface_positions();
     cd.detector.stale = false;
     cd.detector.detections += 1;
     true
@@ -310,7 +344,32 @@ fn add_pairs_of_broken_joints(
     let x = &cd.detector.x_at_detection;
     let tn = &tets.nodes;
     let half = 0.5 * cd.detector.skin;
-    surface_boxes(&mut cd.boxes, &cd.surface, tn, x, half);
+    // The boxes at t₀ of the tets that stayed on the surface are those of the last detection
+    // (the same positions, skin and function): only the joined tets' are new.
+    if cd.boxes.len() == before.surface.len() {
+        // In place, from the back: the kept boxes move up past the joined tets' slots.
+        let n_kept = cd.boxes.len();
+        cd.boxes.resize(
+            cd.surface.len(),
+            cd.boxes.first().copied().unwrap_or(Aabb {
+                lo: Vec3::zeros(),
+                hi: Vec3::zeros(),
+            }),
+        );
+        let mut next_kept = n_kept;
+        let mut next_joined = joined.iter().rev().peekable();
+        for i in (0..cd.surface.len()).rev() {
+            cd.boxes[i] = if next_joined.next_if_eq(&&(i as u32)).is_some() {
+                let e = cd.surface[i] as usize;
+                Aabb::of_points(&tn[e].map(|n| x[n as usize])).inflate(half)
+            } else {
+                next_kept -= 1;
+                cd.boxes[next_kept]
+            };
+        }
+    } else {
+        surface_boxes(&mut cd.boxes, &cd.surface, tn, x, half);
+    }
     let continuous: Vec<bool> = bodies.iter().map(|b| b.layout != Layout::Jointed).collect();
     let filter = CandidateFilter {
         surface: &cd.surface,
@@ -543,6 +602,7 @@ fn refresh_surface(
     sn.sort_unstable();
     sn.dedup();
     cd.surface_nodes = sn;
+    cd.record_surface_positions();
     cd.fragment = crate::fracture::fragments(&tets.nodes, joints, nodes.len());
     if cd.fragment0.len() != tets.len() {
         cd.fragment0 = cd.fragment.clone();

@@ -1032,6 +1032,16 @@ fn update_surface_geometry(
             if !needed.is_empty() && !needed[s] {
                 return;
             }
+            // The surface tets of a large body are scattered through the node arrays (its
+            // spatial order, `mesh::order`): fetch the nodes of the tet 8 ahead meanwhile.
+            #[cfg(target_arch = "x86_64")]
+            if let Some(&ahead) = surface.get(s + 8) {
+                use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+                for n in tet_nodes[ahead as usize] {
+                    // SAFETY: a prefetch is a hint; the address is inside `x`.
+                    unsafe { _mm_prefetch::<_MM_HINT_T0>(x.as_ptr().add(n as usize).cast::<i8>()) };
+                }
+            }
             let xs = tet_nodes[e as usize].map(|n| x[n as usize]);
             *bx = Aabb::of_points(&xs);
             *g = TetGeom::new(xs);
