@@ -1098,7 +1098,7 @@ pub fn bench_fragmented(tets: usize, steps: u64) -> Result<serde_json::Value, St
     let (oracle_force, oracle_energy) = sim
         .contact
         .kernel_oracle_deviation(&sim.contact_detection, &sim.tets.material);
-    let (swap_force, swap_energy, negative_energy) = sim
+    let (swap_force, swap_energy, negative_energy, lowest_energy) = sim
         .contact
         .kernel_swap_deviation(&sim.contact_detection, &sim.tets.material);
     let contact_bytes = sim.contact.bytes() + sim.contact_detection.bytes();
@@ -1111,6 +1111,7 @@ pub fn bench_fragmented(tets: usize, steps: u64) -> Result<serde_json::Value, St
         "kernel_swap_deviation": swap_force,
         "kernel_swap_energy_deviation": swap_energy,
         "kernel_negative_energy_pairs": negative_energy,
+        "kernel_lowest_energy_ratio": lowest_energy,
         "tets": n,
         "blocks": sim.bodies.len() - 1,
         "surface_elements": sim.contact_detection.surface.len(),

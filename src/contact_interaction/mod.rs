@@ -569,31 +569,45 @@ impl ContactInteraction {
     /// clipping and the cones are not, so this sees what the oracle, which shares them,
     /// cannot): (the largest over the pairs of max_i |F_i − F_i^swapped|, over the largest
     /// nodal force of all the pairs; Σ|E − E^swapped| / Σ|E|; the number of pairs with
-    /// E < 0, which the exact energy never is). (Over the model's largest force, not each
+    /// E < 0, which the exact energy never is; the most negative E over the largest). (Over the model's largest force, not each
     /// pair's own: pairs that overlap by a rounding error, 1e-14 m, have forces of 1e-9 N
     /// that differ by 1e-4 of themselves.)
     pub fn kernel_swap_deviation(
         &self,
         detection: &ContactDetection,
         tet_material: &[u32],
-    ) -> (f64, f64, usize) {
-        let (df, scale, de, e, negative) = self
+    ) -> (f64, f64, usize, f64) {
+        let (df, scale, de, e, negative, lowest, highest) = self
             .touching_pairs(detection, tet_material)
             .iter()
             .map(|(c, t, p)| potential::swap_deviation(c, t, *p))
-            .fold((0.0 as Real, 0.0 as Real, 0.0, 0.0, 0), |a, b| {
+            .fold(
                 (
-                    a.0.max(b.0),
-                    a.1.max(b.1),
-                    a.2 + b.2,
-                    a.3 + b.3.abs(),
-                    a.4 + usize::from(b.3 < 0.0),
-                )
-            });
+                    0.0 as Real,
+                    0.0 as Real,
+                    0.0,
+                    0.0,
+                    0,
+                    0.0 as Real,
+                    0.0 as Real,
+                ),
+                |a, b| {
+                    (
+                        a.0.max(b.0),
+                        a.1.max(b.1),
+                        a.2 + b.2,
+                        a.3 + b.3.abs(),
+                        a.4 + usize::from(b.3 < 0.0),
+                        a.5.min(b.3),
+                        a.6.max(b.3),
+                    )
+                },
+            );
         (
             if df == 0.0 { 0.0 } else { df / scale },
             if de == 0.0 { 0.0 } else { de / e },
             negative,
+            if lowest == 0.0 { 0.0 } else { lowest / highest },
         )
     }
 
