@@ -341,35 +341,10 @@ fn add_pairs_of_broken_joints(
     if cd.surface.len() - joined.len() != before.surface.len() {
         return false; // a tet left the surface
     }
-    let x = &cd.detector.x_at_detection;
     let tn = &tets.nodes;
     let half = 0.5 * cd.detector.skin;
-    // The boxes at t₀ of the tets that stayed on the surface are those of the last detection
-    // (the same positions, skin and function): only the joined tets' are new.
-    if cd.boxes.len() == before.surface.len() {
-        // In place, from the back: the kept boxes move up past the joined tets' slots.
-        let n_kept = cd.boxes.len();
-        cd.boxes.resize(
-            cd.surface.len(),
-            cd.boxes.first().copied().unwrap_or(Aabb {
-                lo: Vec3::zeros(),
-                hi: Vec3::zeros(),
-            }),
-        );
-        let mut next_kept = n_kept;
-        let mut next_joined = joined.iter().rev().peekable();
-        for i in (0..cd.surface.len()).rev() {
-            cd.boxes[i] = if next_joined.next_if_eq(&&(i as u32)).is_some() {
-                let e = cd.surface[i] as usize;
-                Aabb::of_points(&tn[e].map(|n| x[n as usize])).inflate(half)
-            } else {
-                next_kept -= 1;
-                cd.boxes[next_kept]
-            };
-        }
-    } else {
-        surface_boxes(&mut cd.boxes, &cd.surface, tn, x, half);
-    }
+    boxes_after_joining(cd, &joined, before.surface.len(), tn, half);
+    let x = &cd.detector.x_at_detection;
     let continuous: Vec<bool> = bodies.iter().map(|b| b.layout != Layout::Jointed).collect();
     let filter = CandidateFilter {
         surface: &cd.surface,
@@ -441,6 +416,41 @@ fn add_pairs_of_broken_joints(
     cd.detector.stale = false;
     cd.detector.incremental += 1;
     true
+}
+
+/// The inflated boxes at the positions of the last detection, t₀, of the surface after
+/// `joined` (its indices, ascending) joined it: the tets that stayed keep the last detection's
+/// boxes (the same positions, skin and function), so only the joined tets' are computed.
+/// In place, from the back: the kept boxes move up past the joined tets' slots. (All anew
+/// when the boxes are not the last detection's surface's.)
+fn boxes_after_joining(
+    cd: &mut ContactDetection,
+    joined: &[u32],
+    n_before: usize,
+    tn: &[[u32; 4]],
+    half: Real,
+) {
+    let x = &cd.detector.x_at_detection;
+    if cd.boxes.len() != n_before {
+        surface_boxes(&mut cd.boxes, &cd.surface, tn, x, half);
+        return;
+    }
+    let filler = cd.boxes.first().copied().unwrap_or(Aabb {
+        lo: Vec3::zeros(),
+        hi: Vec3::zeros(),
+    });
+    cd.boxes.resize(cd.surface.len(), filler);
+    let mut next_kept = n_before;
+    let mut next_joined = joined.iter().rev().peekable();
+    for i in (0..cd.surface.len()).rev() {
+        cd.boxes[i] = if next_joined.next_if_eq(&&(i as u32)).is_some() {
+            let e = cd.surface[i] as usize;
+            Aabb::of_points(&tn[e].map(|n| x[n as usize])).inflate(half)
+        } else {
+            next_kept -= 1;
+            cd.boxes[next_kept]
+        };
+    }
 }
 
 /// Which box pairs become candidates (see the module doc), over surface indices.
