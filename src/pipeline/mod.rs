@@ -1130,23 +1130,31 @@ impl Simulation {
     /// took over stop acting. A friction law's invalid result stops the run.
     fn contact_stages(&mut self) -> Result<(), SimError> {
         self.contact_detection.joints_broke(self.break_events.len());
+        // On a decomposed model: whether stage 4 detects this step (None: not asked).
+        let mut detects = None;
         if let Some(par) = &mut self.parallel {
             // A detection (full, or of the tets that joints breaking exposed) reads and
             // records every node's position: all current first (timed as exchange). Between
             // detections stage 4 reads only the surface tets' nodes, which are exported.
             let cd = &self.contact_detection;
-            if cd.surface_stale || cd.detector.needs_update(&self.nodes.x, &cd.surface_nodes) {
+            let detect =
+                cd.surface_stale || cd.detector.needs_update(&self.nodes.x, &cd.surface_nodes);
+            if detect {
                 par.share_nodes(&mut self.nodes);
             }
+            detects = Some(detect);
         }
         timed(&mut self.timers, Stage::ContactDetection, || {
-            if contact_detection::update_pairs(
-                &mut self.contact_detection,
-                &self.nodes,
-                &self.tets,
-                &self.bodies,
-                &self.joints,
-            ) {
+            // (A quiet step answered above need not run the skin test again.)
+            if detects != Some(false)
+                && contact_detection::update_pairs(
+                    &mut self.contact_detection,
+                    &self.nodes,
+                    &self.tets,
+                    &self.bodies,
+                    &self.joints,
+                )
+            {
                 let remap = self.contact_detection.take_remap();
                 let n_surface = self.contact_detection.surface.len();
                 self.contact.carry_history(remap, n_surface);
