@@ -569,7 +569,7 @@ impl ContactInteraction {
     /// clipping and the cones are not, so this sees what the oracle, which shares them,
     /// cannot): (the largest over the pairs of max_i |F_i − F_i^swapped|, over the largest
     /// nodal force of all the pairs; Σ|E − E^swapped| / Σ|E|; the number of pairs with
-    /// E < 0, which the exact energy never is; the most negative E over the largest). (Over the model's largest force, not each
+    /// E < 0, which the exact energy never is; the most negative E over the largest |E|). (Over the model's largest force, not each
     /// pair's own: pairs that overlap by a rounding error, 1e-14 m, have forces of 1e-9 N
     /// that differ by 1e-4 of themselves.)
     pub fn kernel_swap_deviation(
@@ -607,7 +607,7 @@ impl ContactInteraction {
             if df == 0.0 { 0.0 } else { df / scale },
             if de == 0.0 { 0.0 } else { de / e },
             negative,
-            if lowest == 0.0 { 0.0 } else { lowest / highest },
+            if lowest == 0.0 { 0.0 } else { lowest / highest.max(-lowest) },
         )
     }
 
