@@ -607,7 +607,11 @@ impl ContactInteraction {
             if df == 0.0 { 0.0 } else { df / scale },
             if de == 0.0 { 0.0 } else { de / e },
             negative,
-            if lowest == 0.0 { 0.0 } else { lowest / highest.max(-lowest) },
+            if lowest == 0.0 {
+                0.0
+            } else {
+                lowest / highest.max(-lowest)
+            },
         )
     }
 

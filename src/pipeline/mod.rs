@@ -466,6 +466,37 @@ impl Simulation {
         }
     }
 
+    /// On a decomposed model, split nodes and work between the ranks again from where the
+    /// nodes are now (ownership by place, [`crate::parallel::Partition`]): bodies and
+    /// fragments that moved go to the ranks of their new place. Every rank's copy of the
+    /// whole state is brought up to date first ([`Simulation::synchronize`]), so a rank can
+    /// take over any node, joint or pair. The results do not change, bit for bit: which
+    /// rank computes what never decides the order of a sum. A collective (every rank calls
+    /// it at the same step); nothing on one process. Returns the seconds it took and the
+    /// number of nodes that changed rank.
+    pub fn repartition(&mut self) -> Result<(f64, usize), SimError> {
+        let Some(before) = self
+            .parallel
+            .as_ref()
+            .filter(|p| p.partition.is_split())
+            .map(|p| p.partition.chunk_owner.clone())
+        else {
+            return Ok((0.0, 0));
+        };
+        let t = std::time::Instant::now();
+        self.synchronize();
+        self.split_between_ranks()?;
+        let seconds = t.elapsed().as_secs_f64();
+        let n = self.nodes.len();
+        let par = self.parallel.as_mut().expect("decomposed");
+        par.seconds += seconds;
+        let moved = (par.partition.chunk_owner.iter().zip(&before).enumerate())
+            .filter(|(_, (now, was))| now != was)
+            .map(|(c, _)| n.min((c + 1) * integration::CHUNK) - c * integration::CHUNK)
+            .sum();
+        Ok((seconds, moved))
+    }
+
     /// On a decomposed model, every rank's stage and exchange times to every rank
     /// ([`crate::parallel::Parallel::rank_seconds`], for the summary's load balance). A
     /// collective: the script layer calls it when a run returns normally, on every rank.
@@ -522,6 +553,13 @@ impl Simulation {
             exported,
             100.0 * exported as f64 / self.nodes.len().max(1) as f64
         ))
+    }
+
+    /// Nodes owned by each rank (None unless decomposed).
+    pub fn nodes_per_rank(&self) -> Option<&[usize]> {
+        self.parallel
+            .as_ref()
+            .map(|p| p.partition.nodes_per_rank.as_slice())
     }
 
     /// This process's rank and the number of ranks ((0, 1) unless decomposed).

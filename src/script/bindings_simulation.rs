@@ -60,6 +60,24 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
     engine.register_fn("checkpoint", move |s: &mut SimHandle| -> RhaiResult<()> {
         runner::checkpoint(&c, s)
     });
+    let c = ctx.clone();
+    engine.register_fn("repartition", move |s: &mut SimHandle| -> RhaiResult<f64> {
+        let mut st = s.0.borrow_mut();
+        let (seconds, moved) = st
+            .sim
+            .repartition()
+            .map_err(|e| format!("repartition(): {e}"))?;
+        if let Some(per_rank) = st.sim.nodes_per_rank().filter(|_| moved > 0) {
+            let per_rank: Vec<String> = per_rank.iter().map(|n| n.to_string()).collect();
+            c.say(&format!(
+                "[{}] step {}: repartitioned, {moved} nodes changed rank ({seconds:.3} s); nodes per rank [{}]",
+                st.name,
+                st.sim.step,
+                per_rank.join(", ")
+            ));
+        }
+        Ok(seconds)
+    });
     let c = ctx;
     engine.register_fn(
         "run",
