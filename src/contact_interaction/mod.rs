@@ -1056,8 +1056,12 @@ fn update_surface_geometry(
             if let Some(&ahead) = surface.get(s + 8) {
                 use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
                 for n in tet_nodes[ahead as usize] {
-                    // SAFETY: a prefetch is a hint; the address is inside `x`.
-                    unsafe { _mm_prefetch::<_MM_HINT_T0>(x.as_ptr().add(n as usize).cast::<i8>()) };
+                    // SAFETY: a prefetch is a hint and never faults (`wrapping_add`: no in-bounds claim).
+                    unsafe {
+                        _mm_prefetch::<_MM_HINT_T0>(
+                            x.as_ptr().wrapping_add(n as usize).cast::<i8>(),
+                        )
+                    };
                 }
             }
             let xs = tet_nodes[e as usize].map(|n| x[n as usize]);
