@@ -262,9 +262,11 @@ fn contact_after_fracture_writes_the_single_process_files() {
 /// Repartitioning (`sim.repartition()`) hands nodes and work to the rank of their new place
 /// without changing a bit: a jointed block that lands on a slab, breaks and slides 1 m along
 /// it, repartitioned every 250 steps, writes the single-process files on 2 and 3 ranks, as
-/// the same run on 2 ranks without repartitioning does. The console must report nodes
-/// changing rank (on 3 ranks the block's chunks move twice: 2 195 and 6 144 nodes, measured
-/// 2026-11-29), or the test would pass without exercising anything.
+/// the same run on 2 ranks without repartitioning does, and so does a run on 3 ranks that
+/// checks every 100 steps and splits only when 30 % of the nodes would change rank
+/// (`if_moved`). The console must report nodes changing rank (on 3 ranks the block's
+/// chunks move twice: 2 195 and 6 144 nodes, measured 2026-11-29), or the test would pass
+/// without exercising anything.
 #[test]
 #[ignore = "needs mpi"]
 fn repartitioning_writes_the_single_process_files() {
@@ -279,30 +281,44 @@ fn repartitioning_writes_the_single_process_files() {
         reference.iter().any(|(n, _)| n == "cracks.csv"),
         "cracks.csv missing"
     );
-    for (np, every) in [(2, "every=250"), (3, "every=250"), (2, "every=0")] {
-        let out = root.join(format!("np{np}_{every}"));
+    // (ranks, the script's settings, how many repartitionings move nodes: None, some)
+    let cases = [
+        (2, ["every=250", "if_moved=0"], None),
+        (3, ["every=250", "if_moved=0"], None),
+        (2, ["every=0", "if_moved=0"], Some(0)),
+        // Checked every 100 steps, split when 30 % of the nodes would move: twice (2 195
+        // and 6 144 of 6 291 nodes), the other 13 checks decline.
+        (3, ["every=100", "if_moved=0.3"], Some(2)),
+    ];
+    for (np, sets, expected) in cases {
+        let what = format!("np {np} {}", sets.join(" "));
+        let out = root.join(format!("np{np}_{}", sets.join("_")));
         let mut cmd = mpirun(np);
         cmd.arg(fdem())
             .args(["run", script, "--threads", "1", "--out"]);
-        cmd.arg(&out).args(["--set", every, "--overwrite"]);
+        cmd.arg(&out).arg("--overwrite");
+        for s in sets {
+            cmd.args(["--set", s]);
+        }
         let output = cmd.output().expect("mpirun runs");
         let console = String::from_utf8_lossy(&output.stdout);
         assert!(
             output.status.success(),
-            "np {np} {every}: {console}\n{}",
+            "{what}: {console}\n{}",
             String::from_utf8_lossy(&output.stderr)
         );
-        let moved = console.contains("nodes changed rank");
-        assert_eq!(
-            moved,
-            every != "every=0",
-            "np {np} {every}: repartitioning moved nodes: {moved}\n{console}"
-        );
-        same_files(
-            &reference,
-            &out,
-            &format!("repartitioned on np {np} ({every})"),
-        );
+        let moves = console.matches("nodes changed rank").count();
+        match expected {
+            Some(n) => assert_eq!(
+                moves, n,
+                "{what}: repartitionings that moved nodes\n{console}"
+            ),
+            None => assert!(
+                moves > 0,
+                "{what}: no repartitioning moved a node\n{console}"
+            ),
+        }
+        same_files(&reference, &out, &format!("repartitioned ({what})"));
     }
 }
 

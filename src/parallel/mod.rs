@@ -131,51 +131,22 @@ impl Partition {
     /// number of tet corners at each node (a node of no tet weighs one). Every rank computes
     /// the same split from the same model.
     pub fn new(rank: usize, size: usize, x: &[Vec3], tets: &Tets, bodies: &[Body]) -> Self {
+        let groups = chunk_groups(x, tets, bodies);
+        Self::from_groups(rank, size, x.len(), &groups, tets)
+    }
+
+    /// The split of [`Partition::new`] from its groups of chunks (see [`chunk_groups`]).
+    fn from_groups(
+        rank: usize,
+        size: usize,
+        n_nodes: usize,
+        groups: &[ChunkGroup],
+        tets: &Tets,
+    ) -> Self {
         let chunk = crate::integration::CHUNK;
-        let n_nodes = x.len();
-        let n_chunks = n_nodes.div_ceil(chunk);
-        let mut weight = vec![0u32; n_nodes];
-        for t in &tets.nodes {
-            for &n in t {
-                weight[n as usize] += 1;
-            }
-        }
-        // Chunk c joins chunk c − 1 when a rigid body spans both.
-        let mut joins_previous = vec![false; n_chunks];
-        for b in bodies.iter().filter(|b| b.layout == Layout::Rigid) {
-            if b.nodes.is_empty() {
-                continue;
-            }
-            let (first, last) = (b.nodes.start / chunk, (b.nodes.end - 1) / chunk);
-            for j in joins_previous.iter_mut().take(last + 1).skip(first + 1) {
-                *j = true;
-            }
-        }
-        // Groups of chunks: their chunk range, weight and weighted centre.
-        let mut groups: Vec<(Range<usize>, u64, Vec3)> = Vec::new();
-        for (c, &joins) in joins_previous.iter().enumerate() {
-            if !joins || groups.is_empty() {
-                groups.push((c..c + 1, 0, Vec3::zeros()));
-            }
-            let g = groups.last_mut().expect("a group");
-            g.0.end = c + 1;
-            for n in c * chunk..((c + 1) * chunk).min(n_nodes) {
-                let w = u64::from(weight[n].max(1));
-                g.1 += w;
-                g.2 += x[n] * w as Real;
-            }
-        }
-        for g in &mut groups {
-            g.2 /= g.1.max(1) as Real;
-        }
-        let mut group_rank = vec![0u32; groups.len()];
-        let mut order: Vec<usize> = (0..groups.len()).collect();
-        bisect(&groups, &mut order, 0..size, &mut group_rank);
-        let mut chunk_owner = vec![0u32; n_chunks];
-        for (g, &r) in groups.iter().zip(&group_rank) {
-            chunk_owner[g.0.clone()].fill(r);
-        }
+        let chunk_owner = owners_of_groups(groups, size, n_nodes.div_ceil(chunk));
         let mut rank_chunks = vec![Vec::new(); size];
+
         let mut nodes_per_rank = vec![0usize; size];
         for (c, &r) in chunk_owner.iter().enumerate() {
             rank_chunks[r as usize].push(c as u32);
@@ -291,12 +262,65 @@ impl Partition {
 /// their centres (ties by index: the same on every rank) and cut where the weight before
 /// the cut is nearest to the first half's share of the ranks (⌊n/2⌋ of n), leaving each
 /// side a group per rank where there are enough; each side is bisected on.
-fn bisect(
-    groups: &[(Range<usize>, u64, Vec3)],
-    order: &mut [usize],
-    ranks: Range<usize>,
-    group_rank: &mut [u32],
-) {
+/// A group of consecutive chunks that one rank owns (a chunk, or the chunks of a rigid
+/// body): its chunk range, weight (tet corners at its nodes, a node of no tet counting one)
+/// and weighted centre.
+pub type ChunkGroup = (Range<usize>, u64, Vec3);
+
+/// The groups of chunks of a model at the positions `x` ([`Partition::new`]).
+pub fn chunk_groups(x: &[Vec3], tets: &Tets, bodies: &[Body]) -> Vec<ChunkGroup> {
+    let chunk = crate::integration::CHUNK;
+    let n_nodes = x.len();
+    let n_chunks = n_nodes.div_ceil(chunk);
+    let mut weight = vec![0u32; n_nodes];
+    for t in &tets.nodes {
+        for &n in t {
+            weight[n as usize] += 1;
+        }
+    }
+    // Chunk c joins chunk c − 1 when a rigid body spans both.
+    let mut joins_previous = vec![false; n_chunks];
+    for b in bodies.iter().filter(|b| b.layout == Layout::Rigid) {
+        if b.nodes.is_empty() {
+            continue;
+        }
+        let (first, last) = (b.nodes.start / chunk, (b.nodes.end - 1) / chunk);
+        for j in joins_previous.iter_mut().take(last + 1).skip(first + 1) {
+            *j = true;
+        }
+    }
+    let mut groups: Vec<ChunkGroup> = Vec::new();
+    for (c, &joins) in joins_previous.iter().enumerate() {
+        if !joins || groups.is_empty() {
+            groups.push((c..c + 1, 0, Vec3::zeros()));
+        }
+        let g = groups.last_mut().expect("a group");
+        g.0.end = c + 1;
+        for n in c * chunk..((c + 1) * chunk).min(n_nodes) {
+            let w = u64::from(weight[n].max(1));
+            g.1 += w;
+            g.2 += x[n] * w as Real;
+        }
+    }
+    for g in &mut groups {
+        g.2 /= g.1.max(1) as Real;
+    }
+    groups
+}
+
+/// The rank of each of `n_chunks` chunks: recursive bisection of the groups' centres.
+fn owners_of_groups(groups: &[ChunkGroup], size: usize, n_chunks: usize) -> Vec<u32> {
+    let mut group_rank = vec![0u32; groups.len()];
+    let mut order: Vec<usize> = (0..groups.len()).collect();
+    bisect(groups, &mut order, 0..size, &mut group_rank);
+    let mut chunk_owner = vec![0u32; n_chunks];
+    for (g, &r) in groups.iter().zip(&group_rank) {
+        chunk_owner[g.0.clone()].fill(r);
+    }
+    chunk_owner
+}
+
+fn bisect(groups: &[ChunkGroup], order: &mut [usize], ranks: Range<usize>, group_rank: &mut [u32]) {
     if ranks.len() <= 1 || order.len() <= 1 {
         for &g in order.iter() {
             group_rank[g] = ranks.start as u32;
@@ -610,6 +634,24 @@ impl Parallel {
 
     pub fn rank(&self) -> usize {
         self.comm.rank()
+    }
+
+    /// The chunks' owners a split made now would give (the same on every rank: each group's
+    /// centre comes from the rank owning it, whose nodes are current there; a small
+    /// collective, without sharing any node). For [`crate::pipeline::Simulation::repartition`]
+    /// to decide whether a split pays.
+    pub fn owners_by_place_now(&mut self, x: &[Vec3], tets: &Tets, bodies: &[Body]) -> Vec<u32> {
+        let mut groups = chunk_groups(x, tets, bodies);
+        let p = &self.partition;
+        let mine: Vec<(u32, [Real; 3])> = (groups.iter().enumerate())
+            .filter(|(_, g)| p.owns_chunk(g.0.start))
+            .map(|(i, g)| (i as u32, [g.2.x, g.2.y, g.2.z]))
+            .collect();
+        for (i, c) in self.gather_items(&mine, "chunk centres") {
+            groups[i as usize].2 = Vec3::new(c[0], c[1], c[2]);
+        }
+        let n_chunks = x.len().div_ceil(crate::integration::CHUNK);
+        owners_of_groups(&groups, self.comm.size(), n_chunks)
     }
 
     /// Replace every unit's partial sums with the designated rank's, on every rank.

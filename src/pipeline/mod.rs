@@ -472,18 +472,29 @@ impl Simulation {
     /// whole state is brought up to date first ([`Simulation::synchronize`]), so a rank can
     /// take over any node, joint or pair. The results do not change, bit for bit: which
     /// rank computes what never decides the order of a sum. A collective (every rank calls
-    /// it at the same step); nothing on one process. Returns the seconds it took and the
-    /// number of nodes that changed rank.
-    pub fn repartition(&mut self) -> Result<(f64, usize), SimError> {
-        let Some(before) = self
-            .parallel
-            .as_ref()
-            .filter(|p| p.partition.is_split())
-            .map(|p| p.partition.chunk_owner.clone())
-        else {
+    /// it at the same step); nothing on one process. With `if_moved` > 0, only when at least
+    /// that fraction of the nodes would change rank (decided from the chunks' centres alone,
+    /// a small collective). Returns the seconds it took and the number of nodes that
+    /// changed rank.
+    pub fn repartition(&mut self, if_moved: Real) -> Result<(f64, usize), SimError> {
+        let Some(par) = self.parallel.as_mut().filter(|p| p.partition.is_split()) else {
             return Ok((0.0, 0));
         };
+        let before = par.partition.chunk_owner.clone();
         let t = std::time::Instant::now();
+        if if_moved > 0.0 {
+            let now = par.owners_by_place_now(&self.nodes.x, &self.tets, &self.bodies);
+            let n = self.nodes.len();
+            let would_move: usize = (now.iter().zip(&before).enumerate())
+                .filter(|(_, (now, was))| now != was)
+                .map(|(c, _)| n.min((c + 1) * integration::CHUNK) - c * integration::CHUNK)
+                .sum();
+            if (would_move as Real) < if_moved * n as Real {
+                let seconds = t.elapsed().as_secs_f64();
+                par.seconds += seconds;
+                return Ok((seconds, 0));
+            }
+        }
         self.synchronize();
         self.split_between_ranks()?;
         let seconds = t.elapsed().as_secs_f64();

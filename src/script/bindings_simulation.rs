@@ -62,22 +62,13 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
     });
     let c = ctx.clone();
     engine.register_fn("repartition", move |s: &mut SimHandle| -> RhaiResult<f64> {
-        let mut st = s.0.borrow_mut();
-        let (seconds, moved) = st
-            .sim
-            .repartition()
-            .map_err(|e| format!("repartition(): {e}"))?;
-        if let Some(per_rank) = st.sim.nodes_per_rank().filter(|_| moved > 0) {
-            let per_rank: Vec<String> = per_rank.iter().map(|n| n.to_string()).collect();
-            c.say(&format!(
-                "[{}] step {}: repartitioned, {moved} nodes changed rank ({seconds:.3} s); nodes per rank [{}]",
-                st.name,
-                st.sim.step,
-                per_rank.join(", ")
-            ));
-        }
-        Ok(seconds)
+        repartition(&c, s, Map::new())
     });
+    let c = ctx.clone();
+    engine.register_fn(
+        "repartition",
+        move |s: &mut SimHandle, m: Map| -> RhaiResult<f64> { repartition(&c, s, m) },
+    );
     let c = ctx;
     engine.register_fn(
         "run",
@@ -277,4 +268,31 @@ fn clear_earlier_output(dir: &Path, name: &str, overwrite: bool) -> RhaiResult<(
             .map_err(|e| format!("simulation(): removing {} (--overwrite): {e}", p.display()))?;
     }
     Ok(())
+}
+
+/// `sim.repartition([#{ if_moved }])`: split nodes and work between the ranks again
+/// ([`crate::pipeline::Simulation::repartition`]); rank 0 reports the nodes that moved.
+fn repartition(c: &ScriptContext, s: &mut SimHandle, m: Map) -> RhaiResult<f64> {
+    let o = Opts::new("repartition", m, keys_of("sim.repartition"))?;
+    let if_moved = o.float("if_moved")?.unwrap_or(0.0);
+    if !(0.0..=1.0).contains(&if_moved) {
+        return Err(o.error(format!(
+            "if_moved must be a fraction in [0, 1], got {if_moved}"
+        )));
+    }
+    let mut st = s.0.borrow_mut();
+    let (seconds, moved) = st
+        .sim
+        .repartition(if_moved)
+        .map_err(|e| format!("repartition(): {e}"))?;
+    if let Some(per_rank) = st.sim.nodes_per_rank().filter(|_| moved > 0) {
+        let per_rank: Vec<String> = per_rank.iter().map(|n| n.to_string()).collect();
+        c.say(&format!(
+                "[{}] step {}: repartitioned, {moved} nodes changed rank ({seconds:.3} s); nodes per rank [{}]",
+                st.name,
+                st.sim.step,
+                per_rank.join(", ")
+            ));
+    }
+    Ok(seconds)
 }
