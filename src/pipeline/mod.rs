@@ -485,11 +485,7 @@ impl Simulation {
         if if_moved > 0.0 {
             let now = par.owners_by_place_now(&self.nodes.x, &self.tets, &self.bodies);
             let n = self.nodes.len();
-            let would_move: usize = (now.iter().zip(&before).enumerate())
-                .filter(|(_, (now, was))| now != was)
-                .map(|(c, _)| n.min((c + 1) * integration::CHUNK) - c * integration::CHUNK)
-                .sum();
-            if (would_move as Real) < if_moved * n as Real {
+            if (nodes_changing_rank(&now, &before, n) as Real) < if_moved * n as Real {
                 let seconds = t.elapsed().as_secs_f64();
                 par.seconds += seconds;
                 return Ok((seconds, 0));
@@ -501,11 +497,10 @@ impl Simulation {
         let n = self.nodes.len();
         let par = self.parallel.as_mut().expect("decomposed");
         par.seconds += seconds;
-        let moved = (par.partition.chunk_owner.iter().zip(&before).enumerate())
-            .filter(|(_, (now, was))| now != was)
-            .map(|(c, _)| n.min((c + 1) * integration::CHUNK) - c * integration::CHUNK)
-            .sum();
-        Ok((seconds, moved))
+        Ok((
+            seconds,
+            nodes_changing_rank(&par.partition.chunk_owner, &before, n),
+        ))
     }
 
     /// On a decomposed model, every rank's stage and exchange times to every rank
@@ -1491,4 +1486,13 @@ fn timed<R>(timers: &mut StageTimers, stage: Stage, f: impl FnOnce() -> R) -> R 
     let r = f();
     timers.seconds[stage as usize] += t.elapsed().as_secs_f64();
     r
+}
+
+/// The nodes (of `n_nodes`) in the chunks whose owner differs between `now` and `before`.
+fn nodes_changing_rank(now: &[u32], before: &[u32], n_nodes: usize) -> usize {
+    let chunk = integration::CHUNK;
+    (now.iter().zip(before).enumerate())
+        .filter(|(_, (now, was))| now != was)
+        .map(|(c, _)| n_nodes.min((c + 1) * chunk) - c * chunk)
+        .sum()
 }
