@@ -231,6 +231,13 @@ pub fn update_pairs(
     }
     let half = 0.5 * cd.detector.skin;
     surface_boxes(&mut cd.boxes, &cd.surface, tn, x, half);
+    // Each element meets dozens of overlapping boxes: its face planes once, not per pair
+    // (freed after the search, like NBS's pair buffers).
+    let planes: Vec<FacePlanes> = cd
+        .surface
+        .par_iter()
+        .map(|&e| FacePlanes::of(&tn[e as usize].map(|n| x[n as usize])))
+        .collect();
     let continuous: Vec<bool> = bodies.iter().map(|b| b.layout != Layout::Jointed).collect();
     let filter = CandidateFilter {
         surface: &cd.surface,
@@ -243,6 +250,7 @@ pub fn update_pairs(
         x,
         x0: &nodes.x0,
         skin: cd.detector.skin,
+        planes: Some(&planes),
     };
     std::mem::swap(&mut cd.pairs, &mut cd.old_pairs);
     nbs_pairs(
@@ -357,6 +365,7 @@ fn add_pairs_of_broken_joints(
         x,
         x0: &nodes.x0,
         skin: cd.detector.skin,
+        planes: None,
     };
     let boxes = &cd.boxes;
     let test = |i: u32, j: u32| {
@@ -465,6 +474,52 @@ struct CandidateFilter<'a> {
     x: &'a [Vec3],
     x0: &'a [Vec3],
     skin: Real,
+    /// The surface elements' face planes at `x` (a full detection), or None (computed per
+    /// pair).
+    planes: Option<&'a [FacePlanes]>,
+}
+
+/// A tetrahedron's corners and its faces' inward unit normals (zero for a degenerate face),
+/// face f through corner `TET_FACES[f][0]`: what [`CandidateFilter::near`] tests a pair
+/// with, computed once per surface element and detection instead of once per box overlap.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FacePlanes {
+    corners: [Vec3; 4],
+    normals: [Vec3; 4],
+}
+
+impl FacePlanes {
+    fn of(p: &[Vec3; 4]) -> Self {
+        let inward = crate::math::tet_volume(&p[0], &p[1], &p[2], &p[3]) >= 0.0;
+        let normals = crate::mesh::TET_FACES.map(|f| {
+            let nrm = (p[f[1]] - p[f[0]]).cross(&(p[f[2]] - p[f[0]]));
+            let len = nrm.norm();
+            if len == 0.0 {
+                Vec3::zeros()
+            } else if inward {
+                nrm / len
+            } else {
+                -nrm / len
+            }
+        });
+        FacePlanes {
+            corners: *p,
+            normals,
+        }
+    }
+
+    /// Some face plane has all of `q` more than `skin` outside it (a degenerate face, with
+    /// a zero normal, never separates: 0 > skin fails for skin ≥ 0).
+    #[inline]
+    fn separates(&self, q: &[Vec3; 4], skin: Real) -> bool {
+        crate::mesh::TET_FACES
+            .iter()
+            .zip(&self.normals)
+            .any(|(f, nrm)| {
+                let p0 = self.corners[f[0]];
+                q.iter().all(|v| (v - p0).dot(nrm) > skin)
+            })
+    }
 }
 
 impl CandidateFilter<'_> {
@@ -474,21 +529,15 @@ impl CandidateFilter<'_> {
         let (tn, x) = (self.tet_nodes, self.x);
         let pa = tn[a as usize].map(|n| x[n as usize]);
         let pb = tn[b as usize].map(|n| x[n as usize]);
-        for (p, q) in [(&pa, &pb), (&pb, &pa)] {
-            let inward = crate::math::tet_volume(&p[0], &p[1], &p[2], &p[3]) >= 0.0;
-            for f in crate::mesh::TET_FACES {
-                let nrm = (p[f[1]] - p[f[0]]).cross(&(p[f[2]] - p[f[0]]));
-                let len = nrm.norm();
-                if len == 0.0 {
-                    continue;
-                }
-                let nrm = if inward { nrm / len } else { -nrm / len };
-                if q.iter().all(|v| (v - p[f[0]]).dot(&nrm) > self.skin) {
-                    return false;
-                }
-            }
-        }
-        true
+        let (fa, fb) = (FacePlanes::of(&pa), FacePlanes::of(&pb));
+        !(fa.separates(&pb, self.skin) || fb.separates(&pa, self.skin))
+    }
+
+    /// [`CandidateFilter::near`] of surface elements `i` and `j` from their planes
+    /// precomputed at these positions (the same arithmetic, so the same answer).
+    fn near_by_planes(&self, planes: &[FacePlanes], i: u32, j: u32) -> bool {
+        let (pi, pj) = (&planes[i as usize], &planes[j as usize]);
+        !(pi.separates(&pj.corners, self.skin) || pj.separates(&pi.corners, self.skin))
     }
 
     /// Reference positions the two tets share (0 for strangers).
@@ -514,8 +563,12 @@ impl CandidateFilter<'_> {
     /// overlaps of an intact body (its neighbours').
     fn keep(&self, i: u32, j: u32) -> bool {
         let (a, b) = (self.surface[i as usize], self.surface[j as usize]);
+        let near = || match self.planes {
+            Some(planes) => self.near_by_planes(planes, i, j),
+            None => self.near(a, b),
+        };
         if self.fragment[a as usize] != self.fragment[b as usize] {
-            return self.near(a, b);
+            return near();
         }
         // A continuous body does not contact itself.
         let body = self.tet_body[a as usize];
@@ -527,7 +580,7 @@ impl CandidateFilter<'_> {
             3 => self.broken_joint(a, b).is_some(),
             _ => false,
         };
-        topology && self.near(a, b)
+        topology && near()
     }
 
     /// The origin of a pair (surface indices) that was not a candidate before.
