@@ -24,7 +24,9 @@
 
 pub mod nbs;
 
-pub use nbs::{brute_force_pairs, nbs_pairs, sweep_pairs, Aabb, NbsWorkspace};
+pub use nbs::{
+    brute_force_pairs, nbs_pairs, nbs_pairs_with_first_in, sweep_pairs, Aabb, NbsWorkspace,
+};
 
 use crate::joints::Joints;
 use crate::math::{Real, Vec3};
@@ -184,6 +186,44 @@ impl ContactDetection {
     }
 }
 
+/// How the ranks of a decomposed model share stage 4's search (implemented by
+/// `crate::parallel`). Every rank holds the whole state and reaches every detection with
+/// the same inputs; each searches a share of the work and [`PairExchange::gather_pairs`]
+/// puts the shares together, so every rank ends with the one list a single process finds.
+pub trait PairExchange {
+    /// This rank and the number of ranks.
+    fn rank_of(&self) -> (usize, usize);
+    /// Every rank's `mine`, concatenated in rank order (a collective).
+    fn gather_pairs(&mut self, mine: &[[u32; 2]]) -> Vec<[u32; 2]>;
+}
+
+/// The ranges of first indices ranks `0..ranks` search, of `n` elements weighed by
+/// `weight` (1 + the pairs each element led in the last list: the search's work follows
+/// the candidates), cut at equal shares of the total. Contiguous and in rank order.
+fn shares_of_first(n: usize, pairs: &[[u32; 2]], ranks: usize) -> Vec<std::ops::Range<u32>> {
+    let mut weight = vec![1u64; n];
+    for p in pairs {
+        if let Some(w) = weight.get_mut(p[0] as usize) {
+            *w += 1;
+        }
+    }
+    let total: u64 = weight.iter().sum();
+    let mut cuts = vec![0u32; ranks + 1];
+    let (mut acc, mut r) = (0u64, 1);
+    for (i, w) in weight.iter().enumerate() {
+        acc += w;
+        // Element i ends the share of every rank whose cut r·total/ranks it passes.
+        while r < ranks && acc * ranks as u64 >= r as u64 * total {
+            cuts[r] = i as u32 + 1;
+            r += 1;
+        }
+    }
+    for c in &mut cuts[r..] {
+        *c = n as u32;
+    }
+    cuts.windows(2).map(|w| w[0]..w[1]).collect()
+}
+
 /// Stage 4: refresh the surface lists when the topology changed, and re-detect the candidate
 /// pairs when a node moved more than skin/2 since the last detection. Returns true when it
 /// detected: then `origins` maps every new pair to its old index (or marks it new), for
@@ -195,6 +235,20 @@ pub fn update_pairs(
     bodies: &[Body],
     joints: &Joints,
 ) -> bool {
+    update_pairs_on_ranks(cd, nodes, tets, bodies, joints, None)
+}
+
+/// [`update_pairs`] on a decomposed model: the search (a full detection's NBS, an
+/// incremental one's tests of the tets that joined the surface) is shared between the
+/// ranks through `ranks`, and its result is the single-process list on every rank.
+pub fn update_pairs_on_ranks(
+    cd: &mut ContactDetection,
+    nodes: &Nodes,
+    tets: &Tets,
+    bodies: &[Body],
+    joints: &Joints,
+    mut ranks: Option<&mut (dyn PairExchange + '_)>,
+) -> bool {
     if cd.surface_stale {
         let detected_before = !cd.detector.stale
             && cd.detector.x_at_detection.len() == nodes.x.len()
@@ -205,7 +259,9 @@ pub fn update_pairs(
             broken: cd.broken_faces.clone(),
         };
         refresh_surface(cd, nodes, tets, bodies, joints);
-        if detected_before && add_pairs_of_broken_joints(cd, nodes, tets, bodies, &before) {
+        if detected_before
+            && add_pairs_of_broken_joints(cd, nodes, tets, bodies, &before, ranks.as_deref_mut())
+        {
             return true;
         }
     } else if !cd.detector.needs_update(&nodes.x, &cd.surface_nodes) {
@@ -252,14 +308,25 @@ pub fn update_pairs(
         skin: cd.detector.skin,
         planes: Some(&planes),
     };
+    let first = match &ranks {
+        Some(r) => {
+            let (rank, size) = r.rank_of();
+            shares_of_first(cd.surface.len(), &cd.pairs, size)[rank].clone()
+        }
+        None => 0..cd.surface.len() as u32,
+    };
     std::mem::swap(&mut cd.pairs, &mut cd.old_pairs);
-    nbs_pairs(
+    nbs_pairs_with_first_in(
         &cd.boxes,
         &mut cd.detector.workspace,
         &|i, j| filter.keep(i, j),
+        first,
         &mut cd.pairs,
     );
     cd.detector.workspace.release_pair_buffers();
+    if let Some(r) = ranks {
+        cd.pairs = r.gather_pairs(&cd.pairs);
+    }
     // Find every new pair in the old list (both are ordered by their first index).
     cd.origins.clear();
     let old = &cd.old_pairs;
@@ -327,6 +394,7 @@ fn add_pairs_of_broken_joints(
     tets: &Tets,
     bodies: &[Body],
     before: &Topology,
+    ranks: Option<&mut (dyn PairExchange + '_)>,
 ) -> bool {
     if cd.fragment != before.fragment
         || cd.surface.len() < before.surface.len()
@@ -377,8 +445,15 @@ fn add_pairs_of_broken_joints(
     joined.iter().for_each(|&i| is_joined[i as usize] = true);
     let (is_joined, test, n_surface) = (&is_joined, &test, cd.surface.len() as u32);
     // A joined tet against every surface tet (a pair of two joined tets once: from the
-    // lower).
-    let mut added: Vec<[u32; 2]> = joined
+    // lower); on a decomposed model each rank tests a share of the joined tets.
+    let mine = match &ranks {
+        Some(r) => {
+            let (rank, size) = r.rank_of();
+            joined.len() * rank / size..joined.len() * (rank + 1) / size
+        }
+        None => 0..joined.len(),
+    };
+    let mut added: Vec<[u32; 2]> = joined[mine]
         .par_iter()
         .flat_map_iter(|&n| {
             (0..n_surface)
@@ -386,6 +461,9 @@ fn add_pairs_of_broken_joints(
                 .filter_map(move |i| test(n, i))
         })
         .collect();
+    if let Some(r) = ranks {
+        added = r.gather_pairs(&added);
+    }
     // The two sides of each newly broken joint, both on the surface before.
     let index_of = |e: u32| cd.surface.binary_search(&e).ok().map(|i| i as u32);
     for (pair, _) in &cd.broken_faces {
@@ -673,4 +751,48 @@ fn refresh_surface(
     cd.broken_faces = broken;
     cd.surface_stale = false;
     cd.detector.stale = true;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The ranks' shares of the search cover every first index once, in rank order, and
+    /// each holds its part of the weight to within one element's (1 + the pairs it led).
+    #[test]
+    fn the_search_shares_are_contiguous_and_balanced() {
+        // 1000 elements; element i leads (i % 37) pairs, and 200 lead 300 each.
+        let mut pairs = Vec::new();
+        for i in 0..1000u32 {
+            let led = if (400..600).contains(&i) { 300 } else { i % 37 };
+            pairs.extend((0..led).map(|k| [i, i + 1 + k]));
+        }
+        let weight = |r: &std::ops::Range<u32>| -> u64 {
+            r.clone()
+                .map(|i| 1 + pairs.iter().filter(|p| p[0] == i).count() as u64)
+                .sum()
+        };
+        let total = weight(&(0..1000));
+        for ranks in 1..=5 {
+            let shares = shares_of_first(1000, &pairs, ranks);
+            assert_eq!(shares.len(), ranks);
+            assert_eq!(shares[0].start, 0);
+            assert_eq!(shares[ranks - 1].end, 1000);
+            for (r, w) in shares.windows(2).enumerate() {
+                assert_eq!(w[0].end, w[1].start, "ranks {ranks}, rank {r}");
+            }
+            for s in &shares {
+                let share = weight(s) as f64;
+                assert!(
+                    (share - total as f64 / ranks as f64).abs() <= 301.0,
+                    "ranks {ranks}: {s:?} holds {share} of {total}"
+                );
+            }
+        }
+        // No elements, or more ranks than elements: empty shares, still in order.
+        assert_eq!(shares_of_first(0, &[], 3), vec![0..0, 0..0, 0..0]);
+        let few = shares_of_first(2, &[], 4);
+        assert_eq!(few.first().unwrap().start, 0);
+        assert_eq!(few.last().unwrap().end, 2);
+    }
 }

@@ -194,10 +194,17 @@ impl Comm for MpiComm {
             })
             .collect();
         let total = counts.iter().sum::<mpi::Count>() as usize;
+        if total == 0 {
+            return vec![Vec::new(); n];
+        }
+        // An empty slice's pointer is dangling, 1 for bytes: Open MPI's MPI_IN_PLACE. So
+        // an empty send goes from a real (zero-length) place, and nothing empty is received.
+        let pad = [0u8; 1];
+        let send = if mine.is_empty() { &pad[..0] } else { mine };
         let mut all = vec![0u8; total];
         {
             let mut part = PartitionMut::new(&mut all[..], &counts[..], &displs[..]);
-            self.world.all_gather_varcount_into(mine, &mut part);
+            self.world.all_gather_varcount_into(send, &mut part);
         }
         (0..n)
             .map(|r| all[displs[r] as usize..(displs[r] + counts[r]) as usize].to_vec())

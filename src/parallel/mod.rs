@@ -859,6 +859,31 @@ impl Parallel {
     }
 }
 
+impl crate::contact_detection::PairExchange for Parallel {
+    fn rank_of(&self) -> (usize, usize) {
+        (self.comm.rank(), self.comm.size())
+    }
+
+    /// Every rank's candidate pairs (8 bytes each), in rank order; timed as exchange.
+    fn gather_pairs(&mut self, mine: &[[u32; 2]]) -> Vec<[u32; 2]> {
+        let t = std::time::Instant::now();
+        let bytes: Vec<u8> = mine
+            .iter()
+            .flatten()
+            .flat_map(|i| i.to_le_bytes())
+            .collect();
+        let received = self.comm.allgather_bytes(&bytes);
+        let word = |b: &[u8]| u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        let all = received
+            .iter()
+            .flat_map(|b| b.chunks_exact(8).map(|p| [word(&p[..4]), word(&p[4..])]))
+            .collect();
+        self.bytes += received.iter().map(|b| b.len() as u64).sum::<u64>() - bytes.len() as u64;
+        self.seconds += t.elapsed().as_secs_f64();
+        all
+    }
+}
+
 impl Parallel {
     /// Stage 5's work for this rank over stage 4's candidate `pairs` (indices into the
     /// `surface` tets): a pair is computed when one of its tets has a node of this rank, and

@@ -1188,15 +1188,21 @@ impl Simulation {
             }
             detects = Some(detect);
         }
+        // The ranks share the search and gather its pairs: that gather is exchange time,
+        // not stage 4's (taken out below).
+        let exchange_before = self.parallel.as_ref().map_or(0.0, |p| p.seconds);
         timed(&mut self.timers, Stage::ContactDetection, || {
             // (A quiet step answered above need not run the skin test again.)
             if detects != Some(false)
-                && contact_detection::update_pairs(
+                && contact_detection::update_pairs_on_ranks(
                     &mut self.contact_detection,
                     &self.nodes,
                     &self.tets,
                     &self.bodies,
                     &self.joints,
+                    self.parallel
+                        .as_mut()
+                        .map(|p| p as &mut dyn contact_detection::PairExchange),
                 )
             {
                 let remap = self.contact_detection.take_remap();
@@ -1211,6 +1217,9 @@ impl Simulation {
                 par.follow_surface(&self.tets, &cd.surface);
             }
         });
+        if let Some(par) = &self.parallel {
+            self.timers.seconds[Stage::ContactDetection as usize] -= par.seconds - exchange_before;
+        }
         let mut cs = timed(&mut self.timers, Stage::ContactInteraction, || {
             contact_interaction::add_contact_forces(
                 &mut self.contact,
