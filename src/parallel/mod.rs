@@ -432,6 +432,8 @@ pub struct Parallel {
     /// Every rank's seconds per stage and in exchanges, as of the last
     /// [`Parallel::gather_timings`] (empty before): the load balance the summary reports.
     pub rank_seconds: Vec<RankSeconds>,
+    /// This rank's stage seconds when [`Parallel::imbalance_since_last_check`] last ran.
+    stage_seconds_at_check: f64,
 }
 
 /// One rank's wall time: per stage (in [`crate::pipeline::Stage::ALL`] order) and in
@@ -483,6 +485,7 @@ impl Parallel {
             joints_shared_at: None,
             contact_shared_at: None,
             rank_seconds: Vec::new(),
+            stage_seconds_at_check: 0.0,
         }
     }
 
@@ -765,6 +768,22 @@ impl Parallel {
                     .unwrap_or_else(|e| panic!("{what} deserialize: {e}"))
             })
             .collect()
+    }
+
+    /// The ranks' load imbalance since the last call (or the start): the slowest rank's
+    /// stage seconds over the mean, from this rank's total `stage_seconds` (exchange and
+    /// waiting excluded). The same on every rank: a collective of one number per rank.
+    pub fn imbalance_since_last_check(&mut self, stage_seconds: f64) -> Real {
+        let since = stage_seconds - self.stage_seconds_at_check;
+        self.stage_seconds_at_check = stage_seconds;
+        let ranks = self.values_of_ranks(since);
+        let mean = ranks.iter().sum::<Real>() / ranks.len() as Real;
+        let slowest = ranks.iter().fold(0.0, |a: Real, &b| a.max(b));
+        if mean > 0.0 {
+            slowest / mean
+        } else {
+            1.0
+        }
     }
 
     /// A sum over ranks of one value per rank, added in rank order (the same on every rank;
@@ -1208,5 +1227,26 @@ mod tests {
         let p = Partition::new(0, 5, &x, &tets, &bodies);
         let owning = p.nodes_per_rank.iter().filter(|&&k| k > 0).count();
         assert_eq!(owning, 3, "{:?}", p.nodes_per_rank);
+    }
+
+    /// `sim.repartition(#{ if_imbalance })` decides from the ranks' stage seconds since its
+    /// last check: the slowest over the mean, the same on every rank. Three thread-ranks
+    /// report 1, 1, 4 s (imbalance 4 / 2 = 2), then 2, 2, 2 s more (1: balanced), then
+    /// nothing (1 by convention, no division by zero).
+    #[test]
+    fn the_imbalance_is_measured_since_the_last_check() {
+        let seen = comm::ThreadComm::run(3, |c| {
+            let rank = c.rank();
+            let mut par = Parallel::pending(c);
+            let first = [1.0, 1.0, 4.0][rank];
+            [
+                par.imbalance_since_last_check(first),
+                par.imbalance_since_last_check(first + 2.0),
+                par.imbalance_since_last_check(first + 2.0),
+            ]
+        });
+        for s in seen {
+            assert_eq!(s, [2.0, 1.0, 1.0]);
+        }
     }
 }

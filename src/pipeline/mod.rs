@@ -472,35 +472,48 @@ impl Simulation {
     /// whole state is brought up to date first ([`Simulation::synchronize`]), so a rank can
     /// take over any node, joint or pair. The results do not change, bit for bit: which
     /// rank computes what never decides the order of a sum. A collective (every rank calls
-    /// it at the same step); nothing on one process. With `if_moved` > 0, only when at least
-    /// that fraction of the nodes would change rank (decided from the chunks' centres alone,
-    /// a small collective). Returns the seconds it took and the number of nodes that
-    /// changed rank.
-    pub fn repartition(&mut self, if_moved: Real) -> Result<(f64, usize), SimError> {
+    /// it at the same step); nothing on one process. With `if_imbalance` > 0, only when the
+    /// ranks' stage work since the last call was at least that unbalanced (the slowest
+    /// rank's over the mean: one number per rank gathered); with `if_moved` > 0, only when
+    /// at least that fraction of the nodes would change rank (decided from the chunks'
+    /// centres alone, a small collective); given both, both must hold. The partition then
+    /// depends on measured times, the results do not.
+    pub fn repartition(
+        &mut self,
+        if_moved: Real,
+        if_imbalance: Real,
+    ) -> Result<Repartitioned, SimError> {
+        let stage_seconds: f64 = self.timers.seconds.iter().sum();
         let Some(par) = self.parallel.as_mut().filter(|p| p.partition.is_split()) else {
-            return Ok((0.0, 0));
+            return Ok(Repartitioned::default());
         };
         let before = par.partition.chunk_owner.clone();
         let t = std::time::Instant::now();
-        if if_moved > 0.0 {
+        let mut done = Repartitioned::default();
+        let mut declined = false;
+        if if_imbalance > 0.0 {
+            let imbalance = par.imbalance_since_last_check(stage_seconds);
+            done.imbalance = Some(imbalance);
+            declined = imbalance < if_imbalance;
+        }
+        if if_moved > 0.0 && !declined {
             let now = par.owners_by_place_now(&self.nodes.x, &self.tets, &self.bodies);
             let n = self.nodes.len();
-            if (nodes_changing_rank(&now, &before, n) as Real) < if_moved * n as Real {
-                let seconds = t.elapsed().as_secs_f64();
-                par.seconds += seconds;
-                return Ok((seconds, 0));
-            }
+            declined = (nodes_changing_rank(&now, &before, n) as Real) < if_moved * n as Real;
+        }
+        if declined {
+            done.seconds = t.elapsed().as_secs_f64();
+            par.seconds += done.seconds;
+            return Ok(done);
         }
         self.synchronize();
         self.split_between_ranks()?;
-        let seconds = t.elapsed().as_secs_f64();
+        done.seconds = t.elapsed().as_secs_f64();
         let n = self.nodes.len();
         let par = self.parallel.as_mut().expect("decomposed");
-        par.seconds += seconds;
-        Ok((
-            seconds,
-            nodes_changing_rank(&par.partition.chunk_owner, &before, n),
-        ))
+        par.seconds += done.seconds;
+        done.moved_nodes = nodes_changing_rank(&par.partition.chunk_owner, &before, n);
+        Ok(done)
     }
 
     /// On a decomposed model, every rank's stage and exchange times to every rank
@@ -1495,6 +1508,17 @@ fn timed<R>(timers: &mut StageTimers, stage: Stage, f: impl FnOnce() -> R) -> R 
     let r = f();
     timers.seconds[stage as usize] += t.elapsed().as_secs_f64();
     r
+}
+
+/// What [`Simulation::repartition`] did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Repartitioned {
+    /// Wall time it took [s] (the checks alone when it declined).
+    pub seconds: f64,
+    /// Nodes that changed rank (0 when it declined or nothing moved).
+    pub moved_nodes: usize,
+    /// The imbalance it measured, when asked to (`if_imbalance`).
+    pub imbalance: Option<Real>,
 }
 
 /// The nodes (of `n_nodes`) in the chunks whose owner differs between `now` and `before`.

@@ -488,6 +488,13 @@ pub const REPARTITION_KEYS: &[Key] = &[
         "0",
         "Split only when at least this fraction of the nodes would change rank (decided from the chunks' centres, a small collective without sharing any node); 0: always.",
     ),
+    key(
+        "if_imbalance",
+        "float",
+        "",
+        "0",
+        "Split only when the ranks' stage work since the last call was at least this unbalanced: the slowest rank's stage time over the mean (1.1: 10 % above it; exchange and waiting not counted; one number per rank gathered). 0: always. With `if_moved` too, both must hold. The split then follows measured times; the results do not.",
+    ),
 ];
 pub const PLOT_ENERGY_KEYS: &[Key] = &[
     key(
@@ -782,7 +789,7 @@ pub const API: &[FnDoc] = &[
     FnDoc { section: "Hooks, monitors and output", name: "sim.checkpoint", signature: "sim.checkpoint()",
         summary: "Write the simulation's whole state to `checkpoint.fdemck` in its output directory (replacing the last one, atomically): positions, velocities, joint, contact, bar and rigid-body state, fracture events, the energy account, monitors, hook clocks and output numbering. Called inside a run (from `sim.every`), it is taken at the end of that step. `fdem run SCRIPT --restart out/<name>/checkpoint.fdemck` runs the script again and continues from it bit for bit, for any thread count (same script, same `--set` values, same fdem). Ctrl-C and SIGTERM write one too. A periodic checkpoint: `sim.every(#{ time: 0.1 }, |s| s.checkpoint());`. See docs/getting-started.md, Stopping and restarting.", keys: &[], laws: &[] },
     FnDoc { section: "Hooks, monitors and output", name: "sim.repartition", signature: "sim.repartition([#{ … }]) -> seconds",
-        summary: "On a model run on several MPI ranks (docs/cluster.md): split nodes and work between the ranks again from where the nodes are now, so that bodies and fragments that moved are computed by the rank of their new place. The results are the same bits with or without it. Call it from a hook, on every rank alike: `sim.every(#{ steps: 2000 }, |s| s.repartition());`. With `#{ if_moved: 0.1 }` it splits only when at least a tenth of the nodes would change rank, so a frequent hook costs a small collective until bodies have moved: `sim.every(#{ steps: 200 }, |s| s.repartition(#{ if_moved: 0.1 }));`. Returns the seconds it took (0 on one process, where it does nothing).", keys: REPARTITION_KEYS, laws: &[] },
+        summary: "On a model run on several MPI ranks (docs/cluster.md): split nodes and work between the ranks again from where the nodes are now, so that bodies and fragments that moved are computed by the rank of their new place. The results are the same bits with or without it. Call it from a hook, on every rank alike: `sim.every(#{ steps: 2000 }, |s| s.repartition());`. With `#{ if_moved: 0.1 }` it splits only when at least a tenth of the nodes would change rank, so a frequent hook costs a small collective until bodies have moved: `sim.every(#{ steps: 200 }, |s| s.repartition(#{ if_moved: 0.1 }));`; with `#{ if_imbalance: 1.15 }` only when the ranks' work since the last call was unbalanced by 15 % or more. Returns the seconds it took (0 on one process, where it does nothing).", keys: REPARTITION_KEYS, laws: &[] },
     FnDoc { section: "Hooks, monitors and output", name: "sim.write_vtk", signature: "sim.write_vtk()",
         summary: "Write a ParaView frame `<name>_NNNNNN.vtu` and update `<name>.pvd`: displacement, velocity (points); Cauchy stress, von Mises, principal stresses, body, material, and with joints `damage` (largest joint damage on the tet's faces) and `fragment` (cells). Once a joint has broken it also writes the crack surface `<name>_cracks_NNNNNN.vtu` + `<name>_cracks.pvd`: one triangle per broken joint with `time` of breaking, `mode` (1 = I, 2 = II, 3 = mixed), `body`, `joint`.", keys: &[], laws: &[] },
     // ── Queries

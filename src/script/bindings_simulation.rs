@@ -270,8 +270,8 @@ fn clear_earlier_output(dir: &Path, name: &str, overwrite: bool) -> RhaiResult<(
     Ok(())
 }
 
-/// `sim.repartition([#{ if_moved }])`: split nodes and work between the ranks again
-/// ([`crate::pipeline::Simulation::repartition`]); rank 0 reports the nodes that moved.
+/// `sim.repartition([#{ if_moved, if_imbalance }])`: split nodes and work between the ranks
+/// again ([`crate::pipeline::Simulation::repartition`]); rank 0 reports the nodes that moved.
 fn repartition(c: &ScriptContext, s: &mut SimHandle, m: Map) -> RhaiResult<f64> {
     let o = Opts::new("repartition", m, keys_of("sim.repartition"))?;
     let if_moved = o.float("if_moved")?.unwrap_or(0.0);
@@ -280,19 +280,30 @@ fn repartition(c: &ScriptContext, s: &mut SimHandle, m: Map) -> RhaiResult<f64> 
             "if_moved must be a fraction in [0, 1], got {if_moved}"
         )));
     }
-    let mut st = s.0.borrow_mut();
-    let (seconds, moved) = st
-        .sim
-        .repartition(if_moved)
-        .map_err(|e| format!("repartition(): {e}"))?;
-    if let Some(per_rank) = st.sim.nodes_per_rank().filter(|_| moved > 0) {
-        let per_rank: Vec<String> = per_rank.iter().map(|n| n.to_string()).collect();
-        c.say(&format!(
-                "[{}] step {}: repartitioned, {moved} nodes changed rank ({seconds:.3} s); nodes per rank [{}]",
-                st.name,
-                st.sim.step,
-                per_rank.join(", ")
-            ));
+    let if_imbalance = o.float("if_imbalance")?.unwrap_or(0.0);
+    if !(if_imbalance == 0.0 || if_imbalance >= 1.0) || !if_imbalance.is_finite() {
+        return Err(o.error(format!(
+            "if_imbalance must be 0 (not checked) or at least 1 (the slowest rank's work over the mean), got {if_imbalance}"
+        )));
     }
-    Ok(seconds)
+    let mut st = s.0.borrow_mut();
+    let done = st
+        .sim
+        .repartition(if_moved, if_imbalance)
+        .map_err(|e| format!("repartition(): {e}"))?;
+    if let Some(per_rank) = st.sim.nodes_per_rank().filter(|_| done.moved_nodes > 0) {
+        let per_rank: Vec<String> = per_rank.iter().map(|n| n.to_string()).collect();
+        let imbalance = done
+            .imbalance
+            .map_or(String::new(), |i| format!(" at imbalance {i:.3}"));
+        c.say(&format!(
+            "[{}] step {}: repartitioned{imbalance}, {} nodes changed rank ({:.3} s); nodes per rank [{}]",
+            st.name,
+            st.sim.step,
+            done.moved_nodes,
+            done.seconds,
+            per_rank.join(", ")
+        ));
+    }
+    Ok(done.seconds)
 }
