@@ -400,9 +400,15 @@ fn run_script(script: &Path, set: &[String], mut options: RunOptions) -> i32 {
 /// that stops with an error leaves at once instead, without MPI's finalisation, which waits
 /// for every rank: a rank whose error the others did not meet (rank 0's check of earlier
 /// output, a piece of a frame it could not write) would wait there for ever, and the others
-/// in their next exchange. The launcher sees the exit and stops the others.
+/// in their next exchange. The launcher sees the exit and stops the others. A rank other
+/// than 0 waits a moment first: when every rank meets the error, rank 0 prints it, and a
+/// launcher stopping rank 0 because another left first could lose that line (seen once in
+/// tests/mpi.rs under load).
 fn leave_if_failed<R>(code: i32, ranks: Option<R>) -> i32 {
     if code != 0 && ranks.is_some() {
+        if !crate::parallel::is_root() {
+            std::thread::sleep(std::time::Duration::from_millis(500));
+        }
         std::mem::forget(ranks);
         std::process::exit(code);
     }

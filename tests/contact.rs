@@ -1047,10 +1047,11 @@ fn incremental_detection_after_fracture_equals_a_full_detection() {
     cd.prepare();
     assert!(update_pairs(
         &mut cd,
-        &sim.nodes,
+        &mut sim.nodes,
         &sim.tets,
         &sim.bodies,
-        &sim.joints
+        &sim.joints,
+        None
     ));
     let skin = cd.detector.skin;
     let as_tets = |cd: &ContactDetection| {
@@ -1106,10 +1107,11 @@ fn incremental_detection_after_fracture_equals_a_full_detection() {
         cd.surface_stale = true;
         assert!(update_pairs(
             &mut cd,
-            &sim.nodes,
+            &mut sim.nodes,
             &sim.tets,
             &sim.bodies,
-            &sim.joints
+            &sim.joints,
+            None
         ));
         incremental += cd.detector.incremental - inc0;
         full += cd.detector.detections - full0;
@@ -1121,10 +1123,11 @@ fn incremental_detection_after_fracture_equals_a_full_detection() {
         fresh.prepare();
         update_pairs(
             &mut fresh,
-            &at_detection,
+            &mut at_detection,
             &sim.tets,
             &sim.bodies,
             &sim.joints,
+            None,
         );
         assert_eq!(fresh.surface, cd.surface, "round {round}: surfaces differ");
         let (got, want) = (as_tets(&cd), as_tets(&fresh));

@@ -186,15 +186,21 @@ impl ContactDetection {
     }
 }
 
-/// How the ranks of a decomposed model share stage 4's search (implemented by
-/// `crate::parallel`). Every rank holds the whole state and reaches every detection with
-/// the same inputs; each searches a share of the work and [`PairExchange::gather_pairs`]
-/// puts the shares together, so every rank ends with the one list a single process finds.
+/// How the ranks of a decomposed model share stage 4 (implemented by `crate::parallel`).
+/// Every rank holds the whole state and reaches every detection with the same inputs; each
+/// searches a share of the work and [`PairExchange::gather_pairs`] puts the shares
+/// together, so every rank ends with the one list a single process finds. Positions are
+/// made current where a detection reads them: every node before a full detection (it
+/// records them all), only the nodes of the tets that joined the surface before an
+/// incremental one (the rest of the surface is current on every rank between detections).
 pub trait PairExchange {
     /// This rank and the number of ranks.
     fn rank_of(&self) -> (usize, usize);
     /// Every rank's `mine`, concatenated in rank order (a collective).
     fn gather_pairs(&mut self, mine: &[[u32; 2]]) -> Vec<[u32; 2]>;
+    /// Positions and velocities of the nodes `which` (sorted; every node when None) from
+    /// their owners, on every rank (a collective).
+    fn make_current(&mut self, nodes: &mut Nodes, which: Option<&[u32]>);
 }
 
 /// The ranges of first indices ranks `0..ranks` search, of `n` elements weighed by
@@ -228,22 +234,14 @@ fn shares_of_first(n: usize, pairs: &[[u32; 2]], ranks: usize) -> Vec<std::ops::
 /// pairs when a node moved more than skin/2 since the last detection. Returns true when it
 /// detected: then `origins` maps every new pair to its old index (or marks it new), for
 /// stage 5 to carry its history over.
+///
+/// On a decomposed model (`ranks`), the search (a full detection's NBS, an incremental
+/// one's tests of the tets that joined the surface) is shared between the ranks, and its
+/// result is the single-process list on every rank; `nodes` are written only there, where
+/// the positions a detection reads are made current from their owners.
 pub fn update_pairs(
     cd: &mut ContactDetection,
-    nodes: &Nodes,
-    tets: &Tets,
-    bodies: &[Body],
-    joints: &Joints,
-) -> bool {
-    update_pairs_on_ranks(cd, nodes, tets, bodies, joints, None)
-}
-
-/// [`update_pairs`] on a decomposed model: the search (a full detection's NBS, an
-/// incremental one's tests of the tets that joined the surface) is shared between the
-/// ranks through `ranks`, and its result is the single-process list on every rank.
-pub fn update_pairs_on_ranks(
-    cd: &mut ContactDetection,
-    nodes: &Nodes,
+    nodes: &mut Nodes,
     tets: &Tets,
     bodies: &[Body],
     joints: &Joints,
@@ -259,16 +257,40 @@ pub fn update_pairs_on_ranks(
             broken: cd.broken_faces.clone(),
         };
         refresh_surface(cd, nodes, tets, bodies, joints);
-        if detected_before
-            && add_pairs_of_broken_joints(cd, nodes, tets, bodies, &before, ranks.as_deref_mut())
+        if let Some(joined) = detected_before
+            .then(|| tets_joining_the_surface(cd, &before))
+            .flatten()
         {
-            return true;
+            if let Some(r) = ranks.as_deref_mut() {
+                let mut which: Vec<u32> = joined
+                    .iter()
+                    .flat_map(|&i| tets.nodes[cd.surface[i as usize] as usize])
+                    .collect();
+                which.sort_unstable();
+                which.dedup();
+                r.make_current(nodes, Some(&which));
+            }
+            if add_pairs_of_broken_joints(
+                cd,
+                nodes,
+                tets,
+                bodies,
+                &before,
+                &joined,
+                ranks.as_deref_mut(),
+            ) {
+                return true;
+            }
         }
     } else if !cd.detector.needs_update(&nodes.x, &cd.surface_nodes) {
         return false;
     } else {
         cd.carried.clear();
         cd.carried.extend(0..cd.pairs.len() as u32);
+    }
+    // A full detection reads, and records, every node's position.
+    if let Some(r) = ranks.as_deref_mut() {
+        r.make_current(nodes, None);
     }
     let x = &nodes.x;
     let tn = &tets.nodes;
@@ -374,6 +396,32 @@ struct Topology {
     broken: Vec<([u32; 2], u32)>,
 }
 
+/// The surface indices of the tets that joined the surface at the last refresh (from
+/// `before`), when an incremental detection may add their pairs: None (a full detection)
+/// when a fragment split (pairs across the whole separating crack become candidates), a
+/// tet left the surface, or too many joined.
+fn tets_joining_the_surface(cd: &ContactDetection, before: &Topology) -> Option<Vec<u32>> {
+    if cd.fragment != before.fragment
+        || cd.surface.len() < before.surface.len()
+        || cd.surface.len() - before.surface.len() > INCREMENTAL_LIMIT
+    {
+        return None;
+    }
+    // Both lists are sorted by tet id.
+    let mut joined = Vec::new();
+    let mut k = 0;
+    for (i, &e) in cd.surface.iter().enumerate() {
+        while k < before.surface.len() && before.surface[k] < e {
+            k += 1;
+        }
+        if k == before.surface.len() || before.surface[k] != e {
+            joined.push(i as u32);
+        }
+    }
+    // (Otherwise a tet left the surface.)
+    (cd.surface.len() - joined.len() == before.surface.len()).then_some(joined)
+}
+
 /// Largest number of tets joining the surface at one refresh for which the incremental
 /// detection is used: it tests each against every surface box (a few ns each), a full
 /// detection costs ~1–3 µs per surface tet.
@@ -385,41 +433,24 @@ const INCREMENTAL_LIMIT: usize = 256;
 /// (boxes and nearness from the positions at t₀, the skin test still measured from t₀). The
 /// list is then the one a full detection at t₀ with the new topology gives (breaking only
 /// lifts exclusions), so it holds every pair that can touch until the skin test fires.
-/// Declines (returns false, for a full detection) when a fragment split (pairs across the
-/// whole separating crack become candidates), a tet left the surface, a surface node moved
-/// more than skin/2 since t₀, or too many tets joined the surface.
+/// `joined`: the surface indices of the tets that joined ([`tets_joining_the_surface`],
+/// which says when there can be no incremental detection). Declines (returns false, for a
+/// full detection) when a surface node moved more than skin/2 since t₀.
 fn add_pairs_of_broken_joints(
     cd: &mut ContactDetection,
     nodes: &Nodes,
     tets: &Tets,
     bodies: &[Body],
     before: &Topology,
+    joined: &[u32],
     ranks: Option<&mut (dyn PairExchange + '_)>,
 ) -> bool {
-    if cd.fragment != before.fragment
-        || cd.surface.len() < before.surface.len()
-        || cd.surface.len() - before.surface.len() > INCREMENTAL_LIMIT
-        || cd.detector.moved_beyond_skin(&nodes.x, &cd.surface_nodes)
-    {
+    if cd.detector.moved_beyond_skin(&nodes.x, &cd.surface_nodes) {
         return false;
-    }
-    // Surface indices of the tets that joined (both lists are sorted by tet id).
-    let mut joined = Vec::new();
-    let mut k = 0;
-    for (i, &e) in cd.surface.iter().enumerate() {
-        while k < before.surface.len() && before.surface[k] < e {
-            k += 1;
-        }
-        if k == before.surface.len() || before.surface[k] != e {
-            joined.push(i as u32);
-        }
-    }
-    if cd.surface.len() - joined.len() != before.surface.len() {
-        return false; // a tet left the surface
     }
     let tn = &tets.nodes;
     let half = 0.5 * cd.detector.skin;
-    boxes_after_joining(cd, &joined, before.surface.len(), tn, half);
+    boxes_after_joining(cd, joined, before.surface.len(), tn, half);
     let x = &cd.detector.x_at_detection;
     let continuous: Vec<bool> = bodies.iter().map(|b| b.layout != Layout::Jointed).collect();
     let filter = CandidateFilter {

@@ -831,6 +831,44 @@ impl Parallel {
         &self.buffer
     }
 
+    /// The positions and velocities of the nodes `which` (the same list on every rank) from
+    /// their owners to every rank: each rank sends those it owns, in list order.
+    pub fn share_some_nodes(&mut self, nodes: &mut crate::state::Nodes, which: &[u32]) {
+        const PER_NODE: usize = 6;
+        let t = std::time::Instant::now();
+        let (p, me) = (&self.partition, self.comm.rank());
+        let mut at = vec![0usize; self.comm.size() + 1];
+        for &n in which {
+            at[p.owner(n as usize) + 1] += PER_NODE;
+        }
+        for r in 0..self.comm.size() {
+            at[r + 1] += at[r];
+        }
+        let segments: Vec<Range<usize>> = at.windows(2).map(|w| w[0]..w[1]).collect();
+        let buf = &mut self.buffer;
+        buf.clear();
+        buf.resize(at[self.comm.size()], 0.0);
+        let mut next = at.clone();
+        for &n in which.iter().filter(|&&n| p.owner(n as usize) == me) {
+            let k = &mut next[me];
+            buf[*k..*k + 3].copy_from_slice(nodes.x[n as usize].as_slice());
+            buf[*k + 3..*k + 6].copy_from_slice(nodes.v[n as usize].as_slice());
+            *k += PER_NODE;
+        }
+        self.comm.allgather_ranges_f64(buf, &segments);
+        for &n in which {
+            let r = p.owner(n as usize);
+            if r != me {
+                let k = &mut next[r];
+                nodes.x[n as usize] = Vec3::new(buf[*k], buf[*k + 1], buf[*k + 2]);
+                nodes.v[n as usize] = Vec3::new(buf[*k + 3], buf[*k + 4], buf[*k + 5]);
+                *k += PER_NODE;
+            }
+        }
+        self.bytes += (8 * (at[self.comm.size()] - segments[me].len())) as u64;
+        self.seconds += t.elapsed().as_secs_f64();
+    }
+
     /// Every rank's nodes' positions, velocities and reactions to every rank: the whole
     /// model current on every rank (before the script reads it, before output).
     pub fn share_nodes(&mut self, nodes: &mut crate::state::Nodes) {
@@ -900,6 +938,13 @@ impl crate::contact_detection::PairExchange for Parallel {
         self.bytes += received.iter().map(|b| b.len() as u64).sum::<u64>() - bytes.len() as u64;
         self.seconds += t.elapsed().as_secs_f64();
         all
+    }
+
+    fn make_current(&mut self, nodes: &mut crate::state::Nodes, which: Option<&[u32]>) {
+        match which {
+            None => self.share_nodes(nodes),
+            Some(which) => self.share_some_nodes(nodes, which),
+        }
     }
 }
 

@@ -1187,29 +1187,24 @@ impl Simulation {
     /// took over stop acting. A friction law's invalid result stops the run.
     fn contact_stages(&mut self) -> Result<(), SimError> {
         self.contact_detection.joints_broke(self.break_events.len());
-        // On a decomposed model: whether stage 4 detects this step (None: not asked).
+        // On a decomposed model: whether stage 4 detects this step (None: not asked). The
+        // answer is the same on every rank (the surface's nodes are current on all).
         let mut detects = None;
-        if let Some(par) = &mut self.parallel {
-            // A detection (full, or of the tets that joints breaking exposed) reads and
-            // records every node's position: all current first (timed as exchange). Between
-            // detections stage 4 reads only the surface tets' nodes, which are exported.
+        if self.parallel.is_some() {
             let cd = &self.contact_detection;
-            let detect =
-                cd.surface_stale || cd.detector.needs_update(&self.nodes.x, &cd.surface_nodes);
-            if detect {
-                par.share_nodes(&mut self.nodes);
-            }
-            detects = Some(detect);
+            detects = Some(
+                cd.surface_stale || cd.detector.needs_update(&self.nodes.x, &cd.surface_nodes),
+            );
         }
-        // The ranks share the search and gather its pairs: that gather is exchange time,
-        // not stage 4's (taken out below).
+        // The ranks share the search, gather its pairs and make current the positions it
+        // reads: exchange time, not stage 4's (taken out below).
         let exchange_before = self.parallel.as_ref().map_or(0.0, |p| p.seconds);
         timed(&mut self.timers, Stage::ContactDetection, || {
             // (A quiet step answered above need not run the skin test again.)
             if detects != Some(false)
-                && contact_detection::update_pairs_on_ranks(
+                && contact_detection::update_pairs(
                     &mut self.contact_detection,
-                    &self.nodes,
+                    &mut self.nodes,
                     &self.tets,
                     &self.bodies,
                     &self.joints,
