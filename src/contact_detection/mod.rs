@@ -292,6 +292,19 @@ pub fn update_pairs(
     if let Some(r) = ranks.as_deref_mut() {
         r.make_current(nodes, None);
     }
+    detect_all_pairs(cd, nodes, tets, bodies, ranks);
+    true
+}
+
+/// A full detection at the current positions (every node current): NBS over every surface
+/// box (its search shared between `ranks`), then the old→new remap; records the positions.
+fn detect_all_pairs(
+    cd: &mut ContactDetection,
+    nodes: &Nodes,
+    tets: &Tets,
+    bodies: &[Body],
+    ranks: Option<&mut (dyn PairExchange + '_)>,
+) {
     let x = &nodes.x;
     let tn = &tets.nodes;
     // Boxes of the surface tets at the current positions.
@@ -376,7 +389,6 @@ pub fn update_pairs(
     cd.record_surface_positions();
     cd.detector.stale = false;
     cd.detector.detections += 1;
-    true
 }
 
 /// The box of each surface tet at the positions `x`, inflated by `half` (skin/2).

@@ -25,9 +25,13 @@
 //! (each joint's by its designated rank), merged in joint order, and every rank marks them
 //! broken, so the surfaces that contact detection derives from them agree.
 //!
-//! **Contact.** Every rank runs stage 4 on the whole model (the surface tets' nodes are
-//! exported, [`Parallel::follow_surface`], and every node is shared before a detection), so all
-//! have the same candidate pairs in the same order. A rank computes in stage 5 every pair
+//! **Contact.** Every rank holds stage 4's whole state and list (the surface tets' nodes are
+//! exported, [`Parallel::follow_surface`]; every node is made current before a full
+//! detection, the nodes of the tets that joined the surface before an incremental one), and
+//! the ranks share its search: each finds the pairs whose first surface index lies in its
+//! share, and the shares gathered in rank order are the single-process list (the
+//! [`crate::contact_detection::PairExchange`] impl), so all have the same candidate pairs
+//! in the same order. A rank computes in stage 5 every pair
 //! with a node of its own ([`Parallel::contact_mask`]: a choice fixed by the pair's two
 //! tets, so its history is current wherever it is computed), and the designated rank of
 //! each pair sends its record (its totals, event, handover), merged in pair order
