@@ -15,6 +15,9 @@
 //! consecutive joints, blocks are coloured so that blocks of a colour share no node, and
 //! colours run one after another (blocks of a colour in parallel, each block in order on one
 //! thread): every node receives its forces in a fixed order, with no atomics and no gather.
+//! Each block is cut into work units of at most [`UNIT`] joints, each with its own partial
+//! sums (energy, dissipation): a rank of a decomposed model computes only the units at its
+//! nodes, and a node's forces still arrive in block order.
 
 use crate::compiled;
 pub mod audit;
@@ -33,6 +36,13 @@ use std::collections::HashMap;
 
 /// Smallest number of joints per parallel work item.
 pub const CHUNK: usize = 1024;
+
+/// Largest number of joints in one work unit: blocks (what a thread runs) are cut into units
+/// of at most this many consecutive joints, each with its own partial sums, and a rank of a
+/// decomposed model computes only the units with a joint at its nodes
+/// ([`Joints::compute`]). A unit adds its forces in joint order within its block, so the
+/// nodes' sums do not depend on the cut.
+pub const UNIT: usize = 512;
 
 /// Index of the block bucket that runs on one thread (blocks no parallel colour could take).
 const SEQUENTIAL: usize = 63;
@@ -243,11 +253,16 @@ pub struct Joints {
     color_blocks: Vec<Vec<std::ops::Range<usize>>>,
     /// Number of joints coloured and ordered (insertion after that re-colours).
     colored: usize,
-    /// The sums of every block in schedule order (colour by colour), this step's.
+    /// For each colour, the index of each block's first work unit ([`UNIT`]) in schedule
+    /// order (derived from `color_blocks` by `prepare`).
+    #[serde(skip)]
+    first_unit: Vec<Vec<usize>>,
+    /// The sums of every work unit in schedule order (colour by colour, block by block),
+    /// this step's.
     #[serde(skip)]
     pub unit_partials: Vec<JointSums>,
-    /// Which blocks this process computes, in schedule order (empty: all). A rank of a
-    /// decomposed model computes only the blocks with a joint at one of its nodes
+    /// Which work units this process computes, in schedule order (empty: all). A rank of a
+    /// decomposed model computes only the units with a joint at one of its nodes
     /// (crate::parallel).
     #[serde(skip)]
     pub compute: Vec<bool>,
@@ -324,13 +339,14 @@ impl JointSums {
 }
 
 impl Joints {
-    /// The joints of each work unit (block), in schedule order: the order of
-    /// [`Joints::unit_partials`] and [`Joints::compute`]. Valid after `prepare`.
-    pub fn blocks(&self) -> impl Iterator<Item = &std::ops::Range<usize>> {
-        self.color_blocks.iter().flatten()
+    /// The joints of each work unit (at most [`UNIT`] consecutive joints of a block), in
+    /// schedule order: the order of [`Joints::unit_partials`] and [`Joints::compute`]. Valid
+    /// after `prepare`.
+    pub fn units(&self) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
+        self.color_blocks.iter().flatten().flat_map(units_of)
     }
 
-    /// The stage's sums: the blocks' partial sums added in schedule order.
+    /// The stage's sums: the units' partial sums added in schedule order.
     pub fn total(&self) -> JointSums {
         let mut total = JointSums::default();
         for p in &self.unit_partials {
@@ -577,9 +593,34 @@ impl Joints {
         }
         self.consts = self.laws.iter().map(JointLaw::consts).collect();
         self.inv_size = self.size.iter().map(|h| 1.0 / h).collect();
-        if self.colored == self.faces.len() {
-            return;
+        if self.colored != self.faces.len() {
+            self.colour(n_nodes);
         }
+        self.index_units();
+    }
+
+    /// [`Joints::first_unit`] from the blocks (also after a restart, which does not store
+    /// it).
+    fn index_units(&mut self) {
+        self.first_unit = self
+            .color_blocks
+            .iter()
+            .scan(0, |next, blocks| {
+                Some(
+                    blocks
+                        .iter()
+                        .map(|b| {
+                            *next += b.len().div_ceil(UNIT);
+                            *next - b.len().div_ceil(UNIT)
+                        })
+                        .collect(),
+                )
+            })
+            .collect();
+    }
+
+    /// Group and colour the joints (see [`Joints::prepare`]).
+    fn colour(&mut self, n_nodes: usize) {
         let n = self.faces.len();
         let mut chosen = None;
         for parts in [16, 32, 64] {
@@ -594,7 +635,12 @@ impl Joints {
             }
         }
         let blocks = chosen.unwrap_or_else(|| self.colour_blocks(n_nodes, CHUNK));
-        self.unit_partials = Vec::with_capacity(blocks.iter().map(Vec::len).sum());
+        let n_units = blocks
+            .iter()
+            .flatten()
+            .map(|b| b.len().div_ceil(UNIT))
+            .sum();
+        self.unit_partials = Vec::with_capacity(n_units);
         self.color_blocks = blocks;
         self.colored = n;
     }
@@ -932,6 +978,14 @@ fn update_rate_factors(
         / 3.0
 }
 
+/// The work units of a block: its joints cut into runs of at most [`UNIT`].
+fn units_of(block: &std::ops::Range<usize>) -> impl Iterator<Item = std::ops::Range<usize>> {
+    let end = block.end;
+    (block.start..end)
+        .step_by(UNIT)
+        .map(move |s| s..(s + UNIT).min(end))
+}
+
 /// Stage 2: add the joint forces of every intact or broken joint to `nodes.f`.
 ///
 /// Colour by colour (see [`Joints::prepare`]), blocks of joints add their nodal forces
@@ -954,6 +1008,9 @@ pub fn add_joint_forces(
     if joints.is_empty() {
         return JointSums::default();
     }
+    if joints.first_unit.len() != joints.color_blocks.len() {
+        joints.index_units();
+    }
     let Joints {
         faces,
         law,
@@ -971,6 +1028,7 @@ pub fn add_joint_forces(
         rate,
         consts,
         color_blocks,
+        first_unit,
         unit_partials,
         compute,
         ..
@@ -989,11 +1047,38 @@ pub fn add_joint_forces(
     let has_rate = !rate.is_empty();
     let mut total = JointSums::default();
     let audit = audit::on().then(|| audit::Recorder::begin(faces.len()));
-    let run_block = |range: &std::ops::Range<usize>| {
+    let n_units = color_blocks
+        .iter()
+        .flatten()
+        .map(|b| b.len().div_ceil(UNIT))
+        .sum();
+    unit_partials.clear();
+    unit_partials.resize(n_units, JointSums::default());
+    let pp = SyncPtr(unit_partials.as_mut_ptr());
+    // A block's joints in order on one thread; at each unit's end its sums go to its place
+    // in `unit_partials` (units of a block are consecutive there), and a unit this process
+    // does not compute is skipped.
+    let run_block = |range: &std::ops::Range<usize>, first_unit: usize| {
+        if range.is_empty() {
+            return;
+        }
         let mut s = JointSums::default();
         let mut frame = compiled::Frame::new();
         let mut scaled: (JointLaw, CohesiveConsts);
+        let mut unit = first_unit;
+        let mut unit_end = (range.start + UNIT).min(range.end);
+        let mut skip = !*compute.get(unit).unwrap_or(&true);
         for j in range.clone() {
+            if j == unit_end {
+                // SAFETY: unit `unit` belongs to this block alone.
+                unsafe { *pp.get().add(unit) = std::mem::take(&mut s) };
+                unit += 1;
+                unit_end = (j + UNIT).min(range.end);
+                skip = !*compute.get(unit).unwrap_or(&true);
+            }
+            if skip {
+                continue;
+            }
             #[cfg(target_arch = "x86_64")]
             if let Some(ahead) = faces.get(j + 8) {
                 use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
@@ -1166,22 +1251,18 @@ pub fn add_joint_forces(
                 }
             }
         }
-        s
+        // SAFETY: as above.
+        unsafe { *pp.get().add(unit) = s };
     };
-    unit_partials.clear();
     for (colour, blocks) in color_blocks.iter().enumerate() {
-        let first = unit_partials.len();
-        let run_unit = |(i, range): (usize, &std::ops::Range<usize>)| {
-            if *compute.get(first + i).unwrap_or(&true) {
-                run_block(range)
-            } else {
-                JointSums::default()
-            }
-        };
+        let first = &first_unit[colour];
         if colour == SEQUENTIAL {
-            unit_partials.extend(blocks.iter().enumerate().map(run_unit));
+            blocks.iter().zip(first).for_each(|(b, &f)| run_block(b, f));
         } else {
-            unit_partials.par_extend(blocks.par_iter().enumerate().map(run_unit));
+            blocks
+                .par_iter()
+                .zip(first)
+                .for_each(|(b, &f)| run_block(b, f));
         }
     }
     for p in unit_partials.iter() {
@@ -1238,5 +1319,84 @@ mod tests {
         assert!(seen.iter().all(|&k| k == 1));
         // Big blocks were chosen (1/16 of the joints).
         assert_eq!(blocks[0][0].len(), (n_joints as usize).div_ceil(16));
+    }
+
+    /// A decomposed model's ranks skip work units (at most [`UNIT`] joints of a block): a
+    /// unit it does not compute leaves its partial sums zero and its joints' nodes alone,
+    /// and the units it computes give the bits they give when every unit is computed. The
+    /// joints (tied) are a chain of flat prisms under a small stretch, with energies.
+    #[test]
+    fn skipped_units_change_nothing_in_the_units_computed() {
+        let n_joints = 20_000u32;
+        let mut joints = Joints::default();
+        joints.laws.push(JointLaw::Tied {
+            normal_penalty: 1e9,
+            tangential_penalty: 1e9,
+        });
+        let mut x0 = Vec::new();
+        for j in 0..=n_joints {
+            let z = j as Real * 0.01;
+            x0.extend([
+                Vec3::new(0.0, 0.0, z),
+                Vec3::new(0.01, 0.0, z),
+                Vec3::new(0.0, 0.01, z),
+            ]);
+        }
+        for j in 0..n_joints {
+            let a = 3 * j;
+            // Both faces at the same place in the reference configuration (a joint's two
+            // sides), the b side one layer up in node numbering only.
+            let faces = [[a, a + 1, a + 2], [a + 3, a + 4, a + 5]];
+            let p = [x0[a as usize], x0[a as usize + 1], x0[a as usize + 2]];
+            joints.push_joint(faces, [j, j + 1], 0, &p);
+        }
+        let mut nodes = Nodes {
+            x: x0
+                .iter()
+                .enumerate()
+                .map(|(i, p)| p + Vec3::new(1e-7 * (i % 7) as Real, 0.0, 2e-7 * (i % 5) as Real))
+                .collect(),
+            f: vec![Vec3::zeros(); x0.len()],
+            ..Default::default()
+        };
+        joints.prepare(x0.len());
+        let units: Vec<_> = joints.units().collect();
+        assert!(units.len() > 40, "{} units", units.len());
+        assert!(units.iter().all(|u| !u.is_empty() && u.len() <= UNIT));
+        let mut seen = vec![0u8; n_joints as usize];
+        units
+            .iter()
+            .flat_map(|u| u.clone())
+            .for_each(|j| seen[j] += 1);
+        assert!(seen.iter().all(|&k| k == 1));
+
+        let all = add_joint_forces(&mut joints, &mut nodes, 0.0, true);
+        let (f_all, partials_all) = (nodes.f.clone(), joints.unit_partials.clone());
+        assert!(all.energy > 0.0);
+        // Every third unit skipped.
+        joints.compute = (0..units.len()).map(|u| u % 3 != 1).collect();
+        nodes.f.iter_mut().for_each(|f| *f = Vec3::zeros());
+        add_joint_forces(&mut joints, &mut nodes, 0.0, true);
+        let mut touched_by_skipped = vec![false; x0.len()];
+        for (u, unit) in units.iter().enumerate() {
+            if joints.compute[u] {
+                assert_eq!(joints.unit_partials[u], partials_all[u], "unit {u}");
+            } else {
+                assert_eq!(joints.unit_partials[u], JointSums::default(), "unit {u}");
+                for j in unit.clone() {
+                    for &n in joints.faces[j].iter().flatten() {
+                        touched_by_skipped[n as usize] = true;
+                    }
+                }
+            }
+        }
+        let mut compared = 0;
+        for (n, touched) in touched_by_skipped.iter().enumerate() {
+            if !touched {
+                assert_eq!(nodes.f[n], f_all[n], "node {n}");
+                compared += 1;
+            }
+        }
+        assert!(compared > x0.len() / 2, "{compared} nodes compared");
     }
 }

@@ -515,8 +515,8 @@ impl Parallel {
                 .map(|u| u.clone().map(|e| (p.tet_min_rank[e], p.tet_relevant[e]))),
         );
         let joint_mask = p.joint_mask(joints, contact);
-        let joint_blocks = p.unit_flags(joints.blocks().map(|b| {
-            b.clone().map(|j| {
+        let joint_blocks = p.unit_flags(joints.units().map(|b| {
+            b.map(|j| {
                 let lowest = joints.faces[j]
                     .iter()
                     .flatten()
@@ -540,12 +540,8 @@ impl Parallel {
         for u in element_units {
             mark(&mut u.clone().flat_map(|e| tets.nodes[e].map(|n| n as usize)));
         }
-        for b in joints.blocks() {
-            mark(
-                &mut b
-                    .clone()
-                    .flat_map(|j| joints.faces[j].into_iter().flatten().map(|n| n as usize)),
-            );
+        for b in joints.units() {
+            mark(&mut b.flat_map(|j| joints.faces[j].into_iter().flatten().map(|n| n as usize)));
         }
         for &n in loaded {
             exported[n as usize] = true;
