@@ -65,14 +65,19 @@ impl Detector {
         if self.stale || self.x_at_detection.len() != x.len() {
             return true;
         }
-        self.moved_beyond_skin(x, nodes)
+        self.moved_beyond_skin(x, nodes, |_| true)
     }
 
     /// Some node in `nodes` moved more than skin/2 since the last detection. When `nodes`
     /// are the surface nodes whose positions at detection `surface_x` holds, those are read
     /// in order instead of from `x_at_detection` (the surface nodes of a large body in
     /// spatial order are scattered through the node arrays).
-    fn moved_beyond_skin(&self, x: &[Vec3], nodes: &[u32]) -> bool {
+    fn moved_beyond_skin(
+        &self,
+        x: &[Vec3],
+        nodes: &[u32],
+        tested: impl Fn(u32) -> bool + Sync,
+    ) -> bool {
         let half = 0.5 * self.skin;
         let limit = half * half;
         if self.surface_x.len() == nodes.len() {
@@ -82,12 +87,14 @@ impl Detector {
                 .any(|(c, at)| {
                     c.iter()
                         .zip(at)
-                        .any(|(&n, x0)| (x[n as usize] - x0).norm_squared() > limit)
+                        .any(|(&n, x0)| tested(n) && (x[n as usize] - x0).norm_squared() > limit)
                 });
         }
         nodes.par_chunks(4096).any(|c| {
-            c.iter()
-                .any(|&n| (x[n as usize] - self.x_at_detection[n as usize]).norm_squared() > limit)
+            c.iter().any(|&n| {
+                tested(n)
+                    && (x[n as usize] - self.x_at_detection[n as usize]).norm_squared() > limit
+            })
         })
     }
 }
@@ -190,9 +197,10 @@ impl ContactDetection {
 /// Every rank holds the whole state and reaches every detection with the same inputs; each
 /// searches a share of the work and [`PairExchange::gather_pairs`] puts the shares
 /// together, so every rank ends with the one list a single process finds. Positions are
-/// made current where a detection reads them: every node before a full detection (it
-/// records them all), only the nodes of the tets that joined the surface before an
-/// incremental one (the rest of the surface is current on every rank between detections).
+/// made current where they are read: every node before a full detection (it records them
+/// all); after an incremental one (which reads the positions of its last full detection),
+/// the nodes of the tets of the pairs it added, which stage 5 reads on every rank computing
+/// them. The skin test reads each rank's own nodes ([`must_detect`]).
 pub trait PairExchange {
     /// This rank and the number of ranks.
     fn rank_of(&self) -> (usize, usize);
@@ -201,6 +209,46 @@ pub trait PairExchange {
     /// Positions and velocities of the nodes `which` (sorted; every node when None) from
     /// their owners, on every rank (a collective).
     fn make_current(&mut self, nodes: &mut Nodes, which: Option<&[u32]>);
+    /// Whether `mine` holds on some rank (a collective).
+    fn any_rank(&mut self, mine: bool) -> bool;
+    /// The node chunks this rank owns (its nodes are current on it), and the chunk size.
+    fn owned_chunks(&self) -> (&[bool], usize);
+}
+
+/// Whether stage 4 must run this step: the surface changed, a detection is due, or a
+/// surface node moved more than skin/2 since the last detection. The same on every rank of
+/// a decomposed model: each tests the surface nodes it owns (only those are current on it
+/// between detections) and the answers are combined.
+pub fn must_detect(
+    cd: &ContactDetection,
+    x: &[Vec3],
+    ranks: Option<&mut (dyn PairExchange + '_)>,
+) -> bool {
+    cd.surface_stale
+        || cd.detector.stale
+        || cd.detector.x_at_detection.len() != x.len()
+        || surface_moved(cd, x, ranks)
+}
+
+/// Some surface node moved more than skin/2 since the last detection (on every rank alike:
+/// see [`must_detect`]).
+fn surface_moved(
+    cd: &ContactDetection,
+    x: &[Vec3],
+    ranks: Option<&mut (dyn PairExchange + '_)>,
+) -> bool {
+    match ranks {
+        None => cd
+            .detector
+            .moved_beyond_skin(x, &cd.surface_nodes, |_| true),
+        Some(r) => {
+            let (owned, chunk) = r.owned_chunks();
+            let mine = cd
+                .detector
+                .moved_beyond_skin(x, &cd.surface_nodes, |n| owned[n as usize / chunk]);
+            r.any_rank(mine)
+        }
+    }
 }
 
 /// The ranges of first indices ranks `0..ranks` search, of `n` elements weighed by
@@ -261,15 +309,6 @@ pub fn update_pairs(
             .then(|| tets_joining_the_surface(cd, &before))
             .flatten()
         {
-            if let Some(r) = ranks.as_deref_mut() {
-                let mut which: Vec<u32> = joined
-                    .iter()
-                    .flat_map(|&i| tets.nodes[cd.surface[i as usize] as usize])
-                    .collect();
-                which.sort_unstable();
-                which.dedup();
-                r.make_current(nodes, Some(&which));
-            }
             if add_pairs_of_broken_joints(
                 cd,
                 nodes,
@@ -279,10 +318,21 @@ pub fn update_pairs(
                 &joined,
                 ranks.as_deref_mut(),
             ) {
+                // The added pairs' tets: other ranks computing them read all their nodes.
+                if let Some(r) = ranks {
+                    let mut which: Vec<u32> = (cd.pairs.iter().zip(&cd.origins))
+                        .filter(|(_, o)| matches!(o, PairOrigin::New { .. }))
+                        .flat_map(|(p, _)| p.map(|i| cd.surface[i as usize]))
+                        .flat_map(|t| tets.nodes[t as usize])
+                        .collect();
+                    which.sort_unstable();
+                    which.dedup();
+                    r.make_current(nodes, Some(&which));
+                }
                 return true;
             }
         }
-    } else if !cd.detector.needs_update(&nodes.x, &cd.surface_nodes) {
+    } else if !must_detect(cd, &nodes.x, ranks.as_deref_mut()) {
         return false;
     } else {
         cd.carried.clear();
@@ -455,9 +505,9 @@ fn add_pairs_of_broken_joints(
     bodies: &[Body],
     before: &Topology,
     joined: &[u32],
-    ranks: Option<&mut (dyn PairExchange + '_)>,
+    mut ranks: Option<&mut (dyn PairExchange + '_)>,
 ) -> bool {
-    if cd.detector.moved_beyond_skin(&nodes.x, &cd.surface_nodes) {
+    if surface_moved(cd, &nodes.x, ranks.as_deref_mut()) {
         return false;
     }
     let tn = &tets.nodes;

@@ -25,9 +25,11 @@
 //! (each joint's by its designated rank), merged in joint order, and every rank marks them
 //! broken, so the surfaces that contact detection derives from them agree.
 //!
-//! **Contact.** Every rank holds stage 4's whole state and list (the surface tets' nodes are
-//! exported, [`Parallel::follow_surface`]; every node is made current before a full
-//! detection, the nodes of the tets that joined the surface before an incremental one), and
+//! **Contact.** Every rank holds stage 4's whole state and list (the nodes of the pairs two
+//! ranks compute are exported, [`Parallel::follow_pairs`]; the skin test is each rank's own
+//! nodes' and the answers combined; every node is made current before a full detection,
+//! the nodes of the tets that joined the surface and of the pairs added after an
+//! incremental one), and
 //! the ranks share its search: each finds the pairs whose first surface index lies in its
 //! share, and the shares gathered in rank order are the single-process list (the
 //! [`crate::contact_detection::PairExchange`] impl), so all have the same candidate pairs
@@ -417,11 +419,14 @@ pub struct Parallel {
     export_ranges: Vec<Range<usize>>,
     export_buffer: Vec<f64>,
     /// The nodes exported whatever the contact surface (spanning units, force sets, rebars);
-    /// with contact, the nodes of the surface tets are added ([`Parallel::follow_surface`]).
+    /// with contact, the nodes of the pairs two ranks compute are added ([`Parallel::follow_pairs`]).
     base_exported: Vec<bool>,
     /// The number of surface tets the exports were last made for (`usize::MAX`: every node
     /// is exported, until stage 4 first reports its surface).
-    surface_exported: usize,
+    pairs_exported: Option<(u64, u64)>,
+    /// The nodes exported with contact (base exports and the nodes of pairs two ranks
+    /// compute), kept to grow after incremental detections.
+    contact_exported: Vec<bool>,
     /// Exchange buffer (reused).
     buffer: Vec<f64>,
     /// Wall time spent in exchanges [s].
@@ -481,7 +486,8 @@ impl Parallel {
             export_ranges: Vec::new(),
             export_buffer: Vec::new(),
             base_exported: Vec::new(),
-            surface_exported: usize::MAX,
+            pairs_exported: None,
+            contact_exported: Vec::new(),
             buffer: Vec::new(),
             seconds: 0.0,
             bytes: 0,
@@ -547,10 +553,10 @@ impl Parallel {
             exported[n as usize] = true;
         }
         self.base_exported = exported.clone();
-        self.surface_exported = usize::MAX;
+        self.pairs_exported = None;
         if contact {
-            // Stage 4 finds candidate pairs among all surface tets, on every rank: until it
-            // first reports its surface, every node is exported ([`Parallel::follow_surface`]).
+            // Until stage 4 first reports its pairs, every node is exported
+            // ([`Parallel::follow_pairs`]).
             exported.iter_mut().for_each(|e| *e = true);
         }
         self.elements = elements;
@@ -589,24 +595,64 @@ impl Parallel {
         self.export_buffer.resize(at, 0.0);
     }
 
-    /// After stage 4: export the nodes of stage 4's `surface` tets (every rank reads them all:
-    /// the detection's boxes and margins, and stage 5's pairs) besides the base exports,
-    /// instead of every node. Called every step; the exports change only when the surface
-    /// does (it grows as joints break; every rank has the same). A detection reads every
-    /// node (it records their positions, and joints breaking expose tets whose nodes no
-    /// other rank kept current): the pipeline shares all nodes before one.
-    pub fn follow_surface(&mut self, tets: &crate::state::Tets, surface: &[u32]) {
-        if surface.len() == self.surface_exported || self.base_exported.is_empty() {
+    /// After stage 4: export the nodes of the tets of every candidate pair that two ranks
+    /// compute, besides the base exports. A pair is computed by every rank owning a node of
+    /// one of its tets ([`Parallel::contact_mask`]), which reads all eight; a pair whose
+    /// nodes one rank owns needs nothing from the others, and the skin test reads only a
+    /// rank's own nodes ([`crate::contact_detection::must_detect`]). Called every step;
+    /// recomputed when the list changes (`generation`: the full and incremental detections
+    /// so far; after an incremental one only its added pairs, from `origins`). A full
+    /// detection makes every node current first; an incremental one the nodes of the tets it
+    /// added pairs of.
+    pub fn follow_pairs(
+        &mut self,
+        tets: &crate::state::Tets,
+        surface: &[u32],
+        pairs: &[[u32; 2]],
+        origins: &[crate::contact_detection::PairOrigin],
+        generation: (u64, u64),
+    ) {
+        if self.pairs_exported == Some(generation) || self.base_exported.is_empty() {
             return;
         }
-        let mut exported = self.base_exported.clone();
-        for &t in surface {
-            for &n in &tets.nodes[t as usize] {
-                exported[n as usize] = true;
-            }
+        use rayon::prelude::*;
+        let p = &self.partition;
+        let spanning = |&[a, b]: &[u32; 2]| {
+            let (ta, tb) = (
+                tets.nodes[surface[a as usize] as usize],
+                tets.nodes[surface[b as usize] as usize],
+            );
+            let all = [ta[0], ta[1], ta[2], ta[3], tb[0], tb[1], tb[2], tb[3]];
+            let first = p.owner(all[0] as usize);
+            all.iter()
+                .any(|&n| p.owner(n as usize) != first)
+                .then_some(all)
+        };
+        // After an incremental detection (the same full one) only the added pairs are new:
+        // the exports only grow.
+        let incremental = matches!(self.pairs_exported, Some((full, _)) if full == generation.0)
+            && origins.len() == pairs.len();
+        let added: Vec<[u32; 8]> = if incremental {
+            (pairs.iter().zip(origins))
+                .filter(|(_, o)| matches!(o, crate::contact_detection::PairOrigin::New { .. }))
+                .filter_map(|(pair, _)| spanning(pair))
+                .collect()
+        } else {
+            self.contact_exported = self.base_exported.clone();
+            pairs.par_iter().filter_map(spanning).collect()
+        };
+        let mut grew = !incremental;
+        for n in added.iter().flatten() {
+            let e = &mut self.contact_exported[*n as usize];
+            grew |= !*e;
+            *e = true;
         }
-        self.set_exports(&exported);
-        self.surface_exported = surface.len();
+        if grew {
+            let exported = std::mem::take(&mut self.contact_exported);
+            self.set_exports(&exported);
+            self.contact_exported = exported;
+        }
+        self.pairs_exported = Some(generation);
     }
 
     /// After stage 7: every rank's exported nodes' positions and velocities to every rank
@@ -938,6 +984,14 @@ impl crate::contact_detection::PairExchange for Parallel {
         self.bytes += received.iter().map(|b| b.len() as u64).sum::<u64>() - bytes.len() as u64;
         self.seconds += t.elapsed().as_secs_f64();
         all
+    }
+
+    fn any_rank(&mut self, mine: bool) -> bool {
+        self.largest_over_ranks(if mine { 1.0 } else { 0.0 }) > 0.0
+    }
+
+    fn owned_chunks(&self) -> (&[bool], usize) {
+        (&self.owned_chunks, crate::integration::CHUNK)
     }
 
     fn make_current(&mut self, nodes: &mut crate::state::Nodes, which: Option<&[u32]>) {

@@ -1188,13 +1188,14 @@ impl Simulation {
     fn contact_stages(&mut self) -> Result<(), SimError> {
         self.contact_detection.joints_broke(self.break_events.len());
         // On a decomposed model: whether stage 4 detects this step (None: not asked). The
-        // answer is the same on every rank (the surface's nodes are current on all).
+        // answer is the same on every rank (each tests its own nodes; combined).
         let mut detects = None;
-        if self.parallel.is_some() {
-            let cd = &self.contact_detection;
-            detects = Some(
-                cd.surface_stale || cd.detector.needs_update(&self.nodes.x, &cd.surface_nodes),
-            );
+        if let Some(par) = &mut self.parallel {
+            detects = Some(contact_detection::must_detect(
+                &self.contact_detection,
+                &self.nodes.x,
+                Some(par as &mut dyn contact_detection::PairExchange),
+            ));
         }
         // The ranks share the search, gather its pairs and make current the positions it
         // reads: exchange time, not stage 4's (taken out below).
@@ -1213,6 +1214,12 @@ impl Simulation {
                         .map(|p| p as &mut dyn contact_detection::PairExchange),
                 )
             {
+                if let Some(par) = &mut self.parallel {
+                    // (Before the remap goes to stage 5: it marks the added pairs.)
+                    let cd = &self.contact_detection;
+                    let generation = (cd.detector.detections, cd.detector.incremental);
+                    par.follow_pairs(&self.tets, &cd.surface, &cd.pairs, &cd.origins, generation);
+                }
                 let remap = self.contact_detection.take_remap();
                 let n_surface = self.contact_detection.surface.len();
                 self.contact.carry_history(remap, n_surface);
@@ -1222,7 +1229,9 @@ impl Simulation {
                 if self.contact.mask.compute.len() != cd.pairs.len() {
                     self.contact.mask = par.contact_mask(&cd.surface, &cd.pairs);
                 }
-                par.follow_surface(&self.tets, &cd.surface);
+                // (After a split without a detection: from the whole list.)
+                let generation = (cd.detector.detections, cd.detector.incremental);
+                par.follow_pairs(&self.tets, &cd.surface, &cd.pairs, &[], generation);
             }
         });
         if let Some(par) = &self.parallel {
