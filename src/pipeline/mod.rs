@@ -561,7 +561,7 @@ impl Simulation {
         let nodes: Vec<String> = per_rank.iter().map(|n| n.to_string()).collect();
         let exported: usize = par.exports.iter().map(Vec::len).sum();
         let when = if self.contact.is_enabled() {
-            "in the first step (then the contact surface's nodes and those of work shared between ranks, and every node before a full contact detection)"
+            "in the first step (then the nodes of work and contact pairs shared between ranks, and every node before a full contact detection)"
         } else {
             "every step"
         };
