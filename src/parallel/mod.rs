@@ -137,8 +137,21 @@ impl Partition {
     /// number of tet corners at each node (a node of no tet weighs one). Every rank computes
     /// the same split from the same model.
     pub fn new(rank: usize, size: usize, x: &[Vec3], tets: &Tets, bodies: &[Body]) -> Self {
+        Self::keeping(rank, size, x, tets, bodies, None)
+    }
+
+    /// [`Partition::new`], its parts numbered so that as many chunks as can keep their
+    /// `previous` owner (the parts are the same, only which rank takes which changes).
+    pub fn keeping(
+        rank: usize,
+        size: usize,
+        x: &[Vec3],
+        tets: &Tets,
+        bodies: &[Body],
+        previous: Option<&[u32]>,
+    ) -> Self {
         let groups = chunk_groups(x, tets, bodies);
-        Self::from_groups(rank, size, x.len(), &groups, tets)
+        Self::from_groups(rank, size, x.len(), &groups, tets, previous)
     }
 
     /// The split of [`Partition::new`] from its groups of chunks (see [`chunk_groups`]).
@@ -148,9 +161,10 @@ impl Partition {
         n_nodes: usize,
         groups: &[ChunkGroup],
         tets: &Tets,
+        previous: Option<&[u32]>,
     ) -> Self {
         let chunk = crate::integration::CHUNK;
-        let chunk_owner = owners_of_groups(groups, size, n_nodes.div_ceil(chunk));
+        let chunk_owner = owners_of_groups(groups, size, n_nodes.div_ceil(chunk), previous);
         let mut rank_chunks = vec![Vec::new(); size];
 
         let mut nodes_per_rank = vec![0usize; size];
@@ -315,7 +329,12 @@ pub fn chunk_groups(x: &[Vec3], tets: &Tets, bodies: &[Body]) -> Vec<ChunkGroup>
 }
 
 /// The rank of each of `n_chunks` chunks: recursive bisection of the groups' centres.
-fn owners_of_groups(groups: &[ChunkGroup], size: usize, n_chunks: usize) -> Vec<u32> {
+fn owners_of_groups(
+    groups: &[ChunkGroup],
+    size: usize,
+    n_chunks: usize,
+    previous: Option<&[u32]>,
+) -> Vec<u32> {
     let mut group_rank = vec![0u32; groups.len()];
     let mut order: Vec<usize> = (0..groups.len()).collect();
     bisect(groups, &mut order, 0..size, &mut group_rank);
@@ -323,7 +342,43 @@ fn owners_of_groups(groups: &[ChunkGroup], size: usize, n_chunks: usize) -> Vec<
     for (g, &r) in groups.iter().zip(&group_rank) {
         chunk_owner[g.0.clone()].fill(r);
     }
+    if let Some(previous) = previous.filter(|p| p.len() == n_chunks) {
+        let rank_of_part = matching_ranks(&chunk_owner, previous, size);
+        chunk_owner
+            .iter_mut()
+            .for_each(|o| *o = rank_of_part[*o as usize]);
+    }
     chunk_owner
+}
+
+/// Which rank takes each part of a new split (`parts`: a part per chunk) so that many
+/// chunks keep their `previous` owner: greedily, the largest overlap of a part and a rank
+/// first (ties: lower part, then lower rank); parts left take the ranks left in order.
+/// The same on every rank.
+fn matching_ranks(parts: &[u32], previous: &[u32], size: usize) -> Vec<u32> {
+    let mut overlap = vec![0u64; size * size];
+    for (&p, &r) in parts.iter().zip(previous) {
+        if (p as usize) < size && (r as usize) < size {
+            overlap[p as usize * size + r as usize] += 1;
+        }
+    }
+    let mut pairs: Vec<(u64, usize, usize)> = (0..size * size)
+        .filter(|&k| overlap[k] > 0)
+        .map(|k| (overlap[k], k / size, k % size))
+        .collect();
+    pairs.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+    let (mut rank_of, mut taken) = (vec![u32::MAX; size], vec![false; size]);
+    for (_, part, rank) in pairs {
+        if rank_of[part] == u32::MAX && !taken[rank] {
+            rank_of[part] = rank as u32;
+            taken[rank] = true;
+        }
+    }
+    let mut free = (0..size).filter(|&r| !taken[r]);
+    for r in rank_of.iter_mut().filter(|r| **r == u32::MAX) {
+        *r = free.next().expect("as many ranks as parts") as u32;
+    }
+    rank_of
 }
 
 fn bisect(groups: &[ChunkGroup], order: &mut [usize], ranks: Range<usize>, group_rank: &mut [u32]) {
@@ -513,7 +568,10 @@ impl Parallel {
         } = model;
         let comm = &self.comm;
         let n_nodes = x.len();
-        let partition = Partition::new(comm.rank(), comm.size(), x, tets, bodies);
+        // (A re-split keeps as many chunks with their owner as it can.)
+        let previous = std::mem::take(&mut self.partition.chunk_owner);
+        let previous = (!previous.is_empty()).then_some(previous.as_slice());
+        let partition = Partition::keeping(comm.rank(), comm.size(), x, tets, bodies, previous);
         let p = &partition;
         let elements = p.unit_flags(
             element_units
@@ -700,7 +758,12 @@ impl Parallel {
             groups[i as usize].2 = Vec3::new(c[0], c[1], c[2]);
         }
         let n_chunks = x.len().div_ceil(crate::integration::CHUNK);
-        owners_of_groups(&groups, self.comm.size(), n_chunks)
+        owners_of_groups(
+            &groups,
+            self.comm.size(),
+            n_chunks,
+            Some(&self.partition.chunk_owner),
+        )
     }
 
     /// Replace every unit's partial sums with the designated rank's, on every rank.
@@ -1347,5 +1410,32 @@ mod tests {
         for s in seen {
             assert_eq!(s, [2.0, 1.0, 1.0]);
         }
+    }
+
+    /// A re-split whose parts are the old ones in another order keeps every chunk with its
+    /// owner; parts that moved keep what overlaps most, and a part overlapping no old
+    /// rank takes the rank left over.
+    #[test]
+    fn a_new_split_keeps_the_owners_it_can() {
+        let previous = [0u32, 0, 0, 1, 1, 1, 2, 2, 2];
+        // The same three parts, numbered 2, 0, 1: renumbered back.
+        let parts = [2u32, 2, 2, 0, 0, 0, 1, 1, 1];
+        let rank_of = matching_ranks(&parts, &previous, 3);
+        let kept: Vec<u32> = parts.iter().map(|&p| rank_of[p as usize]).collect();
+        assert_eq!(kept, previous);
+        // Shifted by one chunk: part 1 (chunks 1–3) overlaps rank 0 twice and rank 1 once;
+        // part 0 (chunk 0 and 8) overlaps ranks 0 and 2 once.
+        let parts = [0u32, 1, 1, 1, 2, 2, 2, 2, 0];
+        let rank_of = matching_ranks(&parts, &previous, 3);
+        assert_eq!(rank_of, vec![2, 0, 1]);
+        // 5 of 9 chunks keep their owner (chunks 1, 2, 4, 5 and 8), against 4 with the
+        // bisection's own numbering.
+        let moved = |r: &[u32]| {
+            (parts.iter().zip(&previous))
+                .filter(|(&p, &o)| r[p as usize] != o)
+                .count()
+        };
+        assert_eq!(moved(&rank_of), 4);
+        assert_eq!(moved(&[0, 1, 2]), 5);
     }
 }
