@@ -1,9 +1,10 @@
-//! The three collective operations the decomposed step needs, behind one trait: [`Serial`]
-//! (one rank), [`ThreadComm`] (ranks as threads of one process, for tests and for checking a
+//! The communication the decomposed step needs, behind one trait: [`Serial`] (one rank),
+//! [`ThreadComm`] (ranks as threads of one process, for tests and for checking a
 //! decomposition without MPI) and, with the `mpi` feature, MPI.
 //!
-//! Every operation is a collective: every rank calls it, in the same order, with arguments
-//! of the same shape. Results are the same bits on every rank.
+//! Every operation is called by every rank, in the same order: three collectives (results
+//! the same bits on every rank) and one neighbour exchange, where each rank sends to and
+//! receives from the ranks it names, with message sizes both sides computed alike.
 
 use std::ops::Range;
 use std::sync::{Arc, Barrier, Mutex};
@@ -23,6 +24,11 @@ pub trait Comm: Send + Sync {
     /// Fill `data[ranges[r]]` on every rank from rank r's copy (`ranges` is the same on every
     /// rank; ranges are disjoint).
     fn allgather_ranges_f64(&self, data: &mut [f64], ranges: &[Range<usize>]);
+    /// Neighbour exchange: send each `(rank, data)` of `sends` to that rank and fill each
+    /// `(rank, buffer)` of `recvs` from it. Every rank calls it (possibly with nothing to
+    /// send or receive); a rank appears at most once in each list, never this rank, and the
+    /// two sides agree on every message's length (empty messages are not sent).
+    fn exchange_f64(&self, sends: &[(usize, &[f64])], recvs: &mut [(usize, &mut [f64])]);
 }
 
 /// One rank: every collective is the identity.
@@ -41,6 +47,12 @@ impl Comm for Serial {
         vec![mine.to_vec()]
     }
     fn allgather_ranges_f64(&self, _data: &mut [f64], _ranges: &[Range<usize>]) {}
+    fn exchange_f64(&self, sends: &[(usize, &[f64])], recvs: &mut [(usize, &mut [f64])]) {
+        assert!(
+            sends.is_empty() && recvs.is_empty(),
+            "one rank has no neighbours"
+        );
+    }
 }
 
 /// Ranks as threads of one process, exchanging through shared slots between barriers. Slow
@@ -54,6 +66,8 @@ pub struct ThreadComm {
 struct Shared {
     barrier: Barrier,
     slots: Vec<Mutex<Vec<u8>>>,
+    /// Neighbour messages, `from * size + to`.
+    messages: Vec<Mutex<Vec<f64>>>,
 }
 
 impl ThreadComm {
@@ -65,6 +79,7 @@ impl ThreadComm {
         let shared = Arc::new(Shared {
             barrier: Barrier::new(size),
             slots: (0..size).map(|_| Mutex::new(Vec::new())).collect(),
+            messages: (0..size * size).map(|_| Mutex::new(Vec::new())).collect(),
         });
         std::thread::scope(|s| {
             let handles: Vec<_> = (0..size)
@@ -133,6 +148,26 @@ impl Comm for ThreadComm {
                 *d = f64::from_le_bytes(b.try_into().expect("8 bytes"));
             }
         }
+    }
+    fn exchange_f64(&self, sends: &[(usize, &[f64])], recvs: &mut [(usize, &mut [f64])]) {
+        let size = self.size();
+        for &(to, data) in sends {
+            *self.shared.messages[self.rank * size + to]
+                .lock()
+                .expect("message") = data.to_vec();
+        }
+        self.shared.barrier.wait();
+        for (from, buf) in recvs.iter_mut() {
+            let message = std::mem::take(
+                &mut *self.shared.messages[*from * size + self.rank]
+                    .lock()
+                    .expect("message"),
+            );
+            assert_eq!(message.len(), buf.len(), "rank {from} to {}", self.rank);
+            buf.copy_from_slice(&message);
+        }
+        // Nobody writes a message again until everybody has read theirs.
+        self.shared.barrier.wait();
     }
 }
 
@@ -219,6 +254,38 @@ impl Comm for MpiComm {
         let mut part = PartitionMut::new(data, &counts[..], &displs[..]);
         self.world.all_gather_varcount_into(&mine[..], &mut part);
     }
+    fn exchange_f64(&self, sends: &[(usize, &[f64])], recvs: &mut [(usize, &mut [f64])]) {
+        use mpi::traits::{Communicator, Destination, Source};
+        // One tag for the neighbour exchange: messages between two ranks arrive in the
+        // order sent, and each call completes before the next.
+        const TAG: mpi::Tag = 17;
+        mpi::request::scope(|scope| {
+            let received: Vec<_> = recvs
+                .iter_mut()
+                .filter(|(_, buf)| !buf.is_empty())
+                .map(|(from, buf)| {
+                    self.world
+                        .process_at_rank(*from as mpi::Rank)
+                        .immediate_receive_into_with_tag(scope, &mut buf[..], TAG)
+                })
+                .collect();
+            let sent: Vec<_> = sends
+                .iter()
+                .filter(|(_, data)| !data.is_empty())
+                .map(|&(to, data)| {
+                    self.world
+                        .process_at_rank(to as mpi::Rank)
+                        .immediate_send_with_tag(scope, data, TAG)
+                })
+                .collect();
+            for r in received {
+                r.wait();
+            }
+            for s in sent {
+                s.wait();
+            }
+        });
+    }
 }
 
 /// The bytes of an f64 slice in little-endian order.
@@ -248,12 +315,20 @@ mod tests {
             }
             c.allgather_ranges_f64(&mut d, &ranges);
             let b = c.allgather_bytes(&[r as u8; 2]);
-            (s, d, b)
+            // A ring: each rank sends r + 1 values to the next and receives from the one
+            // before; rank 1 sends nothing to rank 2 (an empty message is skipped alike).
+            let (next, before) = ((r + 1) % 3, (r + 2) % 3);
+            let out = vec![r as f64; if r == 1 { 0 } else { r + 1 }];
+            let mut got = vec![f64::NAN; if before == 1 { 0 } else { before + 1 }];
+            c.exchange_f64(&[(next, &out)], &mut [(before, &mut got)]);
+            (s, d, b, got)
         });
-        for (s, d, b) in out {
+        for (r, (s, d, b, got)) in out.into_iter().enumerate() {
             assert_eq!(s, [0.1, 0.2, 0.30000000000000004]);
             assert_eq!(d, [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
             assert_eq!(b, vec![vec![0, 0], vec![1, 1], vec![2, 2]]);
+            let before = (r + 2) % 3;
+            assert!(got.iter().all(|&g| g == before as f64), "rank {r}: {got:?}");
         }
     }
 }

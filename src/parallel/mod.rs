@@ -6,9 +6,10 @@
 //! ranks by recursive bisection of their places, balanced by tet corners ([`Partition`]);
 //! bodies larger than a chunk are stored in spatial order (`mesh::order`), so a chunk is a
 //! compact piece of its body and a rank's chunks one region of the model. A rank *owns* the
-//! nodes of its chunks: it alone integrates them (stage 7). After each step every rank
-//! receives the x and v of the nodes other ranks read while stepping (each rank's *exports*:
-//! the nodes of work units that span ranks, and of nodal force sets); the rest of the model
+//! nodes of its chunks: it alone integrates them (stage 7). After each step each rank sends
+//! the x and v of its nodes that other ranks read while stepping (the nodes of work units
+//! and contact pairs that span ranks, and of nodal force sets) to the ranks that read them,
+//! a neighbour exchange ([`Halo`]); the rest of the model
 //! (all nodes' x, v, reactions; every joint's history) is shared only when the script reads
 //! it ([`Parallel::share_nodes`], [`Parallel::share_joint_histories`], called through
 //! `Simulation::synchronize`).
@@ -46,9 +47,9 @@
 //! force and torque and shares them ([`Parallel::share_rigid_loads`]), and every rank
 //! advances every rigid body alike, after the nodes' sums.
 //!
-//! **What this is not yet.** The model is replicated: memory per rank does not shrink, and
-//! every rank receives every rank's exports (an all-gather, not a neighbour exchange).
-//! Contact detection is not split (docs/cluster.md lists the next steps).
+//! **What this is not yet.** The model is replicated: memory per rank does not shrink.
+//! Contact detection's search is shared but its bookkeeping is whole on every rank, and the
+//! pairs' records are gathered by every rank (docs/cluster.md lists the next steps).
 
 pub mod comm;
 
@@ -466,22 +467,21 @@ pub struct Parallel {
     /// Per chunk of [`crate::integration::CHUNK`] nodes: this rank owns it (advances its
     /// nodes in stage 7).
     pub owned_chunks: Vec<bool>,
-    /// Each rank's nodes that other ranks read while stepping (its *exports*, in node
-    /// order): the nodes of every work unit that spans two ranks or more, and the nodes of
-    /// nodal force sets. Shared every step; the rest of the model at [`Parallel::share_nodes`].
-    pub exports: Vec<Vec<u32>>,
-    /// Each rank's exports' place in `export_buffer`, and the buffer (reused every step).
-    export_ranges: Vec<Range<usize>>,
-    export_buffer: Vec<f64>,
-    /// The nodes exported whatever the contact surface (spanning units, force sets, rebars);
-    /// with contact, the nodes of the pairs two ranks compute are added ([`Parallel::follow_pairs`]).
-    base_exported: Vec<bool>,
-    /// The number of surface tets the exports were last made for (`usize::MAX`: every node
-    /// is exported, until stage 4 first reports its surface).
+    /// The nodes this rank sends after each step to each rank that reads them, and those it
+    /// receives ([`Halo`]).
+    pub halo: Halo,
+    /// Who reads which node besides its owner whatever the contact surface (work units that
+    /// span ranks, force sets, rebars); with contact, the readers of the nodes of the pairs
+    /// two ranks compute are added ([`Parallel::follow_pairs`]).
+    base_readers: Readers,
+    /// The detections (full, incremental) the halo was last made for (None: every node is
+    /// shared, until stage 4 first reports its pairs).
     pairs_exported: Option<(u64, u64)>,
-    /// The nodes exported with contact (base exports and the nodes of pairs two ranks
-    /// compute), kept to grow after incremental detections.
-    contact_exported: Vec<bool>,
+    /// The readers with contact (base readers and those of pairs two ranks compute), kept
+    /// to grow after incremental detections.
+    contact_readers: Readers,
+    /// Every node is shared after each step (a contact model until stage 4 first reports).
+    share_every_node: bool,
     /// Exchange buffer (reused).
     buffer: Vec<f64>,
     /// Wall time spent in exchanges [s].
@@ -489,6 +489,8 @@ pub struct Parallel {
     /// Bytes this rank received in exchanges (the whole array of each collective, less its
     /// own part).
     pub bytes: u64,
+    /// Of [`Parallel::bytes`], those received in the halo after each step.
+    pub halo_bytes: u64,
     /// The steps at which all nodes, and all joint histories, were last shared.
     pub nodes_shared_at: Option<u64>,
     pub joints_shared_at: Option<u64>,
@@ -520,6 +522,119 @@ impl std::fmt::Debug for Parallel {
     }
 }
 
+/// A rank's halo: per rank it exchanges with, the nodes it sends after each step (its own
+/// nodes that rank reads) and those it receives (that rank's nodes it reads), each list in
+/// node order, with their buffers (x and v, 6 numbers a node). Every rank derives its lists
+/// from the same model and split, so the two sides of each message agree without asking.
+#[derive(Clone, Debug, Default)]
+pub struct Halo {
+    pub send: Vec<(usize, Vec<u32>)>,
+    pub recv: Vec<(usize, Vec<u32>)>,
+    send_buf: Vec<Vec<f64>>,
+    recv_buf: Vec<Vec<f64>>,
+}
+
+impl Halo {
+    /// From the (reader, node) keys of [`Readers`] (sorted: by reader, then node).
+    fn new(p: &Partition, me: usize, keys: &[u64]) -> Self {
+        let mut send: Vec<Vec<u32>> = vec![Vec::new(); p.size()];
+        let mut recv: Vec<Vec<u32>> = vec![Vec::new(); p.size()];
+        for &k in keys {
+            let (reader, n) = ((k >> 32) as usize, k as u32);
+            let owner = p.owner(n as usize);
+            if owner == me {
+                send[reader].push(n);
+            } else if reader == me {
+                recv[owner].push(n);
+            }
+        }
+        let listed = |lists: Vec<Vec<u32>>| -> Vec<(usize, Vec<u32>)> {
+            (lists.into_iter().enumerate())
+                .filter(|(_, l)| !l.is_empty())
+                .collect()
+        };
+        let (send, recv) = (listed(send), listed(recv));
+        let buffers = |lists: &[(usize, Vec<u32>)]| {
+            lists.iter().map(|(_, l)| vec![0.0; 6 * l.len()]).collect()
+        };
+        Halo {
+            send_buf: buffers(&send),
+            recv_buf: buffers(&recv),
+            send,
+            recv,
+        }
+    }
+
+    /// Nodes received after each step.
+    pub fn received(&self) -> usize {
+        self.recv.iter().map(|(_, l)| l.len()).sum()
+    }
+
+    /// Nodes sent after each step (a node read by two ranks counts twice).
+    pub fn sent(&self) -> usize {
+        self.send.iter().map(|(_, l)| l.len()).sum()
+    }
+}
+
+/// Which rank reads which node it does not own, while stepping: the keys
+/// `reader << 32 | node`, sorted, for the pairs where this rank is the reader or the
+/// owner (what its halo needs), and every node some rank reads besides its owner.
+#[derive(Clone, Debug, Default)]
+struct Readers {
+    keys: Vec<u64>,
+    shared: Vec<bool>,
+}
+
+impl Readers {
+    fn new(n_nodes: usize) -> Self {
+        Readers {
+            keys: Vec::new(),
+            shared: vec![false; n_nodes],
+        }
+    }
+
+    /// A piece of work that reads the nodes `read` and is computed by every rank owning one
+    /// of the nodes `deciders` (a unit: a rank computes it when one of its items has a node
+    /// of that rank): each of those ranks reads each node of `read` it does not own.
+    fn add(&mut self, p: &Partition, me: usize, read: &[u32], deciders: &[u32]) {
+        let first = deciders.first().map(|&n| p.owner(n as usize));
+        if deciders.iter().all(|&n| Some(p.owner(n as usize)) == first) {
+            return;
+        }
+        let mut ranks: Vec<usize> = deciders.iter().map(|&n| p.owner(n as usize)).collect();
+        ranks.sort_unstable();
+        ranks.dedup();
+        for &n in read {
+            let owner = p.owner(n as usize);
+            for &r in ranks.iter().filter(|&&r| r != owner) {
+                self.shared[n as usize] = true;
+                if r == me || owner == me {
+                    self.keys.push(((r as u64) << 32) | n as u64);
+                }
+            }
+        }
+    }
+
+    /// Nodes every rank reads (force sets, rebars and their hosts).
+    fn add_read_by_all(&mut self, p: &Partition, me: usize, nodes: &[u32]) {
+        for &n in nodes {
+            let owner = p.owner(n as usize);
+            for r in (0..p.size()).filter(|&r| r != owner) {
+                self.shared[n as usize] = true;
+                if r == me || owner == me {
+                    self.keys.push(((r as u64) << 32) | n as u64);
+                }
+            }
+        }
+    }
+
+    /// Sort and deduplicate the keys.
+    fn finish(&mut self) {
+        self.keys.sort_unstable();
+        self.keys.dedup();
+    }
+}
+
 /// Which stage's units a partial-sum exchange is about.
 #[derive(Clone, Copy, Debug)]
 pub enum Units {
@@ -537,15 +652,15 @@ impl Parallel {
             joint_blocks: UnitFlags::default(),
             joints: JointMask::default(),
             owned_chunks: Vec::new(),
-            exports: Vec::new(),
-            export_ranges: Vec::new(),
-            export_buffer: Vec::new(),
-            base_exported: Vec::new(),
+            halo: Halo::default(),
+            base_readers: Readers::default(),
             pairs_exported: None,
-            contact_exported: Vec::new(),
+            contact_readers: Readers::default(),
+            share_every_node: false,
             buffer: Vec::new(),
             seconds: 0.0,
             bytes: 0,
+            halo_bytes: 0,
             nodes_shared_at: None,
             joints_shared_at: None,
             contact_shared_at: None,
@@ -554,8 +669,8 @@ impl Parallel {
         }
     }
 
-    /// Split the model for this rank: partition, the work masks of stages 1 to 3, and every
-    /// rank's exports.
+    /// Split the model for this rank: partition, the work masks of stages 1 to 3, and the
+    /// halo.
     pub fn split(&mut self, model: ModelToSplit) {
         let ModelToSplit {
             x,
@@ -590,33 +705,30 @@ impl Parallel {
                 (lowest, joint_mask.relevant[j])
             })
         }));
-        // A unit whose nodes two ranks own is computed by both: its nodes are exported.
-        let mut exported = vec![false; n_nodes];
-        let mut mark = |nodes: &mut dyn Iterator<Item = usize>| {
-            let nodes: Vec<usize> = nodes.collect();
-            let first = nodes.first().map(|&n| p.owner(n));
-            if nodes.iter().any(|&n| Some(p.owner(n)) != first) {
-                for n in nodes {
-                    exported[n] = true;
-                }
-            }
-        };
+        // A unit whose items have nodes of two ranks is computed by both, and each reads the
+        // unit's nodes the other owns.
+        let me = comm.rank();
+        let mut readers = Readers::new(n_nodes);
+        let (mut read, mut deciders) = (Vec::new(), Vec::new());
         for u in element_units {
-            mark(&mut u.clone().flat_map(|e| tets.nodes[e].map(|n| n as usize)));
+            read.clear();
+            read.extend(u.clone().flat_map(|e| tets.nodes[e]));
+            readers.add(p, me, &read, &read);
         }
         for b in joints.units() {
-            mark(&mut b.flat_map(|j| joints.faces[j].into_iter().flatten().map(|n| n as usize)));
+            read.clear();
+            deciders.clear();
+            for j in b {
+                read.extend(joints.faces[j].into_iter().flatten());
+                if contact {
+                    deciders.extend(joints.tets[j].iter().flat_map(|&e| tets.nodes[e as usize]));
+                }
+            }
+            deciders.extend_from_slice(&read);
+            readers.add(p, me, &read, &deciders);
         }
-        for &n in loaded {
-            exported[n as usize] = true;
-        }
-        self.base_exported = exported.clone();
-        self.pairs_exported = None;
-        if contact {
-            // Until stage 4 first reports its pairs, every node is exported
-            // ([`Parallel::follow_pairs`]).
-            exported.iter_mut().for_each(|e| *e = true);
-        }
+        readers.add_read_by_all(p, me, loaded);
+        readers.finish();
         self.elements = elements;
         self.joint_blocks = joint_blocks;
         self.joints = joint_mask;
@@ -624,44 +736,22 @@ impl Parallel {
             .map(|c| partition.owns_chunk(c))
             .collect();
         self.partition = partition;
-        self.set_exports(&exported);
+        self.pairs_exported = None;
+        // Until stage 4 first reports its pairs, every node is shared
+        // ([`Parallel::follow_pairs`]).
+        self.share_every_node = contact;
+        self.halo = Halo::new(&self.partition, me, &readers.keys);
+        self.base_readers = readers;
     }
 
-    /// Each rank's exports: its nodes marked in `exported`, in node order, and their places in
-    /// the exchange buffer (x and v, 6 numbers a node).
-    fn set_exports(&mut self, exported: &[bool]) {
-        let p = &self.partition;
-        self.exports = (0..p.size())
-            .map(|r| {
-                p.nodes_of(r)
-                    .flatten()
-                    .filter(|&n| exported[n])
-                    .map(|n| n as u32)
-                    .collect()
-            })
-            .collect();
-        let mut at = 0;
-        self.export_ranges = self
-            .exports
-            .iter()
-            .map(|e| {
-                at += 6 * e.len();
-                at - 6 * e.len()..at
-            })
-            .collect();
-        self.export_buffer.clear();
-        self.export_buffer.resize(at, 0.0);
-    }
-
-    /// After stage 4: export the nodes of the tets of every candidate pair that two ranks
-    /// compute, besides the base exports. A pair is computed by every rank owning a node of
-    /// one of its tets ([`Parallel::contact_mask`]), which reads all eight; a pair whose
-    /// nodes one rank owns needs nothing from the others, and the skin test reads only a
-    /// rank's own nodes ([`crate::contact_detection::must_detect`]). Called every step;
-    /// recomputed when the list changes (`generation`: the full and incremental detections
-    /// so far; after an incremental one only its added pairs, from `origins`). A full
-    /// detection makes every node current first; an incremental one the nodes of the tets it
-    /// added pairs of.
+    /// After stage 4: add to the halo the nodes of the tets of every candidate pair that two
+    /// ranks compute. A pair is computed by every rank owning a node of one of its tets
+    /// ([`Parallel::contact_mask`]), which reads all eight; a pair whose nodes one rank owns
+    /// needs nothing from the others, and the skin test reads only a rank's own nodes
+    /// ([`crate::contact_detection::must_detect`]). Called every step; recomputed when the
+    /// list changes (`generation`: the full and incremental detections so far; after an
+    /// incremental one only its added pairs, from `origins`). A full detection makes every
+    /// node current first; an incremental one the nodes of the tets it added pairs of.
     pub fn follow_pairs(
         &mut self,
         tets: &crate::state::Tets,
@@ -670,11 +760,11 @@ impl Parallel {
         origins: &[crate::contact_detection::PairOrigin],
         generation: (u64, u64),
     ) {
-        if self.pairs_exported == Some(generation) || self.base_exported.is_empty() {
+        if self.pairs_exported == Some(generation) || self.base_readers.shared.is_empty() {
             return;
         }
         use rayon::prelude::*;
-        let p = &self.partition;
+        let (p, me) = (&self.partition, self.comm.rank());
         let spanning = |&[a, b]: &[u32; 2]| {
             let (ta, tb) = (
                 tets.nodes[surface[a as usize] as usize],
@@ -687,7 +777,7 @@ impl Parallel {
                 .then_some(all)
         };
         // After an incremental detection (the same full one) only the added pairs are new:
-        // the exports only grow.
+        // the readers only grow.
         let incremental = matches!(self.pairs_exported, Some((full, _)) if full == generation.0)
             && origins.len() == pairs.len();
         let added: Vec<[u32; 8]> = if incremental {
@@ -696,47 +786,68 @@ impl Parallel {
                 .filter_map(|(pair, _)| spanning(pair))
                 .collect()
         } else {
-            self.contact_exported = self.base_exported.clone();
+            self.contact_readers = self.base_readers.clone();
             pairs.par_iter().filter_map(spanning).collect()
         };
-        let mut grew = !incremental;
-        for n in added.iter().flatten() {
-            let e = &mut self.contact_exported[*n as usize];
-            grew |= !*e;
-            *e = true;
+        let before = self.contact_readers.keys.len();
+        for nodes in &added {
+            self.contact_readers.add(p, me, nodes, nodes);
         }
-        if grew {
-            let exported = std::mem::take(&mut self.contact_exported);
-            self.set_exports(&exported);
-            self.contact_exported = exported;
+        self.contact_readers.finish();
+        if !incremental || self.contact_readers.keys.len() != before || self.share_every_node {
+            self.halo = Halo::new(p, me, &self.contact_readers.keys);
         }
+        self.share_every_node = false;
         self.pairs_exported = Some(generation);
     }
 
-    /// After stage 7: every rank's exported nodes' positions and velocities to every rank
-    /// (what the next step reads of nodes other ranks own).
+    /// After stage 7: each rank's nodes that other ranks read, positions and velocities, to
+    /// those ranks (a neighbour exchange: what the next step reads of nodes other ranks own).
     pub fn share_exports(&mut self, nodes: &mut crate::state::Nodes) {
-        let t = std::time::Instant::now();
-        let (ranges, all) = (&self.export_ranges, &mut self.export_buffer);
-        let mine = &ranges[self.comm.rank()];
-        for (k, &n) in self.exports[self.comm.rank()].iter().enumerate() {
-            let at = mine.start + 6 * k;
-            all[at..at + 3].copy_from_slice(nodes.x[n as usize].as_slice());
-            all[at + 3..at + 6].copy_from_slice(nodes.v[n as usize].as_slice());
+        if self.share_every_node {
+            return self.share_nodes(nodes);
         }
-        self.comm.allgather_ranges_f64(all, ranges);
-        for (r, e) in self.exports.iter().enumerate() {
-            if r == self.comm.rank() {
-                continue;
+        let t = std::time::Instant::now();
+        let halo = &mut self.halo;
+        for ((_, which), buf) in halo.send.iter().zip(&mut halo.send_buf) {
+            for (k, &n) in which.iter().enumerate() {
+                buf[6 * k..6 * k + 3].copy_from_slice(nodes.x[n as usize].as_slice());
+                buf[6 * k + 3..6 * k + 6].copy_from_slice(nodes.v[n as usize].as_slice());
             }
-            for (k, &n) in e.iter().enumerate() {
-                let v = &all[ranges[r].start + 6 * k..ranges[r].start + 6 * k + 6];
+        }
+        let sends: Vec<(usize, &[f64])> = (halo.send.iter().zip(&halo.send_buf))
+            .map(|((r, _), b)| (*r, b.as_slice()))
+            .collect();
+        let mut recvs: Vec<(usize, &mut [f64])> = (halo.recv.iter().zip(&mut halo.recv_buf))
+            .map(|((r, _), b)| (*r, b.as_mut_slice()))
+            .collect();
+        self.comm.exchange_f64(&sends, &mut recvs);
+        for ((_, which), buf) in halo.recv.iter().zip(&halo.recv_buf) {
+            for (k, &n) in which.iter().enumerate() {
+                let v = &buf[6 * k..6 * k + 6];
                 nodes.x[n as usize] = crate::math::Vec3::new(v[0], v[1], v[2]);
                 nodes.v[n as usize] = crate::math::Vec3::new(v[3], v[4], v[5]);
             }
         }
-        self.bytes += (8 * (all.len() - mine.len())) as u64;
+        let received = 8 * halo.recv_buf.iter().map(|b| b.len() as u64).sum::<u64>();
+        self.bytes += received;
+        self.halo_bytes += received;
         self.seconds += t.elapsed().as_secs_f64();
+    }
+
+    /// The number of nodes some rank besides their owner reads while stepping (each shared
+    /// after every step with the ranks that read it).
+    pub fn shared_nodes(&self) -> usize {
+        let readers = if self.pairs_exported.is_some() {
+            &self.contact_readers
+        } else {
+            &self.base_readers
+        };
+        if self.share_every_node {
+            self.partition.n_nodes
+        } else {
+            readers.shared.iter().filter(|&&s| s).count()
+        }
     }
 
     pub fn rank(&self) -> usize {

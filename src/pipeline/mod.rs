@@ -420,7 +420,7 @@ impl Simulation {
     /// of the script (the script layer does: before output, checkpoints and when a run
     /// returns; the nodes before hooks and monitors; the joints before queries of their
     /// state). While stepping, ranks share only break events and the nodes other ranks read
-    /// (`Parallel::exports`).
+    /// (`Parallel::halo`).
     pub fn synchronize(&mut self) {
         self.synchronize_nodes();
         self.synchronize_joints();
@@ -533,12 +533,13 @@ impl Simulation {
         self.parallel.as_ref().map_or(&[], |p| &p.rank_seconds)
     }
 
-    /// Wall time this rank spent exchanging data with the others [s], and the bytes it
-    /// received ((0, 0) unless decomposed).
-    pub fn exchanged(&self) -> (Real, u64) {
+    /// Wall time this rank spent exchanging data with the others [s], the bytes it
+    /// received, and those of them in the halo after each step ((0, 0, 0) unless
+    /// decomposed).
+    pub fn exchanged(&self) -> (Real, u64, u64) {
         self.parallel
             .as_ref()
-            .map_or((0.0, 0), |p| (p.seconds, p.bytes))
+            .map_or((0.0, 0, 0), |p| (p.seconds, p.bytes, p.halo_bytes))
     }
 
     /// A stop signal (SIGINT, SIGTERM) as every rank of a decomposed model sees it: the
@@ -559,7 +560,7 @@ impl Simulation {
         let par = self.parallel.as_ref()?;
         let per_rank = &par.partition.nodes_per_rank;
         let nodes: Vec<String> = per_rank.iter().map(|n| n.to_string()).collect();
-        let exported: usize = par.exports.iter().map(Vec::len).sum();
+        let exported = par.shared_nodes();
         let when = if self.contact.is_enabled() {
             "in the first step (then the nodes of work and contact pairs shared between ranks, and every node before a full contact detection)"
         } else {

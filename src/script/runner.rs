@@ -1036,13 +1036,14 @@ fn stage_table(sim: &Simulation) -> String {
     s.push_str(&format!("   {:<20} {:>9.3}\n", "total", total));
     let (rank, ranks) = sim.rank_and_size();
     if ranks > 1 {
-        let (seconds, bytes) = sim.exchanged();
-        let per_step = bytes as f64 / sim.step.max(1) as f64;
+        let (seconds, bytes, halo) = sim.exchanged();
+        let per_step = |b: u64| sig(b as f64 / sim.step.max(1) as f64 / 1e6, 3);
         s.push_str(&format!(
-            "   {:<20} {:>9.3}            (rank {rank} of {ranks}, besides the stages; received {} MB per step)\n",
+            "   {:<20} {:>9.3}            (rank {rank} of {ranks}, besides the stages; received {} MB per step, {} of them the halo)\n",
             "exchange",
             seconds,
-            sig(per_step / 1e6, 3)
+            per_step(bytes),
+            per_step(halo),
         ));
         s.push_str(&rank_table(sim.rank_seconds()));
     }
