@@ -967,6 +967,46 @@ impl ContactInteraction {
         self.chunk_records.iter().flatten()
     }
 
+    /// The records this rank sends to close a decomposed step (every rank then applies all
+    /// ranks' in pair order, [`ContactInteraction::apply_records`]). A chunk of pairs all
+    /// designated to this rank goes as one record of the chunk's sums, added as
+    /// `apply_records` adds its pairs' (the same bits: from +0 the sums never reach −0, so
+    /// adding them to +0 and adding +0 to them change nothing), then its pairs' handovers
+    /// and events without sums; a chunk shared with other ranks goes pair by pair.
+    pub fn records_to_send(&self) -> Vec<PairRecord> {
+        let designated = &self.mask.designated;
+        let mut out = Vec::new();
+        for (c, records) in self.chunk_records.iter().enumerate() {
+            if records.is_empty() {
+                continue;
+            }
+            let pairs = c * CHUNK..((c + 1) * CHUNK).min(designated.len());
+            if !designated[pairs].iter().all(|&d| d) {
+                out.extend_from_slice(records);
+                continue;
+            }
+            let mut sums = ContactSums::default();
+            for r in records {
+                sums.add(&r.sums);
+            }
+            out.push(PairRecord {
+                pair: (c * CHUNK) as u32,
+                sums,
+                handover: None,
+                event: None,
+            });
+            out.extend(
+                (records.iter())
+                    .filter(|r| r.handover.is_some() || r.event.is_some())
+                    .map(|r| PairRecord {
+                        sums: ContactSums::default(),
+                        ..*r
+                    }),
+            );
+        }
+        out
+    }
+
     /// A decomposed model's step, closed from the records of every pair (`records`, from
     /// all ranks, in pair order): the totals summed chunk by chunk in pair order (each pair's
     /// own sum first), events and handovers in pair order: what one rank gets.

@@ -1212,8 +1212,9 @@ impl Parallel {
     }
 
     /// Close stage 5 of a step on every rank: each rank's records of its designated pairs
-    /// to all, merged in pair order, give the totals, contact events and handed-over joints
-    /// one rank gets.
+    /// (a chunk of pairs all designated to it as one record of their sums,
+    /// [`crate::contact_interaction::ContactInteraction::records_to_send`]) to all, merged
+    /// in pair order, give the totals, contact events and handed-over joints one rank gets.
     pub fn merge_contact(
         &mut self,
         ci: &mut crate::contact_interaction::ContactInteraction,
@@ -1221,8 +1222,9 @@ impl Parallel {
     ) -> crate::contact_interaction::ContactSums {
         use crate::contact_interaction::PairRecord;
         let t = std::time::Instant::now();
-        let mine: Vec<PairRecord> = ci.records().copied().collect();
+        let mine: Vec<PairRecord> = ci.records_to_send();
         let mut all = self.gather_items(&mine, "contact records");
+        // (Stable: a chunk's sums come before its pairs' events, from the same rank.)
         all.sort_by_key(|r| r.pair);
         self.seconds += t.elapsed().as_secs_f64();
         ci.apply_records(&all, time)
