@@ -67,6 +67,12 @@ fn outcome(sim: &Simulation) -> Outcome {
     }
 }
 
+/// Every node a rank does not keep current is NaN between synchronizations
+/// (`FDEM_CHECK_HALO`): what a rank reads outside its halo while stepping would show.
+fn check_halo() {
+    std::env::set_var("FDEM_CHECK_HALO", "1");
+}
+
 /// Run `build()` for `steps` steps on one rank and on 2, 3, 4; every rank of every count
 /// must end with the one-rank outcome, joint histories included once the ranks have
 /// synchronised (while stepping a rank keeps current only the joints it computes).
@@ -79,6 +85,7 @@ fn same_on_any_rank_count(build: impl Fn() -> Simulation + Sync, steps: usize) -
         outcome(&sim)
     };
     for ranks in 2..=4 {
+        check_halo();
         let runs = ThreadComm::run(ranks, |comm| {
             let mut sim = build();
             sim.decompose(comm);
@@ -417,6 +424,7 @@ fn a_failing_friction_law_stops_every_rank_where_one_rank_stops() {
     println!("one rank stops at step {}: {}", reference.0, reference.1);
     assert!(reference.1.contains("friction law 'mu'"), "{}", reference.1);
     for ranks in 2..=4 {
+        check_halo();
         let runs = ThreadComm::run(ranks, |comm| {
             let mut sim = build();
             sim.decompose(comm);
@@ -645,6 +653,7 @@ fn a_launch_on_several_ranks_without_mpi_is_refused() {
 /// are sent as they are, in one exact sum with one rank non-zero per entry).
 #[test]
 fn every_rank_sees_every_ranks_stage_times() {
+    check_halo();
     let runs = ThreadComm::run(3, |comm| {
         let mut sim = continuous_bodies();
         sim.decompose(comm);

@@ -482,6 +482,11 @@ pub struct Parallel {
     contact_readers: Readers,
     /// Every node is shared after each step (a contact model until stage 4 first reports).
     share_every_node: bool,
+    /// With `FDEM_CHECK_HALO=1`: the nodes current on this rank after each step besides the
+    /// halo's (its own, and rigid bodies', which every rank advances). Every other node's
+    /// x, v and reaction is set to NaN after each step, so that anything read outside the
+    /// halo before the next synchronization shows (a check for tests, O(nodes) a step).
+    check_halo: Option<Vec<bool>>,
     /// Exchange buffer (reused).
     buffer: Vec<f64>,
     /// Wall time spent in exchanges [s].
@@ -657,6 +662,7 @@ impl Parallel {
             pairs_exported: None,
             contact_readers: Readers::default(),
             share_every_node: false,
+            check_halo: None,
             buffer: Vec::new(),
             seconds: 0.0,
             bytes: 0,
@@ -742,6 +748,15 @@ impl Parallel {
         self.share_every_node = contact;
         self.halo = Halo::new(&self.partition, me, &readers.keys);
         self.base_readers = readers;
+        self.check_halo = std::env::var_os("FDEM_CHECK_HALO")
+            .is_some_and(|v| v == "1")
+            .then(|| {
+                let mut current: Vec<bool> = (0..n_nodes).map(|n| self.partition.owns(n)).collect();
+                for b in bodies.iter().filter(|b| b.layout == Layout::Rigid) {
+                    current[b.nodes.clone()].iter_mut().for_each(|c| *c = true);
+                }
+                current
+            });
     }
 
     /// After stage 4: add to the halo the nodes of the tets of every candidate pair that two
@@ -833,6 +848,16 @@ impl Parallel {
         self.bytes += received;
         self.halo_bytes += received;
         self.seconds += t.elapsed().as_secs_f64();
+        if let Some(current) = &self.check_halo {
+            let mut keep = current.clone();
+            for n in self.halo.recv.iter().flat_map(|(_, l)| l) {
+                keep[*n as usize] = true;
+            }
+            let stale = Vec3::repeat(Real::NAN);
+            for n in (0..keep.len()).filter(|&n| !keep[n]) {
+                (nodes.x[n], nodes.v[n], nodes.reaction[n]) = (stale, stale, stale);
+            }
+        }
     }
 
     /// The number of nodes some rank besides their owner reads while stepping (each shared
