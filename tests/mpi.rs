@@ -135,6 +135,43 @@ fn mpirun_writes_the_single_process_files_on_any_rank_count() {
     }
 }
 
+/// Monitors and a hook query every kind of node state (positions, velocities, reactions,
+/// stresses, bounds, momenta, volumes, a rigid body's motion, a selection at the current
+/// place), each at its own prime period so that it is mostly the only query of its step:
+/// on 2 and 3 ranks, with every node a rank does not keep current set to NaN
+/// (`FDEM_CHECK_HALO`, see `mpirun`), they write the single-process files. Hooks and
+/// monitors no longer share every node before they run; each query makes its own nodes
+/// current (a query that did not would write NaN or a stale value here).
+#[test]
+#[ignore = "needs mpi"]
+fn queries_between_steps_read_current_nodes() {
+    let script = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/common/decomposed_queries.rhai"
+    );
+    let root = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("mpi_queries");
+    let _ = std::fs::remove_dir_all(&root);
+    let single = root.join("single");
+    run_script(single_process(), script, &single, &["--overwrite"]);
+    let reference = files(&single);
+    assert!(
+        reference
+            .iter()
+            .filter(|(n, _)| n.ends_with(".csv"))
+            .count()
+            >= 18,
+        "a CSV per monitor: {:?}",
+        reference.iter().map(|(n, _)| n).collect::<Vec<_>>()
+    );
+    for np in [2, 3] {
+        let out = root.join(format!("np{np}"));
+        let mut cmd = mpirun(np);
+        cmd.arg(fdem());
+        run_script(cmd, script, &out, &["--overwrite"]);
+        same_files(&reference, &out, &format!("np {np}"));
+    }
+}
+
 /// `out` holds the files of `reference` (names and bytes).
 fn same_files(reference: &[(String, Vec<u8>)], out: &Path, what: &str) {
     let names: Vec<&str> = reference.iter().map(|(n, _)| n.as_str()).collect();

@@ -1079,12 +1079,23 @@ impl Parallel {
     /// The positions and velocities of the nodes `which` (the same list on every rank) from
     /// their owners to every rank: each rank sends those it owns, in list order.
     pub fn share_some_nodes(&mut self, nodes: &mut crate::state::Nodes, which: &[u32]) {
-        const PER_NODE: usize = 6;
+        self.share_listed_nodes(nodes, which, false);
+    }
+
+    /// [`Parallel::share_some_nodes`], with the reactions when `reactions` (for the script's
+    /// queries of node sets).
+    pub fn share_listed_nodes(
+        &mut self,
+        nodes: &mut crate::state::Nodes,
+        which: &[u32],
+        reactions: bool,
+    ) {
+        let per_node: usize = if reactions { 9 } else { 6 };
         let t = std::time::Instant::now();
         let (p, me) = (&self.partition, self.comm.rank());
         let mut at = vec![0usize; self.comm.size() + 1];
         for &n in which {
-            at[p.owner(n as usize) + 1] += PER_NODE;
+            at[p.owner(n as usize) + 1] += per_node;
         }
         for r in 0..self.comm.size() {
             at[r + 1] += at[r];
@@ -1096,18 +1107,23 @@ impl Parallel {
         let mut next = at.clone();
         for &n in which.iter().filter(|&&n| p.owner(n as usize) == me) {
             let k = &mut next[me];
-            buf[*k..*k + 3].copy_from_slice(nodes.x[n as usize].as_slice());
-            buf[*k + 3..*k + 6].copy_from_slice(nodes.v[n as usize].as_slice());
-            *k += PER_NODE;
+            let fields = [&nodes.x, &nodes.v, &nodes.reaction];
+            for (f, field) in fields.iter().take(per_node / 3).enumerate() {
+                buf[*k + 3 * f..*k + 3 * f + 3].copy_from_slice(field[n as usize].as_slice());
+            }
+            *k += per_node;
         }
         self.comm.allgather_ranges_f64(buf, &segments);
         for &n in which {
             let r = p.owner(n as usize);
             if r != me {
                 let k = &mut next[r];
-                nodes.x[n as usize] = Vec3::new(buf[*k], buf[*k + 1], buf[*k + 2]);
-                nodes.v[n as usize] = Vec3::new(buf[*k + 3], buf[*k + 4], buf[*k + 5]);
-                *k += PER_NODE;
+                let mut fields = [&mut nodes.x, &mut nodes.v, &mut nodes.reaction];
+                for (f, field) in fields.iter_mut().take(per_node / 3).enumerate() {
+                    let v = &buf[*k + 3 * f..*k + 3 * f + 3];
+                    field[n as usize] = Vec3::new(v[0], v[1], v[2]);
+                }
+                *k += per_node;
             }
         }
         self.bytes += (8 * (at[self.comm.size()] - segments[me].len())) as u64;

@@ -418,9 +418,9 @@ impl Simulation {
     /// keeps current only what it computes): [`Simulation::synchronize_nodes`] and
     /// [`Simulation::synchronize_joints`]. Collectives: every rank calls them at the same point
     /// of the script (the script layer does: before output, checkpoints and when a run
-    /// returns; the nodes before hooks and monitors; the joints before queries of their
-    /// state). While stepping, ranks share only break events and the nodes other ranks read
-    /// (`Parallel::halo`).
+    /// returns; the nodes in the queries that read them, only theirs for a node or element
+    /// set; the joints before queries of their state). While stepping, ranks share only
+    /// break events and the nodes other ranks read (`Parallel::halo`).
     pub fn synchronize(&mut self) {
         self.synchronize_nodes();
         self.synchronize_joints();
@@ -435,6 +435,18 @@ impl Simulation {
             if par.nodes_shared_at != Some(step) && par.partition.is_split() {
                 par.share_nodes(&mut self.nodes);
                 par.nodes_shared_at = Some(step);
+            }
+        }
+    }
+
+    /// The nodes `which` (position, velocity, reaction) from the ranks that own them: on a
+    /// decomposed model a collective, every rank passing the same list (the script's
+    /// queries of node and element sets; nothing when every node is current this step).
+    pub fn synchronize_some_nodes(&mut self, which: &[u32]) {
+        let step = self.step;
+        if let Some(par) = &mut self.parallel {
+            if par.nodes_shared_at != Some(step) && par.partition.is_split() {
+                par.share_listed_nodes(&mut self.nodes, which, true);
             }
         }
     }
@@ -762,11 +774,13 @@ impl Simulation {
             .collect()
     }
 
-    /// 1e-9 × the diagonal of the model's bounding box [m].
+    /// 1e-9 × the diagonal of the model's bounding box at its reference placement [m]
+    /// (the reference, not the current places: the same on every rank of a decomposed model,
+    /// whose ranks keep current only the nodes they compute).
     pub fn length_tolerance(&self) -> Real {
         let mut lo = Vec3::repeat(Real::INFINITY);
         let mut hi = Vec3::repeat(Real::NEG_INFINITY);
-        for p in &self.nodes.x {
+        for p in &self.nodes.x0 {
             lo = lo.inf(p);
             hi = hi.sup(p);
         }
@@ -840,6 +854,8 @@ impl Simulation {
         if self.ready {
             return Ok(());
         }
+        // (A decomposed model edited between steps: from every node's current state.)
+        self.synchronize_nodes();
         if self.tets.is_empty() {
             return Err(SimError::Invalid(
                 "the model has no bodies: add one with sim.add_body(..)".into(),

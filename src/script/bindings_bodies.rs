@@ -45,6 +45,7 @@ pub fn register(engine: &mut Engine) {
     );
     engine.register_fn("rotate", |b: &mut BodyHandle, o: Map| -> RhaiResult<()> {
         let (axis, angle, center) = rotation_opts(o)?;
+        drop(b.sim.current());
         let mut st = b.sim.0.borrow_mut();
         st.sim
             .rotate_body(b.id, axis, angle, center)

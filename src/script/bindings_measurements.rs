@@ -49,28 +49,27 @@ pub fn register(engine: &mut Engine) {
     engine.register_fn("bounds", |b: &mut BodyHandle| {
         bounds_map(
             b.sim
-                .0
-                .borrow()
+                .current()
                 .sim
                 .body_bounds(b.id, Configuration::Current),
         )
     });
     engine.register_fn("bounds", |b: &mut BodyHandle, m: Map| -> RhaiResult<Map> {
         let at = configuration("bounds", "body.bounds", m, Configuration::Current)?;
-        Ok(bounds_map(b.sim.0.borrow().sim.body_bounds(b.id, at)))
+        Ok(bounds_map(b.sim.current().sim.body_bounds(b.id, at)))
     });
     engine.register_fn("momentum", |b: &mut BodyHandle| {
-        vec3_to_array(b.sim.0.borrow().sim.body_momentum(b.id))
+        vec3_to_array(b.sim.current().sim.body_momentum(b.id))
     });
     engine.register_fn("angular_momentum", |b: &mut BodyHandle| {
-        vec3_to_array(b.sim.0.borrow().sim.body_angular_momentum(b.id, None))
+        vec3_to_array(b.sim.current().sim.body_angular_momentum(b.id, None))
     });
     engine.register_fn(
         "angular_momentum",
         |b: &mut BodyHandle, p: Array| -> RhaiResult<Array> {
             let p = vec3_arg(&p, "angular_momentum() point")?;
             Ok(vec3_to_array(
-                b.sim.0.borrow().sim.body_angular_momentum(b.id, Some(p)),
+                b.sim.current().sim.body_angular_momentum(b.id, Some(p)),
             ))
         },
     );
@@ -120,7 +119,7 @@ fn volume_in_box(s: &mut SimHandle, bodies: Array, m: Map) -> RhaiResult<f64> {
         s.body_of(&b, "volume_in_box()")?;
         ids.push(b.id);
     }
-    Ok(s.0.borrow().sim.volume_in_box(&ids, &lo, &hi, at))
+    Ok(s.current().sim.volume_in_box(&ids, &lo, &hi, at))
 }
 
 /// `a.place_against(b, axis [, gap])`: axis "x", "y", "z" (the side where a's centre lies)
@@ -138,6 +137,7 @@ fn place(a: &mut BodyHandle, b: BodyHandle, axis: &str, gap: f64) -> RhaiResult<
     };
     // A body of another simulation is an error naming both simulations.
     a.sim.body_of(&b, "place_against()")?;
+    drop(a.sim.current());
     let d: Vec3 = a
         .sim
         .0
@@ -156,9 +156,11 @@ fn mass_mean(
 ) -> RhaiResult<Array> {
     // A set selected in another simulation is an error naming both (ids into other arrays).
     let ids = s.nodes_of(n, &format!("{what}()"))?;
-    let mut st = s.0.borrow_mut();
-    st.sim.prepare().map_err(|e| format!("{what}(): {e}"))?;
-    match f(&st.sim, ids) {
+    s.0.borrow_mut()
+        .sim
+        .prepare()
+        .map_err(|e| format!("{what}(): {e}"))?;
+    match f(&s.current_nodes(ids).sim, ids) {
         Some(v) => Ok(vec3_to_array(v)),
         None => err(format!("{what}(): the node set is empty")),
     }
@@ -170,7 +172,7 @@ fn register_selections(engine: &mut Engine) {
         "nodes",
         |b: &mut BodyHandle, r: Shape, m: Map| -> RhaiResult<NodeSet> {
             let at = configuration("nodes", "body.nodes", m, Configuration::Reference)?;
-            let st = b.sim.0.borrow();
+            let st = b.sim.current();
             let ids = st.sim.nodes_in_at(&r.0, Some(b.id), at);
             Ok(NodeSet(Rc::new(ids), st.owner.clone()))
         },
@@ -179,7 +181,7 @@ fn register_selections(engine: &mut Engine) {
         "nodes",
         |s: &mut SimHandle, r: Shape, m: Map| -> RhaiResult<NodeSet> {
             let at = configuration("nodes", "sim.nodes", m, Configuration::Reference)?;
-            let st = s.0.borrow();
+            let st = s.current();
             let ids = st.sim.nodes_in_at(&r.0, None, at);
             Ok(NodeSet(Rc::new(ids), st.owner.clone()))
         },
@@ -188,7 +190,7 @@ fn register_selections(engine: &mut Engine) {
         "elements",
         |b: &mut BodyHandle, r: Shape, m: Map| -> RhaiResult<ElementSet> {
             let at = configuration("elements", "body.elements", m, Configuration::Reference)?;
-            let st = b.sim.0.borrow();
+            let st = b.sim.current();
             let ids = st.sim.tets_in_at(&r.0, Some(b.id), at);
             Ok(ElementSet(Rc::new(ids), st.owner.clone()))
         },

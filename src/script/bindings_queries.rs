@@ -23,38 +23,40 @@ pub fn register(engine: &mut Engine) {
     });
     engine.register_get("name", |s: &mut SimHandle| s.0.borrow().name.clone());
     engine.register_fn("kinetic_energy", |s: &mut SimHandle| -> RhaiResult<Real> {
-        let mut st = s.0.borrow_mut();
-        st.sim.prepare().map_err(|e| e.to_string())?;
-        Ok(st.sim.kinetic_energy_now())
+        s.0.borrow_mut().sim.prepare().map_err(|e| e.to_string())?;
+        Ok(s.current().sim.kinetic_energy_now())
     });
     engine.register_fn("strain_energy", |s: &mut SimHandle| {
-        s.0.borrow().sim.strain_energy_now()
+        s.current().sim.strain_energy_now()
     });
     engine.register_fn("energy", energy);
     engine.register_fn("displacement", |s: &mut SimHandle, n: NodeSet| {
         let ids = s.nodes_of(&n, "displacement()")?;
-        node_mean(s.0.borrow().sim.mean_displacement(ids), "displacement")
+        node_mean(
+            s.current_nodes(ids).sim.mean_displacement(ids),
+            "displacement",
+        )
     });
     engine.register_fn("position", |s: &mut SimHandle, n: NodeSet| {
         let ids = s.nodes_of(&n, "position()")?;
-        node_mean(s.0.borrow().sim.mean_position(ids), "position")
+        node_mean(s.current_nodes(ids).sim.mean_position(ids), "position")
     });
     engine.register_fn("velocity", |s: &mut SimHandle, n: NodeSet| {
         let ids = s.nodes_of(&n, "velocity()")?;
-        node_mean(s.0.borrow().sim.mean_velocity(ids), "velocity")
+        node_mean(s.current_nodes(ids).sim.mean_velocity(ids), "velocity")
     });
     engine.register_fn(
         "reaction",
         |s: &mut SimHandle, n: NodeSet| -> RhaiResult<Array> {
             let ids = s.nodes_of(&n, "reaction()")?;
-            Ok(vec3_to_array(s.0.borrow().sim.reaction_sum(ids)))
+            Ok(vec3_to_array(s.current_nodes(ids).sim.reaction_sum(ids)))
         },
     );
     engine.register_fn(
         "mean_stress",
         |s: &mut SimHandle, el: ElementSet| -> RhaiResult<Array> {
             let ids = s.elements_of(&el, "mean_stress()")?;
-            let Some(m) = s.0.borrow().sim.mean_stress(ids) else {
+            let Some(m) = s.current_tets(ids).sim.mean_stress(ids) else {
                 return err("mean_stress(): the element set is empty");
             };
             Ok((0..3)
@@ -68,7 +70,7 @@ pub fn register(engine: &mut Engine) {
         "max_von_mises",
         |s: &mut SimHandle, el: ElementSet| -> RhaiResult<Real> {
             let ids = s.elements_of(&el, "max_von_mises()")?;
-            Ok(s.0.borrow().sim.max_von_mises(ids))
+            Ok(s.current_tets(ids).sim.max_von_mises(ids))
         },
     );
 }

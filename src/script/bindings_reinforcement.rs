@@ -279,7 +279,7 @@ fn register_queries(engine: &mut Engine) {
         NodeSet(Rc::new(nodes.map(|n| n as u32).collect()), st.owner.clone())
     });
     engine.register_fn("nodes", |r: &mut RebarHandle, shape: Shape| {
-        let st = r.sim.0.borrow();
+        let st = r.sim.current();
         let tol = st.sim.length_tolerance();
         let nodes = st.sim.rebars[r.id].nodes.clone();
         NodeSet(

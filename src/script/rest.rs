@@ -71,6 +71,7 @@ fn bring_to_rest(
         }
     }
     let (before, start_step, name) = {
+        drop(s.current());
         let mut st = s.0.borrow_mut();
         st.sim
             .prepare()
@@ -87,6 +88,8 @@ fn bring_to_rest(
     let seen = last.clone();
     let mut below = 0;
     let stop = Box::new(move |sim: &mut Simulation| {
+        // (Every rank checks at the same steps: a collective on a decomposed model.)
+        sim.synchronize_nodes();
         let (ke, w) = measure(sim);
         seen.set((ke, w));
         if fixed.is_none() {

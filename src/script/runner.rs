@@ -578,12 +578,6 @@ fn synchronize(s: &SimHandle) {
     s.0.borrow_mut().sim.synchronize();
 }
 
-/// The nodes only: what hooks and monitors read between steps (queries of joint state
-/// synchronise the joints themselves).
-fn synchronize_nodes(s: &SimHandle) {
-    s.0.borrow_mut().sim.synchronize_nodes();
-}
-
 fn sim_error(e: &SimError) -> Box<rhai::EvalAltResult> {
     format!("run(): {e}").into()
 }
@@ -616,7 +610,6 @@ fn call_hooks(nc: &NativeCallContext, s: &SimHandle) -> RhaiResult<()> {
             due.then(|| h.f.clone())
         };
         if let Some(f) = due {
-            synchronize_nodes(s);
             let _: Dynamic = f.call_within_context(nc, (s.clone(),))?;
         }
     }
@@ -657,13 +650,11 @@ fn dispatch_break_events(nc: &NativeCallContext, s: &SimHandle) -> RhaiResult<()
             st.events_dispatched += 1;
             (f, m)
         };
-        synchronize_nodes(s);
         let _: Dynamic = f.call_within_context(nc, (s.clone(), event))?;
     }
 }
 
 fn record(nc: &NativeCallContext, s: &SimHandle, m: &MonitorHandle) -> RhaiResult<()> {
-    synchronize_nodes(s);
     let f = m.0.borrow().f.clone();
     let v: Dynamic = f.call_within_context(nc, (s.clone(),))?;
     let value = super::opts::to_float(&v).ok_or_else(|| {

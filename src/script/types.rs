@@ -211,6 +211,35 @@ pub struct FaceSet {
 }
 
 impl SimHandle {
+    /// The simulation with every node's position, velocity and reaction current, for
+    /// queries that read them. A decomposed model's ranks keep current only the nodes they
+    /// compute: this shares the rest (a collective, at most once per step; every rank runs
+    /// the same script, so all call it alike). Hooks and monitors no longer share every
+    /// node before they run: a query that needs them does.
+    pub fn current(&self) -> std::cell::Ref<'_, SimState> {
+        self.0.borrow_mut().sim.synchronize_nodes();
+        self.0.borrow()
+    }
+
+    /// [`SimHandle::current`] for queries of the nodes `which` alone: only they are made
+    /// current (every rank passes the same list).
+    pub fn current_nodes(&self, which: &[u32]) -> std::cell::Ref<'_, SimState> {
+        self.0.borrow_mut().sim.synchronize_some_nodes(which);
+        self.0.borrow()
+    }
+
+    /// [`SimHandle::current`] for queries of the tets `which`: their nodes are made current.
+    pub fn current_tets(&self, which: &[u32]) -> std::cell::Ref<'_, SimState> {
+        let nodes: Vec<u32> = {
+            let st = self.0.borrow();
+            which
+                .iter()
+                .flat_map(|&e| st.sim.tets.nodes[e as usize])
+                .collect()
+        };
+        self.current_nodes(&nodes)
+    }
+
     /// This simulation's identity.
     pub fn owner(&self) -> Owner {
         self.0.borrow().owner.clone()
