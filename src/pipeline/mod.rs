@@ -451,6 +451,22 @@ impl Simulation {
         }
     }
 
+    /// Joints with D > 0 somewhere. On a decomposed model (a collective) each rank counts
+    /// the joints designated to it, whose histories it holds current, and the counts are
+    /// added: one number per rank instead of every joint's history.
+    pub fn damaged_joints(&mut self) -> usize {
+        let step = self.step;
+        match &mut self.parallel {
+            Some(par) if par.partition.is_split() && par.joints_shared_at != Some(step) => {
+                let mine = (self.joints.state.iter().zip(&par.joints.designated))
+                    .filter(|(s, &d)| d && s.iter().any(|p| p.damage > 0.0))
+                    .count();
+                par.sum_in_rank_order(mine as Real) as usize
+            }
+            _ => self.joints.damaged(),
+        }
+    }
+
     /// Every joint's history from the rank it is designated to (once per step).
     pub fn synchronize_joints(&mut self) {
         let step = self.step;

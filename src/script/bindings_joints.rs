@@ -260,12 +260,10 @@ pub(super) fn compile_from(
 }
 
 /// The map a script's `on_joint_broken` callback receives.
-/// `s.damaged_joints()`: joints with D > 0 somewhere (a decomposed model's joint states are
-/// gathered from their ranks first).
+/// `s.damaged_joints()`: joints with D > 0 somewhere (a decomposed model's ranks count
+/// their designated joints).
 fn damaged_joints(s: &mut SimHandle) -> i64 {
-    let mut st = s.0.borrow_mut();
-    st.sim.synchronize_joints();
-    st.sim.joints.damaged() as i64
+    s.0.borrow_mut().sim.damaged_joints() as i64
 }
 
 pub fn event_map(sim: &crate::pipeline::Simulation, e: &crate::fracture::BreakEvent) -> Map {
