@@ -454,15 +454,75 @@ impl ContactInteraction {
 
     /// Total contact force in the last step on the nodes `range` (a body's nodes) [N].
     pub fn force_on(&self, range: std::ops::Range<usize>) -> Vec3 {
-        let mut f = Vec3::zeros();
-        for po in self.outputs() {
-            for (k, &n) in po.nodes.iter().enumerate() {
-                if range.contains(&(n as usize)) {
-                    f += po.f[k];
+        let mut total = Vec3::zeros();
+        for (out, hist) in self.chunk_out.iter().zip(&self.hist) {
+            let mut chunk = Vec3::zeros();
+            for &i in out {
+                chunk += pair_force_on(&hist[(i & !NEW_FLAG) as usize].out, &range);
+            }
+            total += chunk;
+        }
+        total
+    }
+
+    /// A decomposed model's share of [`ContactInteraction::force_on`]: for each chunk of
+    /// pairs all designated to this rank, its sum (keyed by its first pair), and for this
+    /// rank's designated pairs in chunks shared with other ranks, each pair's force (keyed by
+    /// the pair); zeros left out. [`ContactInteraction::force_from_shares`] adds every rank's
+    /// to the bits of `force_on`.
+    pub fn force_share(&self, range: std::ops::Range<usize>) -> Vec<(u32, [Real; 3])> {
+        let designated = &self.mask.designated;
+        let mut share = Vec::new();
+        for (c, (out, hist)) in self.chunk_out.iter().zip(&self.hist).enumerate() {
+            if out.is_empty() {
+                continue;
+            }
+            let pairs = c * CHUNK..((c + 1) * CHUNK).min(designated.len());
+            if designated[pairs.clone()].iter().all(|&d| d) {
+                let mut chunk = Vec3::zeros();
+                for &i in out {
+                    chunk += pair_force_on(&hist[(i & !NEW_FLAG) as usize].out, &range);
+                }
+                if chunk != Vec3::zeros() {
+                    share.push((pairs.start as u32, [chunk.x, chunk.y, chunk.z]));
+                }
+                continue;
+            }
+            // The touching pairs designated here, found through their history slots.
+            let mut touching = vec![false; hist.len()];
+            for &i in out {
+                touching[(i & !NEW_FLAG) as usize] = true;
+            }
+            for k in pairs.filter(|&k| designated[k]) {
+                let slot = self.slots[k];
+                if slot.hist == NO_HISTORY || !touching[slot.hist as usize] {
+                    continue;
+                }
+                let f = pair_force_on(&hist[slot.hist as usize].out, &range);
+                if f != Vec3::zeros() {
+                    share.push((k as u32, [f.x, f.y, f.z]));
                 }
             }
         }
-        f
+        share
+    }
+
+    /// [`ContactInteraction::force_on`] from every rank's [`ContactInteraction::force_share`]:
+    /// each chunk's parts in pair order, then the chunks in order (from +0 the sums never
+    /// reach −0, so the zeros left out change nothing).
+    pub fn force_from_shares(mut shares: Vec<(u32, [Real; 3])>) -> Vec3 {
+        shares.sort_by_key(|s| s.0);
+        let (mut total, mut chunk, mut current) = (Vec3::zeros(), Vec3::zeros(), None);
+        for (k, f) in shares {
+            let c = k as usize / CHUNK;
+            if current != Some(c) {
+                total += chunk;
+                chunk = Vec3::zeros();
+                current = Some(c);
+            }
+            chunk += Vec3::new(f[0], f[1], f[2]);
+        }
+        total + chunk
     }
 
     /// Largest mean contact pressure on each of `n_tets` tets in the last step [Pa] (zero
@@ -775,6 +835,17 @@ pub fn add_contact_forces(
         return ContactSums::default();
     }
     scatter_in_pair_order(ci, nodes, time)
+}
+
+/// A touching pair's force on the nodes in `range`, its nodes in order.
+fn pair_force_on(po: &PairOut, range: &std::ops::Range<usize>) -> Vec3 {
+    let mut f = Vec3::zeros();
+    for (k, &n) in po.nodes.iter().enumerate() {
+        if range.contains(&(n as usize)) {
+            f += po.f[k];
+        }
+    }
+    f
 }
 
 /// One chunk of stage 5's pairs and its per-step outputs.

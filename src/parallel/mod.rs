@@ -999,7 +999,7 @@ impl Parallel {
 
     /// Every rank's `mine` to every rank, in rank order (a collective; `what` names the
     /// items in a failure). Counts the bytes received; the caller times the exchange.
-    fn gather_items<T>(&mut self, mine: &[T], what: &str) -> Vec<T>
+    pub fn gather_items<T>(&mut self, mine: &[T], what: &str) -> Vec<T>
     where
         T: serde::Serialize + serde::de::DeserializeOwned,
     {

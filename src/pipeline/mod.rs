@@ -467,6 +467,29 @@ impl Simulation {
         }
     }
 
+    /// The contact force on body `body`'s nodes in the last step [N]. On a decomposed model
+    /// (a collective) each rank sends its share of the sum (one number per chunk of pairs
+    /// designated to it, one per pair where a chunk is shared) instead of every pair's
+    /// history; the same bits as one process.
+    pub fn contact_force_on(&mut self, body: usize) -> Vec3 {
+        let range = self.bodies[body].nodes.clone();
+        let step = self.step;
+        let masked = self.contact.is_enabled()
+            && self.contact.mask.compute.len() == self.contact.slots.len();
+        match &mut self.parallel {
+            Some(par)
+                if par.partition.is_split() && par.contact_shared_at != Some(step) && masked =>
+            {
+                let t = std::time::Instant::now();
+                let mine = self.contact.force_share(range);
+                let all = par.gather_items(&mine, "contact force shares");
+                par.seconds += t.elapsed().as_secs_f64();
+                contact_interaction::ContactInteraction::force_from_shares(all)
+            }
+            _ => self.contact.force_on(range),
+        }
+    }
+
     /// Every joint's history from the rank it is designated to (once per step).
     pub fn synchronize_joints(&mut self) {
         let step = self.step;

@@ -131,11 +131,8 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
         "contact_force",
         |s: &mut SimHandle, b: BodyHandle| -> RhaiResult<Array> {
             let id = s.body_of(&b, "contact_force()")?;
-            // A decomposed model: every pair's last forces from the rank that computed it.
-            s.0.borrow_mut().sim.synchronize_contact();
-            let st = s.0.borrow();
-            let sim = &st.sim;
-            let f: Vec3 = sim.contact.force_on(sim.bodies[id].nodes.clone());
+            // (A decomposed model: each rank's share of the sum.)
+            let f: Vec3 = s.0.borrow_mut().sim.contact_force_on(id);
             Ok(vec3_to_array(f))
         },
     );
