@@ -49,27 +49,37 @@ pub fn register(engine: &mut Engine) {
     engine.register_fn("bounds", |b: &mut BodyHandle| {
         bounds_map(
             b.sim
-                .current()
+                .current_body(b.id)
                 .sim
                 .body_bounds(b.id, Configuration::Current),
         )
     });
     engine.register_fn("bounds", |b: &mut BodyHandle, m: Map| -> RhaiResult<Map> {
         let at = configuration("bounds", "body.bounds", m, Configuration::Current)?;
-        Ok(bounds_map(b.sim.current().sim.body_bounds(b.id, at)))
+        Ok(bounds_map(
+            b.sim.current_body(b.id).sim.body_bounds(b.id, at),
+        ))
     });
     engine.register_fn("momentum", |b: &mut BodyHandle| {
-        vec3_to_array(b.sim.current().sim.body_momentum(b.id))
+        vec3_to_array(b.sim.current_body(b.id).sim.body_momentum(b.id))
     });
     engine.register_fn("angular_momentum", |b: &mut BodyHandle| {
-        vec3_to_array(b.sim.current().sim.body_angular_momentum(b.id, None))
+        vec3_to_array(
+            b.sim
+                .current_body(b.id)
+                .sim
+                .body_angular_momentum(b.id, None),
+        )
     });
     engine.register_fn(
         "angular_momentum",
         |b: &mut BodyHandle, p: Array| -> RhaiResult<Array> {
             let p = vec3_arg(&p, "angular_momentum() point")?;
             Ok(vec3_to_array(
-                b.sim.current().sim.body_angular_momentum(b.id, Some(p)),
+                b.sim
+                    .current_body(b.id)
+                    .sim
+                    .body_angular_momentum(b.id, Some(p)),
             ))
         },
     );

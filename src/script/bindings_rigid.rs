@@ -19,7 +19,7 @@ pub fn register(engine: &mut Engine) {
         |b: &mut BodyHandle, v: Array| -> RhaiResult<()> {
             let v = vec3_arg(&v, "set_velocity()")?;
             // (The body's motion from its nodes' current places.)
-            drop(b.sim.current());
+            drop(b.sim.current_body(b.id));
             b.sim.0.borrow_mut().sim.set_body_velocity(b.id, v);
             Ok(())
         },
@@ -33,15 +33,15 @@ pub fn register(engine: &mut Engine) {
         },
     );
     engine.register_fn("fix", |b: &mut BodyHandle| {
-        drop(b.sim.current());
+        drop(b.sim.current_body(b.id));
         b.sim.0.borrow_mut().sim.fix_body(b.id)
     });
     engine.register_fn("prescribe_velocity", prescribe);
     engine.register_fn("center_of_mass", |b: &mut BodyHandle| {
-        vec3_to_array(b.sim.current().sim.center_of_mass(b.id))
+        vec3_to_array(b.sim.current_body(b.id).sim.center_of_mass(b.id))
     });
     engine.register_fn("velocity", |b: &mut BodyHandle| {
-        vec3_to_array(b.sim.current().sim.body_velocity(b.id))
+        vec3_to_array(b.sim.current_body(b.id).sim.body_velocity(b.id))
     });
     register_rigid_queries(engine);
 }
@@ -91,7 +91,7 @@ fn matrix(m: &Mat3) -> Array {
 
 fn spin(b: &mut BodyHandle, w: Array, centre: Option<crate::math::Vec3>) -> RhaiResult<()> {
     let w = vec3_arg(&w, "set_spin()")?;
-    drop(b.sim.current());
+    drop(b.sim.current_body(b.id));
     b.sim.0.borrow_mut().sim.set_body_spin(b.id, w, centre);
     Ok(())
 }
@@ -109,7 +109,7 @@ fn prescribe(b: &mut BodyHandle, m: Map) -> RhaiResult<()> {
     if c.iter().all(|c| c.is_none()) && rotation.is_none() {
         return err("prescribe_velocity(): give at least one of x, y, z, rotation");
     }
-    drop(b.sim.current());
+    drop(b.sim.current_body(b.id));
     b.sim
         .0
         .borrow_mut()

@@ -228,6 +228,27 @@ impl SimHandle {
         self.0.borrow()
     }
 
+    /// [`SimHandle::current`] for queries of body `body` alone: its nodes are made current
+    /// (nothing for a rigid body: every rank advances every rigid body's nodes).
+    pub fn current_body(&self, body: usize) -> std::cell::Ref<'_, SimState> {
+        let nodes: Vec<u32> = {
+            let st = self.0.borrow();
+            if st.sim.is_rigid(body) {
+                Vec::new()
+            } else {
+                st.sim.bodies[body]
+                    .nodes
+                    .clone()
+                    .map(|n| n as u32)
+                    .collect()
+            }
+        };
+        if nodes.is_empty() {
+            return self.0.borrow();
+        }
+        self.current_nodes(&nodes)
+    }
+
     /// [`SimHandle::current`] for queries of the tets `which`: their nodes are made current.
     pub fn current_tets(&self, which: &[u32]) -> std::cell::Ref<'_, SimState> {
         let nodes: Vec<u32> = {
