@@ -1518,6 +1518,96 @@ mod tests {
         }
     }
 
+    /// The halo's two sides agree: what rank r sends rank q is what q receives from r, node
+    /// for node and in the same order, though each rank derives its lists alone (from the
+    /// pieces of work it and the others compute); nothing goes to a rank that does not read
+    /// it, and a node read by every rank (a force set's) goes to every other rank.
+    #[test]
+    fn the_halo_sends_what_the_other_side_receives() {
+        let chunks = 6;
+        let n = chunks * CHUNK;
+        // Chunks in a row along x: the bisection gives each rank a run of them.
+        let x: Vec<Vec3> = (0..n)
+            .map(|i| Vec3::new(i as Real, 0.01 * (i % 5) as Real, 0.0))
+            .collect();
+        let bodies = vec![body("row", 0, chunks, Layout::Continuous)];
+        let tets = Tets::default();
+        // Pieces of work: 4 nodes each, some within a chunk, some across chunk borders,
+        // some joining far chunks (contact pairs), in a scrambled but fixed order.
+        let pieces: Vec<[u32; 4]> = (0..400u64)
+            .map(|k| {
+                let a = (k * 7919 % n as u64) as u32;
+                let step = [1, 3, CHUNK as u64 / 2, CHUNK as u64 + 5][k as usize % 4];
+                [0, 1, 2, 3].map(|j| ((a as u64 + j * step) % n as u64) as u32)
+            })
+            .collect();
+        let read_by_all = [5u32, (3 * CHUNK + 17) as u32];
+        for size in 2..=4 {
+            let halos: Vec<Halo> = (0..size)
+                .map(|me| {
+                    let p = Partition::new(me, size, &x, &tets, &bodies);
+                    let mut readers = Readers::new(n);
+                    for piece in &pieces {
+                        readers.add(&p, me, piece, piece);
+                    }
+                    readers.add_read_by_all(&p, me, &read_by_all);
+                    readers.finish();
+                    Halo::new(&p, me, &readers.keys)
+                })
+                .collect();
+            let p = Partition::new(0, size, &x, &tets, &bodies);
+            assert!(
+                halos.iter().all(|h| h.sent() > 0 && h.received() > 0),
+                "np {size}: every rank exchanges"
+            );
+            for (r, h) in halos.iter().enumerate() {
+                for (q, sent) in &h.send {
+                    assert_ne!(*q, r);
+                    let got = halos[*q].recv.iter().find(|(from, _)| *from == r);
+                    assert_eq!(got.map(|g| &g.1), Some(sent), "np {size}: {r} → {q}");
+                    assert!(sent.windows(2).all(|w| w[0] < w[1]), "in node order");
+                    assert!(sent.iter().all(|&n| p.owner(n as usize) == r));
+                }
+                // Every node received is read by a piece this rank computes (or by all).
+                for (from, got) in &h.recv {
+                    assert!(halos[*from].send.iter().any(|(q, _)| *q == r));
+                    for &node in got {
+                        let read = read_by_all.contains(&node)
+                            || pieces.iter().any(|piece| {
+                                piece.contains(&node)
+                                    && piece.iter().any(|&m| p.owner(m as usize) == r)
+                            });
+                        assert!(
+                            read,
+                            "np {size}: rank {r} receives node {node} it never reads"
+                        );
+                    }
+                }
+                // And every node it reads of another rank's is received.
+                let received = |node: u32| h.recv.iter().any(|(_, l)| l.contains(&node));
+                for piece in pieces
+                    .iter()
+                    .filter(|piece| piece.iter().any(|&m| p.owner(m as usize) == r))
+                {
+                    for &node in piece.iter().filter(|&&m| p.owner(m as usize) != r) {
+                        assert!(received(node), "np {size}: rank {r} misses node {node}");
+                    }
+                }
+                for &node in &read_by_all {
+                    let owner = p.owner(node as usize);
+                    if owner != r {
+                        assert!(
+                            h.recv
+                                .iter()
+                                .any(|(from, l)| *from == owner && l.contains(&node)),
+                            "np {size}: rank {r} misses node {node}, read by every rank"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
     /// A rigid body's nodes are never split between ranks (its owner gathers its force and
     /// torque), even where it spans several chunks; and with fewer groups than ranks, the
     /// ranks left without nodes own nothing rather than a part of one.
