@@ -304,7 +304,8 @@ fn contact_after_fracture_writes_the_single_process_files() {
 /// it, repartitioned every 250 steps, writes the single-process files on 2 and 3 ranks, as
 /// the same run on 2 ranks without repartitioning does, and so does a run on 3 ranks that
 /// checks every 100 steps and splits only when 30 % of the nodes would change rank
-/// (`if_moved`). On 3 ranks the console must report nodes changing rank, or the test
+/// (`if_moved`), or weighs the split by the modelled work (`weigh: "work"`). On 3 ranks the
+/// console must report nodes changing rank, or the test
 /// would pass without moving any (the block's chunks move once, 2 048 nodes, at step 900 or
 /// 1000; until 2026-11-30, when a re-split began to keep each part with the rank that held
 /// most of it, they moved twice, 2 195 and 6 144 nodes, and on 2 ranks the parts swapped).
@@ -337,6 +338,11 @@ fn repartitioning_writes_the_single_process_files() {
         // Checked every 100 steps, split when the ranks' work was 5 % unbalanced: whether
         // it splits follows the measured times, the files must not.
         (2, ["every=100", "if_imbalance=1.05"], Some(0)),
+        // Weighed by the modelled work (touching pairs 30 times a candidate's rejection):
+        // on 2 ranks the cut follows the block's contact, at steps 500 and 750 (the ranks'
+        // stage times 3.7 / 3.4 s against 4.4 / 2.5 s by corners); on 3 ranks once, at 250.
+        (2, ["every=250", "weigh=work"], Some(2)),
+        (3, ["every=250", "weigh=work"], Some(1)),
     ];
     for (np, sets, expected) in cases {
         let what = format!("np {np} {}", sets.join(" "));

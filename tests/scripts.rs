@@ -674,7 +674,7 @@ sim.gravity([0.0, 0.0, -9.81], #{ ramp: 1e-4, start: 0.0 });
 let sel = b.nodes(cyl, #{ at: "reference" });
 let bb = b.bounds(#{ at: "current" });
 sim.every(#{ steps: 2 }, |s| s.write_vtk());
-sim.every(#{ steps: 3 }, |s| s.repartition(#{ if_moved: 0.2, if_imbalance: 1.1 }));
+sim.every(#{ steps: 3 }, |s| s.repartition(#{ if_moved: 0.2, if_imbalance: 1.1, weigh: "work" }));
 sim.every(#{ time: 1e-5 }, |s| ());
 let mon = sim.monitor("m", #{ every: 1, unit: "s" }, |s| s.time);
 sim.run(#{ max_time: 1.0, duration: 1e-4, steps: 5, stop_when: |s| false, check_every: 1 });

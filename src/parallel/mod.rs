@@ -138,20 +138,22 @@ impl Partition {
     /// number of tet corners at each node (a node of no tet weighs one). Every rank computes
     /// the same split from the same model.
     pub fn new(rank: usize, size: usize, x: &[Vec3], tets: &Tets, bodies: &[Body]) -> Self {
-        Self::keeping(rank, size, x, tets, bodies, None)
+        Self::keeping(rank, size, x, tets, bodies, &[], None)
     }
 
     /// [`Partition::new`], its parts numbered so that as many chunks as can keep their
     /// `previous` owner (the parts are the same, only which rank takes which changes).
+    /// `work`: as for [`chunk_groups`].
     pub fn keeping(
         rank: usize,
         size: usize,
         x: &[Vec3],
         tets: &Tets,
         bodies: &[Body],
+        work: &[u32],
         previous: Option<&[u32]>,
     ) -> Self {
-        let groups = chunk_groups(x, tets, bodies);
+        let groups = chunk_groups(x, tets, bodies, work);
         Self::from_groups(rank, size, x.len(), &groups, tets, previous)
     }
 
@@ -289,7 +291,11 @@ impl Partition {
 pub type ChunkGroup = (Range<usize>, u64, Vec3);
 
 /// The groups of chunks of a model at the positions `x` ([`Partition::new`]).
-pub fn chunk_groups(x: &[Vec3], tets: &Tets, bodies: &[Body]) -> Vec<ChunkGroup> {
+///
+/// `work` (empty, or one number per node): the modelled work at each node besides its tets,
+/// in quarters of a tet corner ([`crate::pipeline::Simulation::modelled_work`]); given, a
+/// node weighs 4 per tet corner plus its work.
+pub fn chunk_groups(x: &[Vec3], tets: &Tets, bodies: &[Body], work: &[u32]) -> Vec<ChunkGroup> {
     let chunk = crate::integration::CHUNK;
     let n_nodes = x.len();
     let n_chunks = n_nodes.div_ceil(chunk);
@@ -297,6 +303,11 @@ pub fn chunk_groups(x: &[Vec3], tets: &Tets, bodies: &[Body]) -> Vec<ChunkGroup>
     for t in &tets.nodes {
         for &n in t {
             weight[n as usize] += 1;
+        }
+    }
+    if !work.is_empty() {
+        for (w, &extra) in weight.iter_mut().zip(work) {
+            *w = 4 * (*w).max(1) + extra;
         }
     }
     // Chunk c joins chunk c − 1 when a rigid body spans both.
@@ -444,6 +455,8 @@ pub struct ModelToSplit<'a> {
     pub loaded: &'a [u32],
     /// The model has contact: stages 4 and 5 read every node.
     pub contact: bool,
+    /// Modelled work per node for the split (empty: tet corners alone; [`chunk_groups`]).
+    pub work: &'a [u32],
 }
 
 /// Per work unit: computed by this rank, designated to it.
@@ -686,13 +699,15 @@ impl Parallel {
             joints,
             loaded,
             contact,
+            work,
         } = model;
         let comm = &self.comm;
         let n_nodes = x.len();
         // (A re-split keeps as many chunks with their owner as it can.)
         let previous = std::mem::take(&mut self.partition.chunk_owner);
         let previous = (!previous.is_empty()).then_some(previous.as_slice());
-        let partition = Partition::keeping(comm.rank(), comm.size(), x, tets, bodies, previous);
+        let partition =
+            Partition::keeping(comm.rank(), comm.size(), x, tets, bodies, work, previous);
         let p = &partition;
         let elements = p.unit_flags(
             element_units
@@ -883,8 +898,14 @@ impl Parallel {
     /// centre comes from the rank owning it, whose nodes are current there; a small
     /// collective, without sharing any node). For [`crate::pipeline::Simulation::repartition`]
     /// to decide whether a split pays.
-    pub fn owners_by_place_now(&mut self, x: &[Vec3], tets: &Tets, bodies: &[Body]) -> Vec<u32> {
-        let mut groups = chunk_groups(x, tets, bodies);
+    pub fn owners_by_place_now(
+        &mut self,
+        x: &[Vec3],
+        tets: &Tets,
+        bodies: &[Body],
+        work: &[u32],
+    ) -> Vec<u32> {
+        let mut groups = chunk_groups(x, tets, bodies, work);
         let p = &self.partition;
         let mine: Vec<(u32, [Real; 3])> = (groups.iter().enumerate())
             .filter(|(_, g)| p.owns_chunk(g.0.start))
@@ -1606,6 +1627,37 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A split weighed by the work follows it: of eight chunks in a row, the first two carry
+    /// work worth three times their corners (each then weighs as much as four plain chunks:
+    /// 8 of 14 in all), so 2 ranks take 2 and 6 chunks (the cut nearest half the weight),
+    /// where by corners alone they take 4 and 4; without work the split is the corners'
+    /// exactly.
+    #[test]
+    fn a_split_weighed_by_work_follows_it() {
+        let chunks = 8;
+        let n = chunks * CHUNK;
+        let x: Vec<Vec3> = (0..n)
+            .map(|i| Vec3::new(i as Real, 0.01 * (i % 3) as Real, 0.0))
+            .collect();
+        let bodies = vec![body("row", 0, chunks, Layout::Continuous)];
+        let tets = Tets::default();
+        // A node of no tet weighs one corner: with work, 4 a node plus its work.
+        let work: Vec<u32> = (0..n).map(|i| if i < 2 * CHUNK { 12 } else { 0 }).collect();
+        let by_corners = Partition::keeping(0, 2, &x, &tets, &bodies, &[], None);
+        let by_work = Partition::keeping(0, 2, &x, &tets, &bodies, &work, None);
+        assert_eq!(by_corners.nodes_per_rank, vec![4 * CHUNK, 4 * CHUNK]);
+        let mut shares = by_work.nodes_per_rank.clone();
+        shares.sort_unstable();
+        assert_eq!(shares, vec![2 * CHUNK, 6 * CHUNK]);
+        let worked = by_work.chunk_owner[0];
+        assert!(by_work.chunk_owner[..2].iter().all(|&r| r == worked));
+        assert!(by_work.chunk_owner[2..].iter().all(|&r| r != worked));
+        assert_eq!(
+            Partition::new(0, 2, &x, &tets, &bodies).chunk_owner,
+            by_corners.chunk_owner
+        );
     }
 
     /// A rigid body's nodes are never split between ranks (its owner gathers its force and

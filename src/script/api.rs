@@ -493,7 +493,14 @@ pub const REPARTITION_KEYS: &[Key] = &[
         "float",
         "",
         "0",
-        "Split only when the ranks' stage work since the last call was at least this unbalanced: the slowest rank's stage time over the mean (1.1: 10 % above it; exchange and waiting not counted; one number per rank gathered). 0: always. With `if_moved` too, both must hold. The split then follows measured times; the results do not.",
+        "Split only when the ranks' stage work since the last call was at least this unbalanced: the slowest rank's stage time over the mean (1.1: 10 % above it; exchange and waiting not counted; one number per rank gathered). 0: always. With `if_moved` too, both must hold. The results do not depend on it.",
+    ),
+    key(
+        "weigh",
+        "string",
+        "",
+        "\"corners\"",
+        "What the split balances: \"corners\", the tet corners at each rank's nodes (every tet costs alike); \"work\", the modelled work besides: joints (4 times as much once damaged, the law's general path; nothing once broken) and contact pairs (30 times as much while touching, the exact kernel, as a candidate's rejection test), from every joint's and pair's state (shared first). For models whose breaking or touching part is where the work is.",
     ),
 ];
 pub const PLOT_ENERGY_KEYS: &[Key] = &[

@@ -270,7 +270,7 @@ fn clear_earlier_output(dir: &Path, name: &str, overwrite: bool) -> RhaiResult<(
     Ok(())
 }
 
-/// `sim.repartition([#{ if_moved, if_imbalance }])`: split nodes and work between the ranks
+/// `sim.repartition([#{ if_moved, if_imbalance, weigh }])`: split nodes and work between the ranks
 /// again ([`crate::pipeline::Simulation::repartition`]); rank 0 reports the nodes that moved.
 fn repartition(c: &ScriptContext, s: &mut SimHandle, m: Map) -> RhaiResult<f64> {
     let o = Opts::new("repartition", m, keys_of("sim.repartition"))?;
@@ -286,10 +286,13 @@ fn repartition(c: &ScriptContext, s: &mut SimHandle, m: Map) -> RhaiResult<f64> 
             "if_imbalance must be 0 (not checked) or at least 1 (the slowest rank's work over the mean), got {if_imbalance}"
         )));
     }
+    let by_work = o
+        .choice("weigh", &[("corners", false), ("work", true)])?
+        .unwrap_or(false);
     let mut st = s.0.borrow_mut();
     let done = st
         .sim
-        .repartition(if_moved, if_imbalance)
+        .repartition(if_moved, if_imbalance, by_work)
         .map_err(|e| format!("repartition(): {e}"))?;
     if let Some(per_rank) = st.sim.nodes_per_rank().filter(|_| done.moved_nodes > 0) {
         let per_rank: Vec<String> = per_rank.iter().map(|n| n.to_string()).collect();
