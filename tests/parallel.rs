@@ -67,10 +67,10 @@ fn outcome(sim: &Simulation) -> Outcome {
     }
 }
 
-/// Every node a rank does not keep current is NaN between synchronizations
-/// (`FDEM_CHECK_HALO`): what a rank reads outside its halo while stepping would show.
+/// Every node a rank does not keep current is NaN between synchronizations (as with
+/// `FDEM_CHECK_HALO=1`): what a rank reads outside its halo while stepping would show.
 fn check_halo() {
-    std::env::set_var("FDEM_CHECK_HALO", "1");
+    fdem::parallel::check_halo(true);
 }
 
 /// Run `build()` for `steps` steps on one rank and on 2, 3, 4; every rank of every count

@@ -53,6 +53,24 @@
 
 pub mod comm;
 
+/// Set by [`check_halo`] (tests) or `FDEM_CHECK_HALO=1` (read once).
+static CHECK_HALO: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Poison, after each step, every node a rank does not keep current (see
+/// `Parallel::check_halo`) in the models split from now on: for tests, which cannot set the
+/// environment safely once threads run.
+pub fn check_halo(on: bool) {
+    CHECK_HALO.store(on, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Whether splits poison the nodes a rank does not keep current: [`check_halo`], or
+/// `FDEM_CHECK_HALO=1` in the environment.
+fn halo_checked() -> bool {
+    static FROM_ENV: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    CHECK_HALO.load(std::sync::atomic::Ordering::Relaxed)
+        || *FROM_ENV.get_or_init(|| std::env::var_os("FDEM_CHECK_HALO").is_some_and(|v| v == "1"))
+}
+
 use crate::fracture::{BreakEvent, JointMask};
 use crate::integration::IntegrationSums;
 use crate::joints::{JointSums, Joints};
@@ -763,15 +781,13 @@ impl Parallel {
         self.share_every_node = contact;
         self.halo = Halo::new(&self.partition, me, &readers.keys);
         self.base_readers = readers;
-        self.check_halo = std::env::var_os("FDEM_CHECK_HALO")
-            .is_some_and(|v| v == "1")
-            .then(|| {
-                let mut current: Vec<bool> = (0..n_nodes).map(|n| self.partition.owns(n)).collect();
-                for b in bodies.iter().filter(|b| b.layout == Layout::Rigid) {
-                    current[b.nodes.clone()].iter_mut().for_each(|c| *c = true);
-                }
-                current
-            });
+        self.check_halo = halo_checked().then(|| {
+            let mut current: Vec<bool> = (0..n_nodes).map(|n| self.partition.owns(n)).collect();
+            for b in bodies.iter().filter(|b| b.layout == Layout::Rigid) {
+                current[b.nodes.clone()].iter_mut().for_each(|c| *c = true);
+            }
+            current
+        });
     }
 
     /// After stage 4: add to the halo the nodes of the tets of every candidate pair that two
