@@ -477,8 +477,8 @@ impl ContactInteraction {
             if out.is_empty() {
                 continue;
             }
-            let pairs = c * CHUNK..((c + 1) * CHUNK).min(designated.len());
-            if designated[pairs.clone()].iter().all(|&d| d) {
+            let pairs = self.chunk_pairs(c);
+            if self.chunk_is_designated(c) {
                 let mut chunk = Vec3::zeros();
                 for &i in out {
                     chunk += pair_force_on(&hist[(i & !NEW_FLAG) as usize].out, &range);
@@ -505,6 +505,16 @@ impl ContactInteraction {
             }
         }
         share
+    }
+
+    /// The candidate pairs of chunk `c` of stage 5.
+    fn chunk_pairs(&self, c: usize) -> std::ops::Range<usize> {
+        c * CHUNK..((c + 1) * CHUNK).min(self.slots.len())
+    }
+
+    /// A decomposed model: every pair of chunk `c` is designated to this rank.
+    fn chunk_is_designated(&self, c: usize) -> bool {
+        self.mask.designated[self.chunk_pairs(c)].iter().all(|&d| d)
     }
 
     /// [`ContactInteraction::force_on`] from every rank's [`ContactInteraction::force_share`]:
@@ -1045,14 +1055,12 @@ impl ContactInteraction {
     /// adding them to +0 and adding +0 to them change nothing), then its pairs' handovers
     /// and events without sums; a chunk shared with other ranks goes pair by pair.
     pub fn records_to_send(&self) -> Vec<PairRecord> {
-        let designated = &self.mask.designated;
         let mut out = Vec::new();
         for (c, records) in self.chunk_records.iter().enumerate() {
             if records.is_empty() {
                 continue;
             }
-            let pairs = c * CHUNK..((c + 1) * CHUNK).min(designated.len());
-            if !designated[pairs].iter().all(|&d| d) {
+            if !self.chunk_is_designated(c) {
                 out.extend_from_slice(records);
                 continue;
             }

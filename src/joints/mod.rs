@@ -366,10 +366,12 @@ impl Joints {
     }
     /// Joints with damage D > 0 at one of their points or more (softening or broken).
     pub fn damaged(&self) -> usize {
-        self.state
-            .iter()
-            .filter(|s| s.iter().any(|p| p.damage > 0.0))
-            .count()
+        (0..self.len()).filter(|&j| self.is_damaged(j)).count()
+    }
+
+    /// Joint `j` has damage D > 0 at one of its points or more.
+    pub fn is_damaged(&self, j: usize) -> bool {
+        self.state[j].iter().any(|p| p.damage > 0.0)
     }
     pub fn is_empty(&self) -> bool {
         self.faces.is_empty()

@@ -641,25 +641,24 @@ impl Readers {
         ranks.sort_unstable();
         ranks.dedup();
         for &n in read {
-            let owner = p.owner(n as usize);
-            for &r in ranks.iter().filter(|&&r| r != owner) {
-                self.shared[n as usize] = true;
-                if r == me || owner == me {
-                    self.keys.push(((r as u64) << 32) | n as u64);
-                }
-            }
+            self.read_by(p, me, n, ranks.iter().copied());
         }
     }
 
     /// Nodes every rank reads (force sets, rebars and their hosts).
     fn add_read_by_all(&mut self, p: &Partition, me: usize, nodes: &[u32]) {
         for &n in nodes {
-            let owner = p.owner(n as usize);
-            for r in (0..p.size()).filter(|&r| r != owner) {
-                self.shared[n as usize] = true;
-                if r == me || owner == me {
-                    self.keys.push(((r as u64) << 32) | n as u64);
-                }
+            self.read_by(p, me, n, 0..p.size());
+        }
+    }
+
+    /// Node `n` is read by the ranks `readers` (its owner among them or not).
+    fn read_by(&mut self, p: &Partition, me: usize, n: u32, readers: impl Iterator<Item = usize>) {
+        let owner = p.owner(n as usize);
+        for r in readers.filter(|&r| r != owner) {
+            self.shared[n as usize] = true;
+            if r == me || owner == me {
+                self.keys.push(((r as u64) << 32) | n as u64);
             }
         }
     }
@@ -868,6 +867,13 @@ impl Parallel {
             .map(|((r, _), b)| (*r, b.as_mut_slice()))
             .collect();
         self.comm.exchange_f64(&sends, &mut recvs);
+        if let Some(current) = &self.check_halo {
+            // Every node not kept current poisoned; the halo's are written just below.
+            let stale = Vec3::repeat(Real::NAN);
+            for n in (0..current.len()).filter(|&n| !current[n]) {
+                (nodes.x[n], nodes.v[n], nodes.reaction[n]) = (stale, stale, stale);
+            }
+        }
         for ((_, which), buf) in halo.recv.iter().zip(&halo.recv_buf) {
             for (k, &n) in which.iter().enumerate() {
                 let v = &buf[6 * k..6 * k + 6];
@@ -879,16 +885,6 @@ impl Parallel {
         self.bytes += received;
         self.halo_bytes += received;
         self.seconds += t.elapsed().as_secs_f64();
-        if let Some(current) = &self.check_halo {
-            let mut keep = current.clone();
-            for n in self.halo.recv.iter().flat_map(|(_, l)| l) {
-                keep[*n as usize] = true;
-            }
-            let stale = Vec3::repeat(Real::NAN);
-            for n in (0..keep.len()).filter(|&n| !keep[n]) {
-                (nodes.x[n], nodes.v[n], nodes.reaction[n]) = (stale, stale, stale);
-            }
-        }
     }
 
     /// The number of nodes some rank besides their owner reads while stepping (each shared
@@ -1555,6 +1551,16 @@ mod tests {
         }
     }
 
+    /// A continuous body of `chunks` chunks of nodes in a row along x (y spread a little,
+    /// so that x is the widest extent), without tets.
+    fn row(chunks: usize) -> (Vec<Vec3>, Vec<Body>, Tets) {
+        let x = (0..chunks * CHUNK)
+            .map(|i| Vec3::new(i as Real, 0.01 * (i % 5) as Real, 0.0))
+            .collect();
+        let bodies = vec![body("row", 0, chunks, Layout::Continuous)];
+        (x, bodies, Tets::default())
+    }
+
     /// The halo's two sides agree: what rank r sends rank q is what q receives from r, node
     /// for node and in the same order, though each rank derives its lists alone (from the
     /// pieces of work it and the others compute); nothing goes to a rank that does not read
@@ -1564,11 +1570,7 @@ mod tests {
         let chunks = 6;
         let n = chunks * CHUNK;
         // Chunks in a row along x: the bisection gives each rank a run of them.
-        let x: Vec<Vec3> = (0..n)
-            .map(|i| Vec3::new(i as Real, 0.01 * (i % 5) as Real, 0.0))
-            .collect();
-        let bodies = vec![body("row", 0, chunks, Layout::Continuous)];
-        let tets = Tets::default();
+        let (x, bodies, tets) = row(chunks);
         // Pieces of work: 4 nodes each, some within a chunk, some across chunk borders,
         // some joining far chunks (contact pairs), in a scrambled but fixed order.
         let pieces: Vec<[u32; 4]> = (0..400u64)
@@ -1654,11 +1656,7 @@ mod tests {
     fn a_split_weighed_by_work_follows_it() {
         let chunks = 8;
         let n = chunks * CHUNK;
-        let x: Vec<Vec3> = (0..n)
-            .map(|i| Vec3::new(i as Real, 0.01 * (i % 3) as Real, 0.0))
-            .collect();
-        let bodies = vec![body("row", 0, chunks, Layout::Continuous)];
-        let tets = Tets::default();
+        let (x, bodies, tets) = row(chunks);
         // A node of no tet weighs one corner: with work, 4 a node plus its work.
         let work: Vec<u32> = (0..n).map(|i| if i < 2 * CHUNK { 12 } else { 0 }).collect();
         let by_corners = Partition::keeping(0, 2, &x, &tets, &bodies, &[], None);

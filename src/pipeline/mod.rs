@@ -458,8 +458,8 @@ impl Simulation {
         let step = self.step;
         match &mut self.parallel {
             Some(par) if par.partition.is_split() && par.joints_shared_at != Some(step) => {
-                let mine = (self.joints.state.iter().zip(&par.joints.designated))
-                    .filter(|(s, &d)| d && s.iter().any(|p| p.damage > 0.0))
+                let mine = (0..self.joints.len())
+                    .filter(|&j| par.joints.designated[j] && self.joints.is_damaged(j))
                     .count();
                 par.sum_in_rank_order(mine as Real) as usize
             }
@@ -594,7 +594,7 @@ impl Simulation {
             if self.joints.broken[j] {
                 continue;
             }
-            let damaged = self.joints.state[j].iter().any(|p| p.damage > 0.0);
+            let damaged = self.joints.is_damaged(j);
             for &n in faces.iter().flatten() {
                 work[n as usize] += if damaged { 4 } else { 1 };
             }
