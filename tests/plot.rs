@@ -561,3 +561,204 @@ print(f"displacement up to {u:.3e} m; reference places within {err:.1e} m")
     );
     assert!(stdout.contains("reference places within"), "{stdout}");
 }
+
+/// One figure script of docs/applications and the quick run it draws from.
+struct PageFigures {
+    /// The bundled script, run with `quick=true` (and `set`) into `dir/<script>`.
+    script: &'static str,
+    set: &'static [&'static str],
+    /// scripts/plot/<plot>.py, called with these arguments ("{out}": the run's directory,
+    /// "{img}": the image directory, "{dir}": the test's directory).
+    plot: &'static str,
+    args: &'static [&'static str],
+    /// The PNGs it must write into the image directory (none for a script that prints).
+    pngs: &'static [&'static str],
+    /// Text its output must hold.
+    says: &'static [&'static str],
+}
+
+/// Every figure script behind the pictures of docs/applications (scripts/plot/*.py) draws
+/// from a run of its case, headless: the pages' figures are rerunnable, not hand-made. Each
+/// case runs in quick mode (the same runs as tests/scripts.rs, with their self-checks), the
+/// figure script reads its CSV histories and last ParaView frames, and every PNG it writes
+/// must decode at a readable size with ink on it (more than 2 % of the pixels not white, grey
+/// levels varying: a blank or single-colour canvas fails). The two scripts that print tables
+/// must print the run's own figures (the Brazilian disc's σ_t/f_t as the run printed it).
+#[test]
+#[ignore = "needs python3 with meshio and matplotlib"]
+fn the_application_figures_are_drawn_from_quick_runs() {
+    let dir = temp_dir("page_figures");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let img = dir.join("img");
+    let cases = [
+        PageFigures {
+            script: "brazilian_disc",
+            set: &[],
+            plot: "brazilian_disc",
+            args: &["{out}", "{img}"],
+            pngs: &[
+                "brazilian_disc_load.png",
+                "brazilian_disc_cracks.png",
+                "brazilian_disc_energy.png",
+            ],
+            says: &["wrote"],
+        },
+        PageFigures {
+            script: "brazilian_disc",
+            set: &[],
+            plot: "brazilian_disc_study",
+            args: &["{dir}/brazilian_disc.log"],
+            pngs: &[],
+            says: &["| brazilian_disc.log | structured |"],
+        },
+        PageFigures {
+            script: "notched_beam",
+            set: &[],
+            plot: "notched_beam",
+            args: &["{out}", "{img}"],
+            pngs: &[
+                "notched_beam_load.png",
+                "notched_beam_energy.png",
+                "notched_beam_cracks.png",
+            ],
+            says: &[],
+        },
+        PageFigures {
+            // ucs.py reads a study directory: the quick run stands for its 12.5 mm runs.
+            script: "ucs",
+            set: &[],
+            plot: "ucs",
+            args: &["{dir}/ucs_study", "{img}"],
+            pngs: &["ucs_stress_strain.png", "ucs_speed.png", "ucs_cracks.png"],
+            says: &[],
+        },
+        PageFigures {
+            script: "laminated_glass",
+            set: &[],
+            plot: "laminated_glass",
+            args: &["{out}", "{img}", "quick"],
+            pngs: &[
+                "laminated_glass_quick_histories.png",
+                "laminated_glass_quick_cracks.png",
+                "laminated_glass_quick_section.png",
+            ],
+            says: &["peak deceleration"],
+        },
+        PageFigures {
+            script: "rc_beam_impact",
+            set: &[],
+            plot: "rc_beam_impact",
+            args: &["{out}", "{img}", "quick", "211", "0", "0"],
+            pngs: &[
+                "rc_beam_impact_quick_histories.png",
+                "rc_beam_impact_quick_cracks.png",
+            ],
+            says: &[],
+        },
+        PageFigures {
+            script: "rc_beam_impact",
+            set: &[],
+            plot: "rc_beam_impact_frame",
+            args: &["{out}", "{img}/rc_beam_impact_frame.png", "1"],
+            pngs: &["rc_beam_impact_frame.png"],
+            says: &[],
+        },
+        PageFigures {
+            script: "dome_earthquake",
+            set: &[],
+            plot: "dome_earthquake",
+            args: &["{out}", "{img}"],
+            pngs: &[
+                "dome_earthquake_histories.png",
+                "dome_earthquake_spectrum.png",
+                "dome_earthquake_energy.png",
+                "dome_earthquake_cracks.png",
+            ],
+            says: &["wrote"],
+        },
+    ];
+    for case in &cases {
+        let out = dir.join(case.script);
+        if !out.exists() {
+            let o = fdem()
+                .args(["run", "--set", "quick=true", "--overwrite", "--out"])
+                .arg(&out)
+                .args(case.set.iter().flat_map(|s| ["--set", s]))
+                .arg(root.join(format!("scripts/{}.rhai", case.script)))
+                .output()
+                .unwrap();
+            let log = [o.stdout.as_slice(), o.stderr.as_slice()].concat();
+            std::fs::write(dir.join(format!("{}.log", case.script)), &log).unwrap();
+            assert!(
+                o.status.success(),
+                "{}: {}",
+                case.script,
+                String::from_utf8_lossy(&log)
+            );
+        }
+        if case.script == "ucs" {
+            let study = dir.join("ucs_study");
+            std::fs::create_dir_all(&study).unwrap();
+            for name in ["v0.25", "s0.0125"] {
+                let link = study.join(name);
+                if !link.exists() {
+                    std::os::unix::fs::symlink(&out, link).unwrap();
+                }
+            }
+        }
+        let fill = |a: &str| {
+            a.replace("{out}", out.to_str().unwrap())
+                .replace("{img}", img.to_str().unwrap())
+                .replace("{dir}", dir.to_str().unwrap())
+        };
+        std::fs::create_dir_all(&img).unwrap();
+        let o = std::process::Command::new("python3")
+            .arg(root.join(format!("scripts/plot/{}.py", case.plot)))
+            .args(case.args.iter().map(|a| fill(a)))
+            .env("MPLBACKEND", "Agg")
+            .env_remove("DISPLAY")
+            .output()
+            .expect("python3 (pip install -r requirements-dev.txt)");
+        let said = format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(o.status.success(), "{}.py: {said}", case.plot);
+        for text in case.says {
+            assert!(
+                said.contains(text),
+                "{}.py does not say {text:?}: {said}",
+                case.plot
+            );
+        }
+        for png in case.pngs {
+            let path = img.join(png);
+            assert!(path.exists(), "{}.py wrote no {png}: {said}", case.plot);
+            let (w, h, px, samples) = decode_png(&path);
+            assert!(w >= 300 && h >= 200, "{png}: {w} × {h}");
+            let (dark, var) = ink(&px, samples);
+            assert!(
+                dark > 0.02 && var > 100.0,
+                "{png}: ink {dark}, variance {var}"
+            );
+        }
+    }
+    // The study table repeats the run's σ_t/f_t as the run printed it.
+    let log = std::fs::read_to_string(dir.join("brazilian_disc.log")).unwrap();
+    let printed = log
+        .split("σ_t/f_t = ")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .expect("the Brazilian disc prints σ_t/f_t");
+    let o = std::process::Command::new("python3")
+        .arg(root.join("scripts/plot/brazilian_disc_study.py"))
+        .arg(dir.join("brazilian_disc.log"))
+        .output()
+        .unwrap();
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        table.contains(&format!("**{printed}**")),
+        "σ_t/f_t {printed} not in the study table:\n{table}"
+    );
+}
