@@ -1235,3 +1235,69 @@ fn the_kernel_agrees_with_its_oracle_on_a_settled_stack() {
         assert!(number(key) > 0.0, "{key}");
     }
 }
+
+/// The critical step's contact bound follows the penalty each tet can meet: a soft pad
+/// (E = 1 GPa, penalty 10·E against everything) beside rock (E = 50 GPa, penalty 10·E rock on
+/// rock) must not take the rock's penalty into its own bound. Reference: the bound is
+/// per tet, 2·k/m with k ∝ p (`contact_nodal_stiffness`), so
+/// - the rock and the pad together have the smaller of the two bodies' steps, each alone
+///   with the penalty of its own pairs (to 1e-12: the same arithmetic);
+/// - with the pad–rock penalty raised to the rock's, the pad's nodes do feel 500 GPa and the
+///   step must fall to that of the pad alone at 500 GPa (50× stiffer: ~√50 shorter).
+///
+/// Until 2026-11-30 every tet took the model's largest penalty, so the first case gave the
+/// last case's step (3.2× too short for the Brazilian disc with pads).
+#[test]
+fn the_contact_time_step_follows_each_materials_penalty() {
+    use fdem::contact_interaction::ContactLaw;
+    let rock = material(Formulation::NeoHookean, 2650.0, 50.0e9, 0.25);
+    let pad = material(Formulation::NeoHookean, 1000.0, 1.0e9, 0.3);
+    let rule = |materials: Option<(u32, u32)>, p: Real| ContactRule {
+        materials,
+        law: ContactLaw::Potential(PotentialContact {
+            penalty: Some(p),
+            ..Default::default()
+        }),
+    };
+    // Bodies: `rock` (a 0.1 m cube) and/or `pad` (40 × 40 × 2 mm, elements 1 mm thick),
+    // far apart; laws: rock–rock 500 GPa, pad–pad and pad–rock `pad_rock`.
+    let critical = |with_rock: bool, with_pad: bool, pad_pad: Real, pad_rock: Real| {
+        let mut sim = Simulation::new();
+        let r = sim.add_material(rock.clone());
+        let s = sim.add_material(pad.clone());
+        if with_rock {
+            let m = box_mesh(Vec3::zeros(), Vec3::new(0.1, 0.1, 0.1), [5, 5, 5]);
+            sim.add_body("rock", &m, r, Layout::Continuous).unwrap();
+        }
+        if with_pad {
+            let m = box_mesh(
+                Vec3::new(0.5, 0.0, 0.0),
+                Vec3::new(0.54, 0.04, 0.002),
+                [5, 5, 2],
+            );
+            sim.add_body("pad", &m, s, Layout::Continuous).unwrap();
+        }
+        sim.contact.laws.rules.push(rule(None, 500.0e9));
+        sim.contact.laws.rules.push(rule(Some((s, s)), pad_pad));
+        sim.contact.laws.rules.push(rule(Some((r, s)), pad_rock));
+        sim.prepare().unwrap();
+        sim.stable_time_step().unwrap().critical
+    };
+    let rock_alone = critical(true, false, 10.0e9, 10.0e9);
+    let pad_alone = critical(false, true, 10.0e9, 10.0e9);
+    let both = critical(true, true, 10.0e9, 10.0e9);
+    assert!(
+        (both - rock_alone.min(pad_alone)).abs() <= 1e-12 * both,
+        "rock {rock_alone:e}, pad {pad_alone:e}, both {both:e}"
+    );
+    let pad_stiff = critical(false, true, 500.0e9, 500.0e9);
+    let both_stiff = critical(true, true, 10.0e9, 500.0e9);
+    assert!(
+        (both_stiff - rock_alone.min(pad_stiff)).abs() <= 1e-12 * both_stiff,
+        "rock {rock_alone:e}, stiff pad {pad_stiff:e}, both {both_stiff:e}"
+    );
+    assert!(
+        both > 2.0 * both_stiff,
+        "the pad's own penalty must lengthen the step: {both:e} against {both_stiff:e}"
+    );
+}

@@ -247,11 +247,21 @@ impl ContactLaws {
         self.props[ma as usize * self.n_materials + mb as usize]
     }
 
-    /// Largest penalty over material pairs [Pa] (for the critical time step).
-    pub fn max_penalty(&self) -> Real {
-        self.props
-            .iter()
-            .map(|p| p.penalty.max(p.tangential_penalty))
-            .fold(0.0, Real::max)
+    /// For each material, the largest penalty (normal or tangential) [Pa] of its pairs with
+    /// the materials `present` (for the critical time step: a tet of material m meets only
+    /// partners of a present material, so its contact springs are at most this stiff).
+    pub fn max_penalty_by_material(&self, present: &[bool]) -> Vec<Real> {
+        let n = self.n_materials;
+        (0..n)
+            .map(|a| {
+                (0..n)
+                    .filter(|&b| present.get(b).copied().unwrap_or(false))
+                    .map(|b| {
+                        let p = self.props[a * n + b];
+                        p.penalty.max(p.tangential_penalty)
+                    })
+                    .fold(0.0, Real::max)
+            })
+            .collect()
     }
 }
