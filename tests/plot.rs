@@ -582,8 +582,9 @@ struct PageFigures {
 /// case runs in quick mode (the same runs as tests/scripts.rs, with their self-checks), the
 /// figure script reads its CSV histories and last ParaView frames, and every PNG it writes
 /// must decode at a readable size with ink on it (more than 2 % of the pixels not white, grey
-/// levels varying: a blank or single-colour canvas fails). The two scripts that print tables
-/// must print the run's own figures (the Brazilian disc's σ_t/f_t as the run printed it).
+/// levels varying: a blank or single-colour canvas fails). The scripts that print tables
+/// must print the run's own figures (the Brazilian disc's σ_t/f_t as the run printed it; the
+/// beam's row with its test's measured values).
 #[test]
 #[ignore = "needs python3 with meshio and matplotlib"]
 fn the_application_figures_are_drawn_from_quick_runs() {
@@ -664,6 +665,15 @@ fn the_application_figures_are_drawn_from_quick_runs() {
             says: &[],
         },
         PageFigures {
+            // The seven-test table reads DIR/run.log and DIR/out of each test's run.
+            script: "rc_beam_impact",
+            set: &[],
+            plot: "rc_beam_impact_table",
+            args: &["SS2a={dir}/rc_table"],
+            pngs: &[],
+            says: &["| SS2a | 200 mm | 211 kg | 10.0 / 0.5 |"],
+        },
+        PageFigures {
             script: "dome_earthquake",
             set: &[],
             plot: "dome_earthquake",
@@ -704,6 +714,14 @@ fn the_application_figures_are_drawn_from_quick_runs() {
                 if !link.exists() {
                     std::os::unix::fs::symlink(&out, link).unwrap();
                 }
+            }
+        }
+        if case.plot == "rc_beam_impact_table" {
+            let table = dir.join("rc_table");
+            std::fs::create_dir_all(&table).unwrap();
+            std::fs::copy(dir.join("rc_beam_impact.log"), table.join("run.log")).unwrap();
+            if !table.join("out").exists() {
+                std::os::unix::fs::symlink(&out, table.join("out")).unwrap();
             }
         }
         let fill = |a: &str| {
