@@ -1301,3 +1301,64 @@ fn the_contact_time_step_follows_each_materials_penalty() {
         "the pad's own penalty must lengthen the step: {both:e} against {both_stiff:e}"
     );
 }
+
+/// The time-step line names where the contact bound comes from: a thin, light pad (1 mm
+/// elements) beside a rock cube bounds the step, at the pad–rock penalty when that is the
+/// larger (500 GPa), at its own 10 GPa otherwise, and the line says so (body, partner
+/// material, penalty, and the step without contact).
+#[test]
+fn the_time_step_line_names_the_tet_and_material_pair_of_the_contact_bound() {
+    use fdem::contact_interaction::ContactLaw;
+    let rock = material(Formulation::NeoHookean, 2650.0, 50.0e9, 0.25);
+    let pad = material(Formulation::NeoHookean, 1000.0, 1.0e9, 0.3);
+    let rule = |materials: Option<(u32, u32)>, p: Real| ContactRule {
+        materials,
+        law: ContactLaw::Potential(PotentialContact {
+            penalty: Some(p),
+            ..Default::default()
+        }),
+    };
+    let info = |pad_rock: Real| {
+        let mut sim = Simulation::new();
+        let r = sim.add_material(rock.clone());
+        let s = sim.add_material(pad.clone());
+        let m = box_mesh(Vec3::zeros(), Vec3::new(0.1, 0.1, 0.1), [5, 5, 5]);
+        sim.add_body("rock", &m, r, Layout::Continuous).unwrap();
+        let m = box_mesh(
+            Vec3::new(0.5, 0.0, 0.0),
+            Vec3::new(0.54, 0.04, 0.002),
+            [5, 5, 2],
+        );
+        sim.add_body("pad", &m, s, Layout::Continuous).unwrap();
+        sim.contact.laws.rules.push(rule(None, 500.0e9));
+        sim.contact.laws.rules.push(rule(Some((s, s)), 10.0e9));
+        sim.contact.laws.rules.push(rule(Some((r, s)), pad_rock));
+        sim.prepare().unwrap();
+        sim.stable_time_step().unwrap()
+    };
+    let stiff = info(500.0e9);
+    let by = stiff.contact_by.clone().expect("contact lowers the step");
+    assert_eq!(
+        (by.body.as_str(), by.partner_body.as_str()),
+        ("pad", "rock"),
+        "{stiff}"
+    );
+    assert_eq!(by.penalty, 500.0e9);
+    assert!(by.without > stiff.critical, "{stiff}");
+    let line = stiff.to_string();
+    assert!(
+        line.contains("of body 'pad' (penalty 5.000e11 Pa against the material of body 'rock')"),
+        "{line}"
+    );
+    // With its own 10 GPa against everything the thin, light pad still bounds the step, now
+    // at 10 GPa (pad–pad and pad–rock tie: the first material in order, the rock's, is named).
+    let soft = info(10.0e9);
+    let by = soft.contact_by.clone().expect("contact lowers the step");
+    assert_eq!(
+        (by.body.as_str(), by.partner_body.as_str()),
+        ("pad", "rock"),
+        "{soft}"
+    );
+    assert_eq!(by.penalty, 10.0e9);
+    assert!(soft.critical > 2.0 * stiff.critical, "{soft} / {stiff}");
+}

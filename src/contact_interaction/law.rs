@@ -249,8 +249,10 @@ impl ContactLaws {
 
     /// For each material, the largest penalty (normal or tangential) [Pa] of its pairs with
     /// the materials `present` (for the critical time step: a tet of material m meets only
-    /// partners of a present material, so its contact springs are at most this stiff).
-    pub fn max_penalty_by_material(&self, present: &[bool]) -> Vec<Real> {
+    /// partners of a present material, so its contact springs are at most this stiff), and
+    /// the partner material that has it (the first in material order; `u32::MAX` when no
+    /// material is present).
+    pub fn max_penalty_by_material(&self, present: &[bool]) -> Vec<(Real, u32)> {
         let n = self.n_materials;
         (0..n)
             .map(|a| {
@@ -258,9 +260,12 @@ impl ContactLaws {
                     .filter(|&b| present.get(b).copied().unwrap_or(false))
                     .map(|b| {
                         let p = self.props[a * n + b];
-                        p.penalty.max(p.tangential_penalty)
+                        (p.penalty.max(p.tangential_penalty), b as u32)
                     })
-                    .fold(0.0, Real::max)
+                    .fold(
+                        (0.0, u32::MAX),
+                        |best, x| if x.0 > best.0 { x } else { best },
+                    )
             })
             .collect()
     }

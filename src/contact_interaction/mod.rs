@@ -55,6 +55,20 @@ use crate::state::{Nodes, Tets};
 use potential::{overlapping_tet_tet, separating_axis, TetGeom, OVERLAPPED};
 use rayon::prelude::*;
 
+/// Stage 5's share of the time-step limit ([`ContactInteraction::max_omega2`]) and where it
+/// comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactStepBound {
+    /// max 2·k/m over the tets' nodes [1/s²].
+    pub omega2: Real,
+    /// The tet that has it (`usize::MAX` without tets).
+    pub tet: usize,
+    /// The material whose pairs with the tet's material have the largest penalty.
+    pub partner: u32,
+    /// That penalty [Pa].
+    pub penalty: Real,
+}
+
 /// A pair that came into contact (for `on_new_contact_pair`).
 #[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct ContactEvent {
@@ -418,7 +432,10 @@ impl ContactInteraction {
     /// material of the model [1/s²]. Added to the elements' ω² like the joint springs. (Until
     /// 2026-11-30 every tet took the model's largest penalty: a soft pad beside rock, whose
     /// pad–rock penalty is 50 times below the rock–rock one, cut dt 3.2× for nothing.)
-    pub fn max_omega2(&self, tets: &Tets, mass: &[Real]) -> Real {
+    /// Also returns where the bound comes from ([`ContactStepBound`]): the tet (the lowest
+    /// index among equal bounds, so any thread count finds the same), the partner material
+    /// and the penalty, for the run's time-step line.
+    pub fn max_omega2(&self, tets: &Tets, mass: &[Real]) -> ContactStepBound {
         let mut present = vec![false; self.laws.n_materials];
         for &m in &tets.material {
             if let Some(p) = present.get_mut(m as usize) {
@@ -426,20 +443,40 @@ impl ContactInteraction {
             }
         }
         let penalty = self.laws.max_penalty_by_material(&present);
-        (0..tets.len())
+        let (omega2, tet) = (0..tets.len())
             .into_par_iter()
             .map(|e| {
                 let p = penalty
                     .get(tets.material[e] as usize)
-                    .copied()
-                    .unwrap_or(0.0);
+                    .map_or(0.0, |&(p, _)| p);
                 let k = contact_nodal_stiffness(&tets.dm_inv[e], tets.vol0[e], p);
-                tets.nodes[e]
+                let w2 = tets.nodes[e]
                     .iter()
                     .map(|&n| 2.0 * k / mass[n as usize])
-                    .fold(0.0, Real::max)
+                    .fold(0.0, Real::max);
+                (w2, e)
             })
-            .reduce(|| 0.0, Real::max)
+            .reduce(
+                || (0.0, usize::MAX),
+                |a, b| {
+                    if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
+                        b
+                    } else {
+                        a
+                    }
+                },
+            );
+        let (penalty, partner) = tets
+            .material
+            .get(tet)
+            .and_then(|&m| penalty.get(m as usize).copied())
+            .unwrap_or((0.0, u32::MAX));
+        ContactStepBound {
+            omega2,
+            tet,
+            partner,
+            penalty,
+        }
     }
 
     /// The outputs of the pairs that touched in the last step, in pair order.

@@ -226,6 +226,23 @@ pub struct TimeStepInfo {
     pub joints: Option<(usize, Real)>,
     /// The contact penalty lowered the critical step.
     pub contact: bool,
+    /// Where the contact bound comes from, when contact lowered the step.
+    #[serde(default)]
+    pub contact_by: Option<ContactLimit>,
+}
+
+/// The tet whose contact springs bound the step, as the run's time-step line names it: a
+/// light body given a stiff penalty against a material it may never meet shows here.
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
+pub struct ContactLimit {
+    pub tet: usize,
+    pub body: String,
+    /// A body of the partner material (the first in body order).
+    pub partner_body: String,
+    /// The penalty of the tet's material against it [Pa].
+    pub penalty: Real,
+    /// The critical step without the contact springs [s].
+    pub without: Real,
 }
 
 impl std::fmt::Display for TimeStepInfo {
@@ -256,6 +273,13 @@ impl std::fmt::Display for TimeStepInfo {
                     self.dt, self.critical, self.tet, self.body
                 )?
             }
+        }
+        if let Some(c) = &self.contact_by {
+            write!(
+                f,
+                "; without contact {:.4e} s, the contact bound from tet {} of body '{}' (penalty {:.3e} Pa against the material of body '{}')",
+                c.without, c.tet, c.body, c.penalty, c.partner_body
+            )?;
         }
         Ok(())
     }
@@ -1022,6 +1046,7 @@ impl Simulation {
         let mut critical = critical_tets;
         let mut joints_note = None;
         let mut contact_lowered = false;
+        let mut contact_by = None;
         if !self.joints.is_empty() || !self.bonds.is_empty() {
             let (mut w2, mut node) = self.joints.max_omega2(&self.nodes.m);
             let (w2_bond, bond_node) = self.bonds.max_omega2(&self.tets, &self.nodes.m);
@@ -1036,13 +1061,28 @@ impl Simulation {
         // Contact springs likewise (stage 5's bound).
         if self.contact.is_enabled() {
             let mass = self.rigid.contact_masses(&self.nodes.m);
-            let w2 = self.contact.max_omega2(&self.tets, mass);
+            let bound = self.contact.max_omega2(&self.tets, mass);
             let w = 2.0 / critical;
-            critical = 2.0 / (w * w + w2).sqrt();
+            let without = critical;
+            critical = 2.0 / (w * w + bound.omega2).sqrt();
             if joints_note.is_none() {
                 joints_note = Some((usize::MAX, critical_tets));
             }
             contact_lowered = true;
+            if let Some(&b) = self.tets.body.get(bound.tet) {
+                let partner_body = self
+                    .bodies
+                    .iter()
+                    .find(|body| body.material == bound.partner)
+                    .map_or_else(|| "?".to_string(), |body| body.name.clone());
+                contact_by = Some(ContactLimit {
+                    tet: bound.tet,
+                    body: self.bodies[b as usize].name.clone(),
+                    partner_body,
+                    penalty: bound.penalty,
+                    without,
+                });
+            }
         }
         if !critical.is_finite() && self.settings.dt.is_none() {
             return Err(SimError::Invalid("every body is rigid and contact is off: nothing limits the time step; set it with sim.integrator(\"central_difference\", #{ dt })".into()));
@@ -1059,6 +1099,7 @@ impl Simulation {
             fixed: false,
             joints: joints_note,
             contact: contact_lowered,
+            contact_by,
         };
         if let Some(dt) = self.settings.dt {
             if dt > critical {
