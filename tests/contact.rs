@@ -1236,6 +1236,40 @@ fn the_kernel_agrees_with_its_oracle_on_a_settled_stack() {
     }
 }
 
+/// A prepared model for the time-step tests below: `rock` (a 0.1 m cube, E = 50 GPa) and/or
+/// `pad` (40 × 40 × 2 mm, elements 1 mm thick, E = 1 GPa), far apart; contact laws: rock–rock
+/// 500 GPa (the default rule), pad–pad `pad_pad`, pad–rock `pad_rock`.
+fn rock_and_pad(with_rock: bool, with_pad: bool, pad_pad: Real, pad_rock: Real) -> Simulation {
+    use fdem::contact_interaction::ContactLaw;
+    let rule = |materials: Option<(u32, u32)>, p: Real| ContactRule {
+        materials,
+        law: ContactLaw::Potential(PotentialContact {
+            penalty: Some(p),
+            ..Default::default()
+        }),
+    };
+    let mut sim = Simulation::new();
+    let r = sim.add_material(material(Formulation::NeoHookean, 2650.0, 50.0e9, 0.25));
+    let s = sim.add_material(material(Formulation::NeoHookean, 1000.0, 1.0e9, 0.3));
+    if with_rock {
+        let m = box_mesh(Vec3::zeros(), Vec3::new(0.1, 0.1, 0.1), [5, 5, 5]);
+        sim.add_body("rock", &m, r, Layout::Continuous).unwrap();
+    }
+    if with_pad {
+        let m = box_mesh(
+            Vec3::new(0.5, 0.0, 0.0),
+            Vec3::new(0.54, 0.04, 0.002),
+            [5, 5, 2],
+        );
+        sim.add_body("pad", &m, s, Layout::Continuous).unwrap();
+    }
+    sim.contact.laws.rules.push(rule(None, 500.0e9));
+    sim.contact.laws.rules.push(rule(Some((s, s)), pad_pad));
+    sim.contact.laws.rules.push(rule(Some((r, s)), pad_rock));
+    sim.prepare().unwrap();
+    sim
+}
+
 /// The critical step's contact bound follows the penalty each tet can meet: a soft pad
 /// (E = 1 GPa, penalty 10·E against everything) beside rock (E = 50 GPa, penalty 10·E rock on
 /// rock) must not take the rock's penalty into its own bound. Reference: the bound is
@@ -1249,39 +1283,11 @@ fn the_kernel_agrees_with_its_oracle_on_a_settled_stack() {
 /// last case's step (3.2× too short for the Brazilian disc with pads).
 #[test]
 fn the_contact_time_step_follows_each_materials_penalty() {
-    use fdem::contact_interaction::ContactLaw;
-    let rock = material(Formulation::NeoHookean, 2650.0, 50.0e9, 0.25);
-    let pad = material(Formulation::NeoHookean, 1000.0, 1.0e9, 0.3);
-    let rule = |materials: Option<(u32, u32)>, p: Real| ContactRule {
-        materials,
-        law: ContactLaw::Potential(PotentialContact {
-            penalty: Some(p),
-            ..Default::default()
-        }),
-    };
-    // Bodies: `rock` (a 0.1 m cube) and/or `pad` (40 × 40 × 2 mm, elements 1 mm thick),
-    // far apart; laws: rock–rock 500 GPa, pad–pad and pad–rock `pad_rock`.
     let critical = |with_rock: bool, with_pad: bool, pad_pad: Real, pad_rock: Real| {
-        let mut sim = Simulation::new();
-        let r = sim.add_material(rock.clone());
-        let s = sim.add_material(pad.clone());
-        if with_rock {
-            let m = box_mesh(Vec3::zeros(), Vec3::new(0.1, 0.1, 0.1), [5, 5, 5]);
-            sim.add_body("rock", &m, r, Layout::Continuous).unwrap();
-        }
-        if with_pad {
-            let m = box_mesh(
-                Vec3::new(0.5, 0.0, 0.0),
-                Vec3::new(0.54, 0.04, 0.002),
-                [5, 5, 2],
-            );
-            sim.add_body("pad", &m, s, Layout::Continuous).unwrap();
-        }
-        sim.contact.laws.rules.push(rule(None, 500.0e9));
-        sim.contact.laws.rules.push(rule(Some((s, s)), pad_pad));
-        sim.contact.laws.rules.push(rule(Some((r, s)), pad_rock));
-        sim.prepare().unwrap();
-        sim.stable_time_step().unwrap().critical
+        rock_and_pad(with_rock, with_pad, pad_pad, pad_rock)
+            .stable_time_step()
+            .unwrap()
+            .critical
     };
     let rock_alone = critical(true, false, 10.0e9, 10.0e9);
     let pad_alone = critical(false, true, 10.0e9, 10.0e9);
@@ -1308,33 +1314,10 @@ fn the_contact_time_step_follows_each_materials_penalty() {
 /// material, penalty, and the step without contact).
 #[test]
 fn the_time_step_line_names_the_tet_and_material_pair_of_the_contact_bound() {
-    use fdem::contact_interaction::ContactLaw;
-    let rock = material(Formulation::NeoHookean, 2650.0, 50.0e9, 0.25);
-    let pad = material(Formulation::NeoHookean, 1000.0, 1.0e9, 0.3);
-    let rule = |materials: Option<(u32, u32)>, p: Real| ContactRule {
-        materials,
-        law: ContactLaw::Potential(PotentialContact {
-            penalty: Some(p),
-            ..Default::default()
-        }),
-    };
     let info = |pad_rock: Real| {
-        let mut sim = Simulation::new();
-        let r = sim.add_material(rock.clone());
-        let s = sim.add_material(pad.clone());
-        let m = box_mesh(Vec3::zeros(), Vec3::new(0.1, 0.1, 0.1), [5, 5, 5]);
-        sim.add_body("rock", &m, r, Layout::Continuous).unwrap();
-        let m = box_mesh(
-            Vec3::new(0.5, 0.0, 0.0),
-            Vec3::new(0.54, 0.04, 0.002),
-            [5, 5, 2],
-        );
-        sim.add_body("pad", &m, s, Layout::Continuous).unwrap();
-        sim.contact.laws.rules.push(rule(None, 500.0e9));
-        sim.contact.laws.rules.push(rule(Some((s, s)), 10.0e9));
-        sim.contact.laws.rules.push(rule(Some((r, s)), pad_rock));
-        sim.prepare().unwrap();
-        sim.stable_time_step().unwrap()
+        rock_and_pad(true, true, 10.0e9, pad_rock)
+            .stable_time_step()
+            .unwrap()
     };
     let stiff = info(500.0e9);
     let by = stiff.contact_by.clone().expect("contact lowers the step");
