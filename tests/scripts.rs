@@ -988,6 +988,43 @@ fn brazilian_disc_with_pads_splits_and_keeps_the_time_step() {
     );
 }
 
+/// The quick reinforced beam (`scripts/rc_beam_impact.rhai`, 600 kg at 8 m/s, 4 ms) with
+/// `extra` settings, on one thread: its console output, after its own checks passed.
+fn rc_beam_quick(extra: &[&str], name: &str) -> String {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/rc_beam_impact.rhai");
+    let out = fdem()
+        .arg("run")
+        .arg(&script)
+        .args(["--set", "quick=true"])
+        .args(extra)
+        .args(["--quiet", "--threads", "1", "--out"])
+        .arg(temp_dir(name))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success() && !text.contains("check failed"),
+        "{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    text
+}
+
+/// The number printed between `after` and `before` on the first line that has them.
+fn number_between(text: &str, after: &str, before: &str) -> f64 {
+    text.lines()
+        .find_map(|l| {
+            l.split(after)
+                .nth(1)?
+                .split(before)
+                .next()?
+                .trim()
+                .parse()
+                .ok()
+        })
+        .unwrap_or_else(|| panic!("no '{after}' … '{before}' in:\n{text}"))
+}
+
 /// The reinforced beam's pad under the weight (`pad_E`, a diagnosis of the first contact,
 /// docs/applications/rc_beam_impact.md): a mass m landing at v on a spring k against a
 /// rigid base peaks at F = v·√(k·m). The quick beam (600 kg at 8 m/s) with a 20 mm pad of
@@ -997,39 +1034,11 @@ fn brazilian_disc_with_pads_splits_and_keeps_the_time_step() {
 /// gives more than twice the pad's force over 0.1 ms.
 #[test]
 fn the_rc_beam_pad_peaks_at_the_spring_mass_force() {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/rc_beam_impact.rhai");
-    let run = |extra: &[&str], name: &str| {
-        let out = fdem()
-            .arg("run")
-            .arg(&script)
-            .args(["--set", "quick=true"])
-            .args(extra)
-            .args(["--quiet", "--threads", "1", "--out"])
-            .arg(temp_dir(name))
-            .output()
-            .unwrap();
-        let text = String::from_utf8_lossy(&out.stdout).into_owned();
-        assert!(
-            out.status.success() && !text.contains("check failed"),
-            "{text}"
-        );
-        let kn = |after: &str| -> f64 {
-            text.lines()
-                .find_map(|l| {
-                    l.split(after)
-                        .nth(1)?
-                        .split(" kN")
-                        .next()?
-                        .trim()
-                        .parse()
-                        .ok()
-                })
-                .unwrap_or_else(|| panic!("no '{after}' in:\n{text}"))
-        };
-        (kn("peak impact force:"), kn("step by step"))
-    };
-    let (bare_100us, _) = run(&[], "rc-pad-none");
-    let (pad_100us, pad_peak) = run(&["--set", "pad_E=48e6"], "rc-pad-48");
+    let bare = rc_beam_quick(&[], "rc-pad-none");
+    let pad = rc_beam_quick(&["--set", "pad_E=48e6"], "rc-pad-48");
+    let bare_100us = number_between(&bare, "peak impact force:", " kN");
+    let pad_100us = number_between(&pad, "peak impact force:", " kN");
+    let pad_peak = number_between(&pad, "step by step", " kN");
     let k = 48.0e6 * 0.06 / 0.02;
     let reference = 8.0 * (k * 600.0f64).sqrt() / 1e3;
     assert!(
@@ -1039,5 +1048,25 @@ fn the_rc_beam_pad_peaks_at_the_spring_mass_force() {
     assert!(
         bare_100us > 2.0 * pad_100us,
         "no pad {bare_100us} kN, pad {pad_100us} kN over 0.1 ms"
+    );
+}
+
+/// The reinforced beam's hold-down knobs (diagnoses of the 211 kg beams' depth, the page's
+/// SS0a table): a loose bearing above takes no hold-down force at all, and the hold-down
+/// as a spring (`hold_down_stiffness`) takes less the softer it is, below the rigid one's
+/// (quick beam, 4 ms: rigid 477 kN, 2.4e9 N/m 279 kN, 2.4e8 N/m 52 kN). A spring that
+/// were not in the load path would take nothing, one that were ignored the rigid force.
+#[test]
+fn the_rc_beam_hold_down_takes_less_the_softer_it_is() {
+    let hold = |extra: &[&str], name: &str| {
+        number_between(&rc_beam_quick(extra, name), "(hold-down", " kN)")
+    };
+    let rigid = hold(&[], "rc-hold-rigid");
+    let stiff = hold(&["--set", "hold_down_stiffness=2.4e9"], "rc-hold-stiff");
+    let soft = hold(&["--set", "hold_down_stiffness=2.4e8"], "rc-hold-soft");
+    let loose = hold(&["--set", "hold_down=false"], "rc-hold-loose");
+    assert!(
+        rigid > stiff && stiff > soft && soft > 0.05 * rigid && loose == 0.0,
+        "hold-down [kN]: rigid {rigid}, 2.4e9 N/m {stiff}, 2.4e8 N/m {soft}, loose {loose}"
     );
 }
