@@ -1,5 +1,8 @@
 //! Scalar and small-matrix aliases used everywhere (SI units throughout: m, kg, s, N, Pa).
 
+pub mod exact_sum;
+pub use exact_sum::{exact_total, ExactSum, Partial};
+
 pub type Real = f64;
 pub type Vec3 = nalgebra::Vector3<Real>;
 pub type Mat3 = nalgebra::Matrix3<Real>;

@@ -194,6 +194,8 @@ fn the_order_lists_every_module() {
         .filter_map(|e| module_of(&src, &e.unwrap().path()))
         .collect();
     found.sort();
+    // `m.rs` beside a folder `m/` of its submodules is one module.
+    found.dedup();
     let mut listed: Vec<String> = ORDER.iter().map(|s| s.to_string()).collect();
     listed.sort();
     assert_eq!(found, listed);

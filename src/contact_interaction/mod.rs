@@ -50,7 +50,7 @@ pub use law::{
 use crate::compiled::Frame;
 use crate::contact_detection::{Aabb, ContactDetection, PairOrigin};
 use crate::material::Material;
-use crate::math::{Mat3, Real, Vec3};
+use crate::math::{ExactSum, Mat3, Real, Vec3};
 use crate::state::{Nodes, Tets};
 use potential::{overlapping_tet_tet, separating_axis, TetGeom, OVERLAPPED};
 use rayon::prelude::*;
@@ -235,20 +235,127 @@ pub struct ContactSums {
     pub law_failure: Option<FrictionLawFailure>,
 }
 
-impl ContactSums {
-    /// Add the totals of a later chunk of pairs (pair order).
-    fn add(&mut self, s: &ContactSums) {
-        self.energy += s.energy;
-        self.dissipated += s.dissipated;
+/// Stage 5's totals while the pairs' contributions are being added: exact sums
+/// ([`ExactSum`]), counts, maxima and the law failure of the lowest pair, so the totals have
+/// the same bits whichever thread or rank adds which pairs, in any order. (Until 2026-12-07
+/// the sums were f64 added chunk by chunk in pair order, and a decomposed model gathered a
+/// record of every chunk, or of every pair in a chunk two ranks shared, to add them in that
+/// order: 0.25 of the 0.42 MB a rank received per step on the 55k-tet impact.)
+#[derive(Clone, Debug, Default)]
+pub struct ContactTally {
+    energy: ExactSum,
+    dissipated: ExactSum,
+    normal_force: ExactSum,
+    friction_force: ExactSum,
+    area: ExactSum,
+    active: usize,
+    max_overlap: Real,
+    max_overlap_ratio: Real,
+    max_pressure: Real,
+    /// (pair, failure) of the lowest pair whose friction law failed.
+    law_failure: Option<(u32, FrictionLawFailure)>,
+}
+
+impl ContactTally {
+    /// Exact sums, each [`ExactSum::LEN`] values of [`ContactTally::write_sums`].
+    const SUMS: usize = 5;
+    /// Values [`ContactTally::write_sums`] writes: the exact sums and the count.
+    pub const SUM_LEN: usize = Self::SUMS * ExactSum::LEN + 1;
+
+    /// Add what pair `pair` contributed (its own contributions, summed first).
+    #[inline]
+    fn add_pair(&mut self, pair: u32, s: &ContactSums) {
+        self.energy.add(s.energy);
+        self.dissipated.add(s.dissipated);
+        self.normal_force.add(s.normal_force);
+        self.friction_force.add(s.friction_force);
+        self.area.add(s.area);
         self.active += s.active;
-        self.normal_force += s.normal_force;
-        self.friction_force += s.friction_force;
         self.max_overlap = self.max_overlap.max(s.max_overlap);
         self.max_overlap_ratio = self.max_overlap_ratio.max(s.max_overlap_ratio);
         self.max_pressure = self.max_pressure.max(s.max_pressure);
-        self.area += s.area;
-        if self.law_failure.is_none() {
-            self.law_failure = s.law_failure;
+        if let Some(f) = s.law_failure {
+            if self.law_failure.is_none_or(|(p, _)| pair < p) {
+                self.law_failure = Some((pair, f));
+            }
+        }
+    }
+
+    /// Add another tally (of other pairs).
+    fn merge(&mut self, o: &ContactTally) {
+        self.energy.merge(&o.energy);
+        self.dissipated.merge(&o.dissipated);
+        self.normal_force.merge(&o.normal_force);
+        self.friction_force.merge(&o.friction_force);
+        self.area.merge(&o.area);
+        self.active += o.active;
+        self.max_overlap = self.max_overlap.max(o.max_overlap);
+        self.max_overlap_ratio = self.max_overlap_ratio.max(o.max_overlap_ratio);
+        self.max_pressure = self.max_pressure.max(o.max_pressure);
+        if let Some((p, f)) = o.law_failure {
+            if self.law_failure.is_none_or(|(q, _)| p < q) {
+                self.law_failure = Some((p, f));
+            }
+        }
+    }
+
+    /// The totals, each sum rounded once.
+    pub fn sums(&self) -> ContactSums {
+        ContactSums {
+            energy: self.energy.value(),
+            dissipated: self.dissipated.value(),
+            active: self.active,
+            normal_force: self.normal_force.value(),
+            friction_force: self.friction_force.value(),
+            max_overlap: self.max_overlap,
+            max_overlap_ratio: self.max_overlap_ratio,
+            max_pressure: self.max_pressure,
+            area: self.area.value(),
+            law_failure: self.law_failure.map(|(_, f)| f),
+        }
+    }
+
+    /// The sums and the count as f64 integers for a sum over ranks ([`ExactSum::digits`]):
+    /// adding the arrays of every rank in any order and reading them back
+    /// ([`ContactTally::read_sums`]) gives the tally of all ranks' pairs.
+    pub fn write_sums(&self, out: &mut [f64]) {
+        let sums = [
+            &self.energy,
+            &self.dissipated,
+            &self.normal_force,
+            &self.friction_force,
+            &self.area,
+        ];
+        for (s, o) in sums.iter().zip(out.chunks_exact_mut(ExactSum::LEN)) {
+            s.digits(o);
+        }
+        out[Self::SUMS * ExactSum::LEN] = self.active as f64;
+    }
+
+    /// The maxima, for a largest-over-ranks reduction.
+    pub fn maxima(&self) -> [Real; 3] {
+        [self.max_overlap, self.max_overlap_ratio, self.max_pressure]
+    }
+
+    /// The tally of every rank: the summed [`ContactTally::write_sums`] arrays, the largest
+    /// [`ContactTally::maxima`], and the law failure of the lowest pair over the ranks.
+    pub fn read_sums(
+        summed: &[f64],
+        maxima: [Real; 3],
+        law_failure: Option<(u32, FrictionLawFailure)>,
+    ) -> Self {
+        let part = |i: usize| ExactSum::from_digits(&summed[i * ExactSum::LEN..]);
+        ContactTally {
+            energy: part(0),
+            dissipated: part(1),
+            normal_force: part(2),
+            friction_force: part(3),
+            area: part(4),
+            active: summed[Self::SUMS * ExactSum::LEN] as usize,
+            max_overlap: maxima[0],
+            max_overlap_ratio: maxima[1],
+            max_pressure: maxima[2],
+            law_failure,
         }
     }
 }
@@ -320,19 +427,20 @@ pub struct ContactInteraction {
     current_boxes: Vec<Aabb>,
     inv_h: Vec<Real>,
     /// Per chunk of pairs: the history entries of the pairs that touched in the last step,
-    /// in pair order ([`NEW_FLAG`] set for those that started touching), totals and
-    /// handovers.
+    /// in pair order ([`NEW_FLAG`] set for those that started touching), and handovers.
     chunk_out: Vec<Vec<u32>>,
-    chunk_sums: Vec<ContactSums>,
     chunk_handover: Vec<Vec<u32>>,
     /// On a decomposed model: the pairs this rank computes, and those designated to it
     /// (`crate::parallel`); empty on one rank (every pair).
     #[serde(skip)]
     pub mask: PairMask,
-    /// Per chunk, on a decomposed model: what the designated pairs added to the step's
-    /// totals, events and handovers (merged over ranks by [`ContactInteraction::apply_records`]).
+    /// Per chunk, on a decomposed model: the designated pairs' events, handovers and law
+    /// failures (merged over ranks by [`ContactInteraction::apply_records`]).
     #[serde(skip)]
     chunk_records: Vec<Vec<PairRecord>>,
+    /// On a decomposed model: this rank's tally of its designated pairs in the last step.
+    #[serde(skip)]
+    tally: ContactTally,
 }
 
 /// Which candidate pairs one rank of a decomposed model computes (those with a node of the
@@ -346,15 +454,16 @@ pub struct PairMask {
     pub surface: Vec<bool>,
 }
 
-/// What one pair added to a step's totals (its own contributions summed first), with the
-/// joint it handed over and the contact event it started: the unit a decomposed model
-/// exchanges so that every rank adds them in pair order, as one rank does.
+/// What one pair did in a step that every rank must see in pair order: the joint it handed
+/// over, the contact event it started, its friction law's failure. A decomposed model
+/// gathers these (few: most steps none) from the pairs' designated ranks; the totals go by
+/// a sum of [`ContactTally`]s.
 #[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct PairRecord {
     pub pair: u32,
-    pub sums: ContactSums,
     pub handover: Option<u32>,
     pub event: Option<ContactEvent>,
+    pub law_failure: Option<FrictionLawFailure>,
 }
 
 impl ContactInteraction {
@@ -418,7 +527,6 @@ impl ContactInteraction {
             .resize(n_surface, Aabb::of_points(&[Vec3::zeros()]));
         self.inv_h.resize(n_surface, 0.0);
         self.chunk_out.resize_with(n_chunks, Vec::new);
-        self.chunk_sums.resize(n_chunks, ContactSums::default());
         self.chunk_handover.resize_with(n_chunks, Vec::new);
         self.chunk_records.resize_with(n_chunks, Vec::new);
         self.chunk_records.iter_mut().for_each(Vec::clear);
@@ -501,39 +609,40 @@ impl ContactInteraction {
         f
     }
 
-    /// Total contact force in the last step on the nodes `range` (a body's nodes) [N].
+    /// Total contact force in the last step on the nodes `range` (a body's nodes) [N]: an
+    /// exact sum over the touching pairs ([`ExactSum`]), so a decomposed model gets its
+    /// bits from the ranks' sums of their designated pairs
+    /// ([`ContactInteraction::force_share`]).
     pub fn force_on(&self, range: std::ops::Range<usize>) -> Vec3 {
-        let mut total = Vec3::zeros();
+        let mut sum: [ExactSum; 3] = Default::default();
         for (out, hist) in self.chunk_out.iter().zip(&self.hist) {
-            let mut chunk = Vec3::zeros();
             for &i in out {
-                chunk += pair_force_on(&hist[(i & !NEW_FLAG) as usize].out, &range);
+                add_force(
+                    &mut sum,
+                    pair_force_on(&hist[(i & !NEW_FLAG) as usize].out, &range),
+                );
             }
-            total += chunk;
         }
-        total
+        Vec3::from_fn(|k, _| sum[k].value())
     }
 
-    /// A decomposed model's share of [`ContactInteraction::force_on`]: for each chunk of
-    /// pairs all designated to this rank, its sum (keyed by its first pair), and for this
-    /// rank's designated pairs in chunks shared with other ranks, each pair's force (keyed by
-    /// the pair); zeros left out. [`ContactInteraction::force_from_shares`] adds every rank's
-    /// to the bits of `force_on`.
-    pub fn force_share(&self, range: std::ops::Range<usize>) -> Vec<(u32, [Real; 3])> {
+    /// A decomposed model's share of [`ContactInteraction::force_on`]: the exact sums over
+    /// the touching pairs designated to this rank, as digits (3 × [`ExactSum::LEN`] values)
+    /// to be summed over the ranks and read by [`ContactInteraction::force_from_shares`].
+    pub fn force_share(&self, range: std::ops::Range<usize>, out_digits: &mut [f64]) {
         let designated = &self.mask.designated;
-        let mut share = Vec::new();
+        let mut sum: [ExactSum; 3] = Default::default();
         for (c, (out, hist)) in self.chunk_out.iter().zip(&self.hist).enumerate() {
             if out.is_empty() {
                 continue;
             }
             let pairs = self.chunk_pairs(c);
-            if self.chunk_is_designated(c) {
-                let mut chunk = Vec3::zeros();
+            if designated[pairs.clone()].iter().all(|&d| d) {
                 for &i in out {
-                    chunk += pair_force_on(&hist[(i & !NEW_FLAG) as usize].out, &range);
-                }
-                if chunk != Vec3::zeros() {
-                    share.push((pairs.start as u32, [chunk.x, chunk.y, chunk.z]));
+                    add_force(
+                        &mut sum,
+                        pair_force_on(&hist[(i & !NEW_FLAG) as usize].out, &range),
+                    );
                 }
                 continue;
             }
@@ -544,16 +653,17 @@ impl ContactInteraction {
             }
             for k in pairs.filter(|&k| designated[k]) {
                 let slot = self.slots[k];
-                if slot.hist == NO_HISTORY || !touching[slot.hist as usize] {
-                    continue;
-                }
-                let f = pair_force_on(&hist[slot.hist as usize].out, &range);
-                if f != Vec3::zeros() {
-                    share.push((k as u32, [f.x, f.y, f.z]));
+                if slot.hist != NO_HISTORY && touching[slot.hist as usize] {
+                    add_force(
+                        &mut sum,
+                        pair_force_on(&hist[slot.hist as usize].out, &range),
+                    );
                 }
             }
         }
-        share
+        for (s, o) in sum.iter().zip(out_digits.chunks_exact_mut(ExactSum::LEN)) {
+            s.digits(o);
+        }
     }
 
     /// The candidate pairs of chunk `c` of stage 5.
@@ -561,27 +671,10 @@ impl ContactInteraction {
         c * CHUNK..((c + 1) * CHUNK).min(self.slots.len())
     }
 
-    /// A decomposed model: every pair of chunk `c` is designated to this rank.
-    fn chunk_is_designated(&self, c: usize) -> bool {
-        self.mask.designated[self.chunk_pairs(c)].iter().all(|&d| d)
-    }
-
-    /// [`ContactInteraction::force_on`] from every rank's [`ContactInteraction::force_share`]:
-    /// each chunk's parts in pair order, then the chunks in order (from +0 the sums never
-    /// reach −0, so the zeros left out change nothing).
-    pub fn force_from_shares(mut shares: Vec<(u32, [Real; 3])>) -> Vec3 {
-        shares.sort_by_key(|s| s.0);
-        let (mut total, mut chunk, mut current) = (Vec3::zeros(), Vec3::zeros(), None);
-        for (k, f) in shares {
-            let c = k as usize / CHUNK;
-            if current != Some(c) {
-                total += chunk;
-                chunk = Vec3::zeros();
-                current = Some(c);
-            }
-            chunk += Vec3::new(f[0], f[1], f[2]);
-        }
-        total + chunk
+    /// [`ContactInteraction::force_on`] from the sum over ranks of their
+    /// [`ContactInteraction::force_share`]s.
+    pub fn force_from_shares(summed: &[f64]) -> Vec3 {
+        Vec3::from_fn(|k, _| ExactSum::from_digits(&summed[k * ExactSum::LEN..]).value())
     }
 
     /// Largest mean contact pressure on each of `n_tets` tets in the last step [Pa] (zero
@@ -842,7 +935,6 @@ pub fn add_contact_forces(
         current_boxes,
         inv_h,
         chunk_out,
-        chunk_sums,
         chunk_handover,
         chunk_records,
         mask,
@@ -865,35 +957,51 @@ pub fn add_contact_forces(
     };
     let record_events = *record_events;
     let masked = !mask.compute.is_empty();
-    slots
+    // The tallies are exact sums: any split of the chunks among threads gives their bits.
+    let tally = slots
         .par_chunks_mut(CHUNK)
         .zip(hist.par_iter_mut())
         .zip(free.par_iter_mut())
         .zip(chunk_out.par_iter_mut())
-        .zip(chunk_sums.par_iter_mut())
         .zip(chunk_handover.par_iter_mut())
         .zip(chunk_records.par_iter_mut())
         .enumerate()
-        .for_each(
-            |(c, ((((((slots, hist), free), out), sums), handover), records))| {
+        .fold(
+            ContactTally::default,
+            |mut tally, (c, (((((slots, hist), free), out), handover), records))| {
                 let chunk = Chunk {
                     slots,
                     hist,
                     free,
                     out,
-                    sums,
+                    tally: &mut tally,
                     handover,
                     records,
                 };
                 evaluate_chunk(&inputs, c, chunk, mask, record_events);
+                tally
             },
-        );
+        )
+        .reduce(ContactTally::default, |mut a, b| {
+            a.merge(&b);
+            a
+        });
     if masked {
-        // Forces only: the totals, events and handovers come from every rank's records.
+        // Forces only: the totals, events and handovers come from every rank's tallies
+        // and records.
         scatter_forces(ci, nodes);
+        ci.tally = tally;
         return ContactSums::default();
     }
-    scatter_in_pair_order(ci, nodes, time)
+    scatter_in_pair_order(ci, nodes, &tally, time)
+}
+
+/// Add a force's components to exact sums.
+#[inline]
+fn add_force(sum: &mut [ExactSum; 3], f: Vec3) {
+    for k in 0..3 {
+        sum[k].add(f[k]);
+    }
 }
 
 /// A touching pair's force on the nodes in `range`, its nodes in order.
@@ -913,14 +1021,15 @@ struct Chunk<'a> {
     hist: &'a mut Vec<PairState>,
     free: &'a mut Vec<u16>,
     out: &'a mut Vec<u32>,
-    sums: &'a mut ContactSums,
+    /// The pairs' totals (on a decomposed model, of the pairs designated to this rank).
+    tally: &'a mut ContactTally,
     handover: &'a mut Vec<u32>,
     records: &'a mut Vec<PairRecord>,
 }
 
 /// Evaluate the pairs of chunk `c` (those `mask` gives this rank, all on one rank): forces
-/// into their histories and the chunk's outputs, sums, handovers and (for designated pairs
-/// of a decomposed model) records.
+/// into their histories and the chunk's outputs, handovers and (for designated pairs of a
+/// decomposed model) records; their totals into the tally.
 fn evaluate_chunk(
     inputs: &StepInputs,
     c: usize,
@@ -933,7 +1042,7 @@ fn evaluate_chunk(
         hist,
         free,
         out,
-        sums,
+        tally,
         handover,
         records,
     } = chunk;
@@ -941,7 +1050,6 @@ fn evaluate_chunk(
     out.clear();
     handover.clear();
     records.clear();
-    *sums = ContactSums::default();
     // Slots of the compiled friction laws (on the stack, reused by every pair).
     let mut frame = Frame::new();
     for (k, slot) in sl.iter_mut().enumerate() {
@@ -970,8 +1078,8 @@ fn evaluate_chunk(
         };
         ps.witness = slot.witness;
         let mut flag = 0;
-        // The pair's own contributions first, then added to the chunk's: the order
-        // a decomposed model reproduces from per-pair records.
+        // The pair's own contributions first (the same bits on any rank that computes
+        // it), then added exactly to the tally.
         let mut pair_sums = ContactSums::default();
         let handed = handover.len();
         let touches =
@@ -986,22 +1094,22 @@ fn evaluate_chunk(
             } else {
                 false
             };
-        sums.add(&pair_sums);
-        if masked && mask.designated[pi] {
+        let designated = !masked || mask.designated[pi];
+        if designated && pair_sums != ContactSums::default() {
+            tally.add_pair(pi as u32, &pair_sums);
+        }
+        if masked && designated {
             let record = PairRecord {
                 pair: pi as u32,
-                sums: pair_sums,
                 handover: handover.get(handed).copied(),
                 event: (flag != 0).then_some(ContactEvent {
                     time: inputs.time,
                     tets: ps.out.tets,
                     point: ps.out.point,
                 }),
+                law_failure: pair_sums.law_failure,
             };
-            if record.sums != ContactSums::default()
-                || record.handover.is_some()
-                || record.event.is_some()
-            {
+            if record.handover.is_some() || record.event.is_some() || record.law_failure.is_some() {
                 records.push(record);
             }
         }
@@ -1037,17 +1145,11 @@ fn evaluate_chunk(
 fn scatter_in_pair_order(
     ci: &mut ContactInteraction,
     nodes: &mut Nodes,
+    tally: &ContactTally,
     time: Real,
 ) -> ContactSums {
     scatter_forces(ci, nodes);
-    let mut total = ContactSums::default();
-    for ((out, s), hist) in ci
-        .chunk_out
-        .iter()
-        .zip(ci.chunk_sums.iter())
-        .zip(ci.hist.iter())
-    {
-        total.add(s);
+    for (out, hist) in ci.chunk_out.iter().zip(ci.hist.iter()) {
         for &i in out {
             if i & NEW_FLAG != 0 {
                 let po = &hist[(i & !NEW_FLAG) as usize].out;
@@ -1063,7 +1165,7 @@ fn scatter_in_pair_order(
     for h in ci.chunk_handover.iter() {
         ci.handover.extend_from_slice(h);
     }
-    ci.close_step(total, time)
+    ci.close_step(tally.sums(), time)
 }
 
 /// Add the forces of the pairs that touched in this step to their nodes, in pair order.
@@ -1097,64 +1199,32 @@ impl ContactInteraction {
         self.chunk_records.iter().flatten()
     }
 
-    /// The records this rank sends to close a decomposed step (every rank then applies all
-    /// ranks' in pair order, [`ContactInteraction::apply_records`]). A chunk of pairs all
-    /// designated to this rank goes as one record of the chunk's sums, added as
-    /// `apply_records` adds its pairs' (the same bits: from +0 the sums never reach −0, so
-    /// adding them to +0 and adding +0 to them change nothing), then its pairs' handovers
-    /// and events without sums; a chunk shared with other ranks goes pair by pair.
+    /// The records this rank sends to close a decomposed step, in pair order (every rank
+    /// then applies all ranks', [`ContactInteraction::apply_records`]).
     pub fn records_to_send(&self) -> Vec<PairRecord> {
-        let mut out = Vec::new();
-        for (c, records) in self.chunk_records.iter().enumerate() {
-            if records.is_empty() {
-                continue;
-            }
-            if !self.chunk_is_designated(c) {
-                out.extend_from_slice(records);
-                continue;
-            }
-            let mut sums = ContactSums::default();
-            for r in records {
-                sums.add(&r.sums);
-            }
-            out.push(PairRecord {
-                pair: (c * CHUNK) as u32,
-                sums,
-                handover: None,
-                event: None,
-            });
-            out.extend(
-                (records.iter())
-                    .filter(|r| r.handover.is_some() || r.event.is_some())
-                    .map(|r| PairRecord {
-                        sums: ContactSums::default(),
-                        ..*r
-                    }),
-            );
-        }
-        out
+        self.chunk_records.iter().flatten().copied().collect()
     }
 
-    /// A decomposed model's step, closed from the records of every pair (`records`, from
-    /// all ranks, in pair order): the totals summed chunk by chunk in pair order (each pair's
-    /// own sum first), events and handovers in pair order: what one rank gets.
-    pub fn apply_records(&mut self, records: &[PairRecord], time: Real) -> ContactSums {
-        let (mut total, mut chunk_sum, mut chunk) =
-            (ContactSums::default(), ContactSums::default(), usize::MAX);
+    /// This rank's tally of its designated pairs in the last step (a decomposed model).
+    pub fn rank_tally(&self) -> &ContactTally {
+        &self.tally
+    }
+
+    /// A decomposed model's step, closed from the tally of every rank's pairs and the
+    /// records of every pair (`records`, from all ranks, in pair order): events and
+    /// handovers in pair order, what one rank gets.
+    pub fn apply_records(
+        &mut self,
+        tally: &ContactTally,
+        records: &[PairRecord],
+        time: Real,
+    ) -> ContactSums {
         self.handover.clear();
         for r in records {
-            let c = r.pair as usize / CHUNK;
-            if c != chunk {
-                total.add(&chunk_sum);
-                chunk_sum = ContactSums::default();
-                chunk = c;
-            }
-            chunk_sum.add(&r.sums);
             self.handover.extend(r.handover);
             self.events.extend(r.event);
         }
-        total.add(&chunk_sum);
-        self.close_step(total, time)
+        self.close_step(tally.sums(), time)
     }
 
     /// On a decomposed model, every candidate pair's witness and history as this rank holds

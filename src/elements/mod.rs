@@ -43,7 +43,7 @@ pub struct ElementSums {
 pub struct ElementsWorkspace {
     /// Per-body gather data for bodies that share nodes.
     pub shared: Vec<Option<SharedGather>>,
-    /// The sums of the stage's work units, in unit order: one per run of small bodies, then
+    /// The sums of the stage's work units (their total is an exact sum, [`ElementsWorkspace::total`]): one per run of small bodies, then
     /// one per chunk of each large body (see [`ElementsWorkspace::units`]).
     pub unit_partials: Vec<ElementSums>,
     /// Which units this process computes (empty: all). A rank of a decomposed model computes
@@ -167,11 +167,10 @@ impl ElementsWorkspace {
         units
     }
 
-    /// The stage's sums: the units' partial sums added in unit order.
+    /// The stage's sums: the exact sums of the units' partial sums, rounded once (the same
+    /// bits for any thread or rank count, [`crate::math::ExactSum`]).
     pub fn total(&self) -> ElementSums {
-        let mut total = ElementSums::default();
-        add_partials(&mut total, &self.unit_partials);
-        total
+        crate::math::exact_total(&self.unit_partials)
     }
 }
 
@@ -271,14 +270,6 @@ impl Kernel<'_> {
             e,
             self.want_energy,
         )
-    }
-}
-
-fn add_partials(total: &mut ElementSums, partials: &[ElementSums]) {
-    for p in partials {
-        total.strain_energy += p.strain_energy;
-        total.viscous_power += p.viscous_power;
-        total.inverted += p.inverted;
     }
 }
 

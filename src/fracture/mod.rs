@@ -6,7 +6,7 @@
 //! Fragments are the connected components of tetrahedra over intact joints and shared nodes.
 
 use crate::joints::{joint_kinematics, Joints};
-use crate::math::{Real, Vec3};
+use crate::math::{ExactSum, Real, Vec3};
 
 /// How a joint broke, from the direction of its total opening and slip at failure.
 #[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
@@ -140,9 +140,9 @@ pub struct JointMask {
 
 /// Stage 3: break the joints whose points all reached D = 1 (subject to a user criterion, if
 /// any) and record the events. Returns the energy released by joints a criterion broke before
-/// they were fully damaged [J] (their stored energy, counted as fracture dissipation).
-/// With `mask`, only the relevant joints are looked at, and only the designated ones' energy
-/// is returned.
+/// they were fully damaged [J] (their stored energy, counted as fracture dissipation), as an
+/// exact sum ([`ExactSum`]: ranks add theirs to the one-process bits). With `mask`, only the
+/// relevant joints are looked at, and only the designated ones' energy is returned.
 #[allow(clippy::too_many_arguments)]
 pub fn break_joints(
     joints: &mut Joints,
@@ -154,12 +154,12 @@ pub fn break_joints(
     criterion: Option<&mut FractureCriterion>,
     events: &mut Vec<BreakEvent>,
     mask: Option<&JointMask>,
-) -> Real {
+) -> ExactSum {
     let relevant = |j: usize| mask.is_none_or(|m| m.relevant[j]);
     let failed = |joints: &Joints, j: usize| {
         relevant(j) && !joints.broken[j] && joints.state[j].iter().all(|p| p.damage >= 1.0)
     };
-    let mut released = 0.0;
+    let mut released = ExactSum::default();
     match criterion {
         None => {
             if newly_failed > 0 {
@@ -198,7 +198,7 @@ pub fn break_joints(
                     for j in 0..joints.len() {
                         if relevant(j) && !joints.broken[j] && c.says_break(joints, j, x, time) {
                             if mask.is_none_or(|m| m.designated[j]) {
-                                released += joints.stored_energy(j, x);
+                                released.add(joints.stored_energy(j, x));
                             }
                             // Fully damaged now; the friction springs start unstretched
                             // and hold nothing (a softening point's last energy was its

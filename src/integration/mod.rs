@@ -70,14 +70,10 @@ impl IntegrationSums {
         self.momentum += s.momentum;
     }
 
-    /// The chunks' sums added in chunk order.
+    /// The chunks' sums: exact sums, rounded once (the same bits for any thread or rank
+    /// count, [`crate::math::ExactSum`]).
     pub fn total(partials: &[IntegrationSums]) -> IntegrationSums {
-        partials
-            .iter()
-            .fold(IntegrationSums::default(), |mut a, s| {
-                a.add(s);
-                a
-            })
+        crate::math::exact_total(partials)
     }
 }
 

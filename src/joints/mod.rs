@@ -346,13 +346,10 @@ impl Joints {
         self.color_blocks.iter().flatten().flat_map(units_of)
     }
 
-    /// The stage's sums: the units' partial sums added in schedule order.
+    /// The stage's sums: the exact sums of the units' partial sums, rounded once (the same
+    /// bits for any thread or rank count, [`crate::math::ExactSum`]).
     pub fn total(&self) -> JointSums {
-        let mut total = JointSums::default();
-        for p in &self.unit_partials {
-            total.add(p);
-        }
-        total
+        crate::math::exact_total(&self.unit_partials)
     }
 
     /// Move the per-step scratch buffers (not part of a checkpoint) from `from` into `self`.
@@ -1047,7 +1044,6 @@ pub fn add_joint_forces(
     let kp = SyncPtr(keeps_faces.as_mut_ptr());
     let rp = SyncPtr(rate.as_mut_ptr());
     let has_rate = !rate.is_empty();
-    let mut total = JointSums::default();
     let audit = audit::on().then(|| audit::Recorder::begin(faces.len()));
     let n_units = color_blocks
         .iter()
@@ -1267,10 +1263,7 @@ pub fn add_joint_forces(
                 .for_each(|(b, &f)| run_block(b, f));
         }
     }
-    for p in unit_partials.iter() {
-        total.add(p);
-    }
-    total
+    crate::math::exact_total(unit_partials)
 }
 
 #[cfg(test)]

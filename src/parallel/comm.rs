@@ -15,10 +15,13 @@ pub trait Comm: Send + Sync {
     fn rank(&self) -> usize;
     /// Number of ranks.
     fn size(&self) -> usize;
-    /// Element-wise sum over the ranks, in place. Used where each element is non-zero on at
-    /// most one rank (a unit's partial sum on its designated rank), which makes it exact in
-    /// any summation order.
+    /// Element-wise sum over the ranks, in place. Used where it is exact in any summation
+    /// order: each element non-zero on at most one rank (a unit's partial sum on its
+    /// designated rank), or integers whose sum stays below 2⁵³ (the digits of
+    /// [`crate::math::ExactSum`]).
     fn sum_f64(&self, data: &mut [f64]);
+    /// Element-wise maximum over the ranks, in place (exact in any order).
+    fn max_f64(&self, data: &mut [f64]);
     /// Every rank's bytes, indexed by rank.
     fn allgather_bytes(&self, mine: &[u8]) -> Vec<Vec<u8>>;
     /// Fill `data[ranges[r]]` on every rank from rank r's copy (`ranges` is the same on every
@@ -43,6 +46,7 @@ impl Comm for Serial {
         1
     }
     fn sum_f64(&self, _data: &mut [f64]) {}
+    fn max_f64(&self, _data: &mut [f64]) {}
     fn allgather_bytes(&self, mine: &[u8]) -> Vec<Vec<u8>> {
         vec![mine.to_vec()]
     }
@@ -118,6 +122,15 @@ impl Comm for ThreadComm {
         for bytes in &all {
             for (d, b) in data.iter_mut().zip(bytes.chunks_exact(8)) {
                 *d += f64::from_le_bytes(b.try_into().expect("8 bytes"));
+            }
+        }
+    }
+    fn max_f64(&self, data: &mut [f64]) {
+        let all = self.allgather_bytes(as_bytes(data));
+        data.fill(f64::NEG_INFINITY);
+        for bytes in &all {
+            for (d, b) in data.iter_mut().zip(bytes.chunks_exact(8)) {
+                *d = d.max(f64::from_le_bytes(b.try_into().expect("8 bytes")));
             }
         }
     }
@@ -212,6 +225,13 @@ impl Comm for MpiComm {
         let send = data.to_vec();
         self.world
             .all_reduce_into(&send[..], data, SystemOperation::sum());
+    }
+    fn max_f64(&self, data: &mut [f64]) {
+        use mpi::collective::SystemOperation;
+        use mpi::traits::CommunicatorCollectives;
+        let send = data.to_vec();
+        self.world
+            .all_reduce_into(&send[..], data, SystemOperation::max());
     }
     fn allgather_bytes(&self, mine: &[u8]) -> Vec<Vec<u8>> {
         use mpi::datatype::PartitionMut;

@@ -19,12 +19,14 @@
 //! in stage 1, block schedule and joint order in stage 2), and stages add in stage order. The
 //! owner of a node computes every work unit (a stage's chunk of elements, a block of joints)
 //! that touches one of its nodes, in full, so it adds the same contributions in the same
-//! order as one rank would. Energies and other sums come from the units' partial sums: each
+//! order as one rank would. Energies and other totals are exact sums
+//! ([`crate::math::ExactSum`], the same bits in any order) of the units' partial sums: each
 //! unit is *designated* to one of the ranks that compute it (the lowest rank owning one of
-//! its nodes), the designated partials are exchanged exactly (one rank non-zero per entry)
-//! and added in unit order, as one rank adds them. Break events are exchanged after stage 3
-//! (each joint's by its designated rank), merged in joint order, and every rank marks them
-//! broken, so the surfaces that contact detection derives from them agree.
+//! its nodes), each rank sums its designated units' partials exactly, and one sum over the
+//! ranks of those exact sums' digits (a fixed size, whatever the number of units) gives every
+//! rank the one-rank totals. Break events are exchanged after stage 3, only in a step where
+//! some joint broke (each joint's by its designated rank), merged in joint order, and every
+//! rank marks them broken, so the surfaces that contact detection derives from them agree.
 //!
 //! **Contact.** Every rank holds stage 4's whole state and list (the nodes of the pairs two
 //! ranks compute are exported, [`Parallel::follow_pairs`]; the skin test is each rank's own
@@ -36,9 +38,10 @@
 //! [`crate::contact_detection::PairExchange`] impl), so all have the same candidate pairs
 //! in the same order. A rank computes in stage 5 every pair
 //! with a node of its own ([`Parallel::contact_mask`]: a choice fixed by the pair's two
-//! tets, so its history is current wherever it is computed), and the designated rank of
-//! each pair sends its record (its totals, event, handover), merged in pair order
-//! ([`Parallel::merge_contact`]). Pair histories are shared at
+//! tets, so its history is current wherever it is computed). The pairs' totals are exact
+//! sums over each rank's designated pairs, summed over the ranks; the few pairs that hand a
+//! joint over, start touching or see their friction law fail send a record, merged in pair
+//! order ([`Parallel::merge_contact`]). Pair histories are shared at
 //! [`Parallel::share_contact_histories`].
 //!
 //! **Rebars and rigid bodies.** Every rank computes every bar, hinge and bond point (few
@@ -48,8 +51,8 @@
 //! advances every rigid body alike, after the nodes' sums.
 //!
 //! **What this is not yet.** The model is replicated: memory per rank does not shrink.
-//! Contact detection's search is shared but its bookkeeping is whole on every rank, and the
-//! pairs' records are gathered by every rank (docs/cluster.md lists the next steps).
+//! Contact detection's search is shared but its bookkeeping and its pair list are whole on
+//! every rank (docs/cluster.md lists the next steps).
 
 pub mod comm;
 
@@ -74,7 +77,7 @@ fn halo_checked() -> bool {
 use crate::fracture::{BreakEvent, JointMask};
 use crate::integration::IntegrationSums;
 use crate::joints::{JointSums, Joints};
-use crate::math::{Real, Vec3};
+use crate::math::{Partial, Real, Vec3};
 use crate::state::{Body, Layout, Tets};
 pub use comm::{Comm, Serial, ThreadComm};
 use std::ops::Range;
@@ -935,46 +938,52 @@ impl Parallel {
         )
     }
 
-    /// Replace every unit's partial sums with the designated rank's, on every rank.
-    pub fn exchange_partials<P: Partial>(&mut self, partials: &mut [P], units: Units) {
+    /// The stage's totals over every rank's designated units: each rank's exact sums of
+    /// its units' partials ([`crate::math::ExactSum`]), summed over the ranks (a fixed
+    /// `P::LEN` × 69 numbers per rank, whatever the number of units), rounded once: the bits
+    /// of [`crate::math::exact_total`] over all units on one process.
+    pub fn exchange_partials<P: Partial>(&mut self, partials: &[P], units: Units) -> P {
         let designated = match units {
             Units::Elements => &self.elements.designated,
             Units::JointBlocks => &self.joint_blocks.designated,
         };
         let t = std::time::Instant::now();
-        Self::exchange(&*self.comm, &mut self.buffer, partials, |i| designated[i]);
+        let total = Self::exchange(&*self.comm, &mut self.buffer, partials, |i| designated[i]);
         self.seconds += t.elapsed().as_secs_f64();
         self.bytes += (self.buffer.len() * 8 * (self.comm.size() - 1)) as u64;
+        total
     }
 
     fn exchange<P: Partial>(
         comm: &dyn Comm,
         buf: &mut Vec<f64>,
-        partials: &mut [P],
+        partials: &[P],
         designated: impl Fn(usize) -> bool,
-    ) {
+    ) -> P {
+        use crate::math::exact_sum::{exact_fields, read_rounded, MAX_FIELDS};
+        use crate::math::ExactSum;
+        let mine = exact_fields(partials, designated);
         buf.clear();
-        // −0, the additive identity: the designated rank's value comes through exactly,
-        // a −0 included.
-        buf.resize(partials.len() * P::LEN, -0.0);
-        for (i, p) in partials.iter().enumerate() {
-            if designated(i) {
-                p.write(&mut buf[i * P::LEN..(i + 1) * P::LEN]);
-            }
+        buf.resize(P::LEN * ExactSum::LEN, 0.0);
+        for (s, out) in mine.iter().zip(buf.chunks_exact_mut(ExactSum::LEN)) {
+            s.digits(out);
         }
         comm.sum_f64(buf);
-        for (i, p) in partials.iter_mut().enumerate() {
-            *p = P::read(&buf[i * P::LEN..(i + 1) * P::LEN]);
+        let mut all: [ExactSum; MAX_FIELDS] = Default::default();
+        for (s, digits) in all.iter_mut().zip(buf.chunks_exact(ExactSum::LEN)) {
+            *s = ExactSum::from_digits(digits);
         }
+        read_rounded(&all)
     }
 
-    /// The integration chunks' partials: each chunk is one rank's.
-    pub fn exchange_chunk_partials(&mut self, partials: &mut [IntegrationSums]) {
+    /// The integration chunks' totals: each chunk is one rank's ([`Parallel::exchange_partials`]).
+    pub fn exchange_chunk_partials(&mut self, partials: &[IntegrationSums]) -> IntegrationSums {
         let p = &self.partition;
         let t = std::time::Instant::now();
-        Self::exchange(&*self.comm, &mut self.buffer, partials, |c| p.owns_chunk(c));
+        let total = Self::exchange(&*self.comm, &mut self.buffer, partials, |c| p.owns_chunk(c));
         self.seconds += t.elapsed().as_secs_f64();
         self.bytes += (self.buffer.len() * 8 * (self.comm.size() - 1)) as u64;
+        total
     }
 
     /// Stage 7: each rigid body's resultant force and torque (from
@@ -1007,27 +1016,41 @@ impl Parallel {
 
     /// Merge this step's break events (from `first` on in `events`): each rank contributes
     /// those of its designated joints; every rank ends with all of them in joint order and
-    /// marks the joints broken.
+    /// marks the joints broken. One sum of the ranks' event counts and `released` energies
+    /// (exact sums of their designated joints'), then, only in a step where some rank broke
+    /// a joint, the events to all. Returns the energy released on every rank [J].
     pub fn merge_break_events(
         &mut self,
         events: &mut Vec<BreakEvent>,
         first: usize,
         joints: &mut Joints,
-    ) {
+        released: &crate::math::ExactSum,
+    ) -> Real {
+        use crate::math::ExactSum;
         let t = std::time::Instant::now();
         let mine: Vec<BreakEvent> = events[first..]
             .iter()
             .filter(|e| self.joints.designated[e.joint])
             .cloned()
             .collect();
-        let mut all = self.gather_items(&mine, "break events");
-        all.sort_by_key(|e| e.joint);
-        for e in &all {
-            joints.broken[e.joint] = true;
-        }
+        self.buffer.clear();
+        self.buffer.resize(ExactSum::LEN + 1, 0.0);
+        released.digits(&mut self.buffer[..ExactSum::LEN]);
+        self.buffer[ExactSum::LEN] = mine.len() as f64;
+        self.comm.sum_f64(&mut self.buffer);
+        self.bytes += (self.buffer.len() * 8 * (self.comm.size() - 1)) as u64;
+        let released = ExactSum::from_digits(&self.buffer[..ExactSum::LEN]).value();
         events.truncate(first);
-        events.extend(all);
+        if self.buffer[ExactSum::LEN] > 0.0 {
+            let mut all = self.gather_items(&mine, "break events");
+            all.sort_by_key(|e| e.joint);
+            for e in &all {
+                joints.broken[e.joint] = true;
+            }
+            events.extend(all);
+        }
         self.seconds += t.elapsed().as_secs_f64();
+        released
     }
 
     /// Every rank's `mine` to every rank, in rank order (a collective; `what` names the
@@ -1068,6 +1091,13 @@ impl Parallel {
     /// for a quantity that is not a unit partial).
     pub fn sum_in_rank_order(&mut self, value: Real) -> Real {
         self.values_of_ranks(value).iter().sum()
+    }
+
+    /// Sum [`crate::math::ExactSum::digits`] arrays over the ranks, in place (a collective;
+    /// exact in any order).
+    pub fn sum_exact_digits(&mut self, digits: &mut [f64]) {
+        self.comm.sum_f64(digits);
+        self.bytes += (digits.len() * 8 * (self.comm.size() - 1)) as u64;
     }
 
     /// The largest of one value per rank (the same on every rank).
@@ -1285,23 +1315,40 @@ impl Parallel {
         }
     }
 
-    /// Close stage 5 of a step on every rank: each rank's records of its designated pairs
-    /// (a chunk of pairs all designated to it as one record of their sums,
-    /// [`crate::contact_interaction::ContactInteraction::records_to_send`]) to all, merged
-    /// in pair order, give the totals, contact events and handed-over joints one rank gets.
+    /// Close stage 5 of a step on every rank: the ranks' tallies of their designated pairs
+    /// (exact sums, [`crate::contact_interaction::ContactTally`]) summed and their maxima
+    /// taken, a fixed 2.8 kB per rank whatever the model's size; then, only in a step where
+    /// some pair handed a joint over, started touching or had its friction law fail, those
+    /// pairs' records to all, merged in pair order. Every rank gets what one rank gets.
     pub fn merge_contact(
         &mut self,
         ci: &mut crate::contact_interaction::ContactInteraction,
         time: Real,
     ) -> crate::contact_interaction::ContactSums {
-        use crate::contact_interaction::PairRecord;
+        use crate::contact_interaction::{ContactTally, PairRecord};
         let t = std::time::Instant::now();
         let mine: Vec<PairRecord> = ci.records_to_send();
-        let mut all = self.gather_items(&mine, "contact records");
-        // (Stable: a chunk's sums come before its pairs' events, from the same rank.)
-        all.sort_by_key(|r| r.pair);
+        let tally = ci.rank_tally();
+        let n = ContactTally::SUM_LEN;
+        self.buffer.clear();
+        self.buffer.resize(n + 1, 0.0);
+        tally.write_sums(&mut self.buffer[..n]);
+        self.buffer[n] = mine.len() as f64;
+        self.comm.sum_f64(&mut self.buffer);
+        let mut maxima = tally.maxima();
+        self.comm.max_f64(&mut maxima);
+        self.bytes += ((n + 1 + maxima.len()) * 8 * (self.comm.size() - 1)) as u64;
+        let all = if self.buffer[n] > 0.0 {
+            let mut all = self.gather_items(&mine, "contact records");
+            all.sort_by_key(|r| r.pair);
+            all
+        } else {
+            Vec::new()
+        };
+        let law_failure = all.iter().find_map(|r| r.law_failure.map(|f| (r.pair, f)));
+        let tally = ContactTally::read_sums(&self.buffer[..n], maxima, law_failure);
         self.seconds += t.elapsed().as_secs_f64();
-        ci.apply_records(&all, time)
+        ci.apply_records(&tally, &all, time)
     }
 
     /// Give every rank every candidate pair's history from its designated rank (a rank
@@ -1380,13 +1427,6 @@ impl Parallel {
         }
         self.seconds += t.elapsed().as_secs_f64();
     }
-}
-
-/// A stage's per-unit sums as a fixed number of f64 (counts are exact in f64 below 2⁵³).
-pub trait Partial {
-    const LEN: usize;
-    fn write(&self, out: &mut [f64]);
-    fn read(from: &[f64]) -> Self;
 }
 
 impl Partial for crate::elements::ElementSums {

@@ -492,9 +492,9 @@ impl Simulation {
     }
 
     /// The contact force on body `body`'s nodes in the last step [N]. On a decomposed model
-    /// (a collective) each rank sends its share of the sum (one number per chunk of pairs
-    /// designated to it, one per pair where a chunk is shared) instead of every pair's
-    /// history; the same bits as one process.
+    /// (a collective) the ranks add their exact sums over the pairs designated to them
+    /// (3 × 69 numbers each) instead of sharing every pair's history; the same bits as one
+    /// process.
     pub fn contact_force_on(&mut self, body: usize) -> Vec3 {
         let range = self.bodies[body].nodes.clone();
         let step = self.step;
@@ -505,10 +505,11 @@ impl Simulation {
                 if par.partition.is_split() && par.contact_shared_at != Some(step) && masked =>
             {
                 let t = std::time::Instant::now();
-                let mine = self.contact.force_share(range);
-                let all = par.gather_items(&mine, "contact force shares");
+                let mut digits = vec![0.0; 3 * crate::math::ExactSum::LEN];
+                self.contact.force_share(range, &mut digits);
+                par.sum_exact_digits(&mut digits);
                 par.seconds += t.elapsed().as_secs_f64();
-                contact_interaction::ContactInteraction::force_from_shares(all)
+                contact_interaction::ContactInteraction::force_from_shares(&digits)
             }
             _ => self.contact.force_on(range),
         }
@@ -1135,11 +1136,10 @@ impl Simulation {
             )
         });
         if let Some(par) = &mut self.parallel {
-            par.exchange_partials(
-                &mut self.elements_ws.unit_partials,
+            el = par.exchange_partials(
+                &self.elements_ws.unit_partials,
                 crate::parallel::Units::Elements,
             );
-            el = self.elements_ws.total();
         }
         // An element inverted by the last step's motion stops the run here, before the
         // other stages act on it (a neo-Hookean stress is NaN there, and would make the
@@ -1169,11 +1169,10 @@ impl Simulation {
             )
         });
         if let Some(par) = &mut self.parallel {
-            par.exchange_partials(
-                &mut self.joints.unit_partials,
+            js = par.exchange_partials(
+                &self.joints.unit_partials,
                 crate::parallel::Units::JointBlocks,
             );
-            js = self.joints.total();
         }
         if crate::joints::audit::on() {
             crate::joints::audit::close_step(&self.joints.faces, &self.nodes.x, time);
@@ -1211,7 +1210,7 @@ impl Simulation {
     fn fracture_stage(&mut self, newly_failed: usize) {
         let (time, step) = (self.time, self.step);
         let events_before = self.break_events.len();
-        let mut released = timed(&mut self.timers, Stage::Fracture, || {
+        let released = timed(&mut self.timers, Stage::Fracture, || {
             crate::fracture::break_joints(
                 &mut self.joints,
                 &self.nodes.x,
@@ -1224,10 +1223,15 @@ impl Simulation {
                 self.parallel.as_ref().map(|p| &p.joints),
             )
         });
-        if let Some(par) = &mut self.parallel {
-            par.merge_break_events(&mut self.break_events, events_before, &mut self.joints);
-            released = par.sum_in_rank_order(released);
-        }
+        let released = match &mut self.parallel {
+            Some(par) => par.merge_break_events(
+                &mut self.break_events,
+                events_before,
+                &mut self.joints,
+                &released,
+            ),
+            None => released.value(),
+        };
         self.accumulated.fracture += released;
     }
 
@@ -1251,8 +1255,7 @@ impl Simulation {
         });
         self.nodes.body = node_body;
         if let Some(par) = &mut self.parallel {
-            par.exchange_chunk_partials(&mut self.integration_partials);
-            is = IntegrationSums::total(&self.integration_partials);
+            is = par.exchange_chunk_partials(&self.integration_partials);
             // The rank owning a rigid body's nodes has all their forces.
             par.share_rigid_loads(&mut self.rigid);
         }
