@@ -230,6 +230,21 @@ pub fn must_detect(
         || surface_moved(cd, x, ranks)
 }
 
+/// One rank's part of the skin test: some surface node that passes `owned` moved more than
+/// skin/2 since the last detection. False when the detection's record does not fit the
+/// nodes (then [`must_detect`] answers without the test). A decomposed step answers it for
+/// all ranks at its first meeting, before stage 4 asks (`crate::parallel`).
+pub fn surface_moved_here(
+    cd: &ContactDetection,
+    x: &[Vec3],
+    owned: impl Fn(u32) -> bool + Sync,
+) -> bool {
+    if cd.detector.stale || cd.detector.x_at_detection.len() != x.len() {
+        return false;
+    }
+    cd.detector.moved_beyond_skin(x, &cd.surface_nodes, owned)
+}
+
 /// Some surface node moved more than skin/2 since the last detection (on every rank alike:
 /// see [`must_detect`]).
 fn surface_moved(

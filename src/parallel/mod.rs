@@ -24,7 +24,10 @@
 //! unit is *designated* to one of the ranks that compute it (the lowest rank owning one of
 //! its nodes), each rank sums its designated units' partials exactly, and one sum over the
 //! ranks of those exact sums' digits (a fixed size, whatever the number of units) gives every
-//! rank the one-rank totals. Break events are exchanged after stage 3, only in a step where
+//! rank the one-rank totals, at one of the step's two meetings: after stage 3 (stages 1
+//! and 2, the break-event count, stage 4's skin test; [`Parallel::close_joint_stages`]) and
+//! after stage 7 (stages 5 and 7; [`Parallel::close_contact_and_integration`]), before the
+//! halo. Break events are exchanged after stage 3, only in a step where
 //! some joint broke (each joint's by its designated rank), merged in joint order, and every
 //! rank marks them broken, so the surfaces that contact detection derives from them agree.
 //!
@@ -539,6 +542,10 @@ pub struct Parallel {
     pub rank_seconds: Vec<RankSeconds>,
     /// This rank's stage seconds when [`Parallel::imbalance_since_last_check`] last ran.
     stage_seconds_at_check: f64,
+    /// This step's answer to stage 4's skin test (some rank's surface node moved more than
+    /// skin/2), settled at the meeting after stage 3 ([`Parallel::close_joint_stages`]);
+    /// None outside a step.
+    skin_moved: Option<bool>,
 }
 
 /// One rank's wall time: per stage (in [`crate::pipeline::Stage::ALL`] order) and in
@@ -673,13 +680,6 @@ impl Readers {
     }
 }
 
-/// Which stage's units a partial-sum exchange is about.
-#[derive(Clone, Copy, Debug)]
-pub enum Units {
-    Elements,
-    JointBlocks,
-}
-
 impl Parallel {
     /// A rank not split yet ([`Parallel::split`] does it once the model is complete).
     pub fn pending(comm: Arc<dyn Comm>) -> Self {
@@ -705,6 +705,7 @@ impl Parallel {
             contact_shared_at: None,
             rank_seconds: Vec::new(),
             stage_seconds_at_check: 0.0,
+            skin_moved: None,
         }
     }
 
@@ -938,54 +939,6 @@ impl Parallel {
         )
     }
 
-    /// The stage's totals over every rank's designated units: each rank's exact sums of
-    /// its units' partials ([`crate::math::ExactSum`]), summed over the ranks (a fixed
-    /// `P::LEN` × 69 numbers per rank, whatever the number of units), rounded once: the bits
-    /// of [`crate::math::exact_total`] over all units on one process.
-    pub fn exchange_partials<P: Partial>(&mut self, partials: &[P], units: Units) -> P {
-        let designated = match units {
-            Units::Elements => &self.elements.designated,
-            Units::JointBlocks => &self.joint_blocks.designated,
-        };
-        let t = std::time::Instant::now();
-        let total = Self::exchange(&*self.comm, &mut self.buffer, partials, |i| designated[i]);
-        self.seconds += t.elapsed().as_secs_f64();
-        self.bytes += (self.buffer.len() * 8 * (self.comm.size() - 1)) as u64;
-        total
-    }
-
-    fn exchange<P: Partial>(
-        comm: &dyn Comm,
-        buf: &mut Vec<f64>,
-        partials: &[P],
-        designated: impl Fn(usize) -> bool,
-    ) -> P {
-        use crate::math::exact_sum::{exact_fields, read_rounded, MAX_FIELDS};
-        use crate::math::ExactSum;
-        let mine = exact_fields(partials, designated);
-        buf.clear();
-        buf.resize(P::LEN * ExactSum::LEN, 0.0);
-        for (s, out) in mine.iter().zip(buf.chunks_exact_mut(ExactSum::LEN)) {
-            s.digits(out);
-        }
-        comm.sum_f64(buf);
-        let mut all: [ExactSum; MAX_FIELDS] = Default::default();
-        for (s, digits) in all.iter_mut().zip(buf.chunks_exact(ExactSum::LEN)) {
-            *s = ExactSum::from_digits(digits);
-        }
-        read_rounded(&all)
-    }
-
-    /// The integration chunks' totals: each chunk is one rank's ([`Parallel::exchange_partials`]).
-    pub fn exchange_chunk_partials(&mut self, partials: &[IntegrationSums]) -> IntegrationSums {
-        let p = &self.partition;
-        let t = std::time::Instant::now();
-        let total = Self::exchange(&*self.comm, &mut self.buffer, partials, |c| p.owns_chunk(c));
-        self.seconds += t.elapsed().as_secs_f64();
-        self.bytes += (self.buffer.len() * 8 * (self.comm.size() - 1)) as u64;
-        total
-    }
-
     /// Stage 7: each rigid body's resultant force and torque (from
     /// `integration::rigid::gather_loads`) from the rank owning its nodes, which alone has
     /// all their forces (a partition never splits a rigid body), to every rank; every rank
@@ -1014,34 +967,65 @@ impl Parallel {
         self.seconds += t.elapsed().as_secs_f64();
     }
 
-    /// Merge this step's break events (from `first` on in `events`): each rank contributes
-    /// those of its designated joints; every rank ends with all of them in joint order and
-    /// marks the joints broken. One sum of the ranks' event counts and `released` energies
-    /// (exact sums of their designated joints'), then, only in a step where some rank broke
-    /// a joint, the events to all. Returns the energy released on every rank [J].
-    pub fn merge_break_events(
+    /// The step's first meeting, after stage 3 (stage 4 needs every rank's break events):
+    /// one sum over the ranks of the exact sums of stages 1 and 2 (their designated units'
+    /// partials, `elements` and the joints'), of the energy a fracture criterion released (`released`, the designated
+    /// joints'), of the ranks' break-event counts and of their skin tests
+    /// (`surface_moved_here`: a surface node of this rank moved beyond skin/2); then, only in
+    /// a step where some joint broke, the events to all, merged in joint order (every rank
+    /// marks the joints broken). Stage 1's totals wait for this meeting instead of having
+    /// their own, so a rank slower in stage 1 and another slower in stage 2 wait once for
+    /// the difference of their sums, not twice. Returns the totals and the released energy
+    /// [J] as one process gets them.
+    #[allow(clippy::too_many_arguments)]
+    pub fn close_joint_stages(
         &mut self,
+        elements: &[crate::elements::ElementSums],
+        released: &crate::math::ExactSum,
         events: &mut Vec<BreakEvent>,
         first: usize,
         joints: &mut Joints,
-        released: &crate::math::ExactSum,
-    ) -> Real {
+        surface_moved_here: bool,
+    ) -> (crate::elements::ElementSums, JointSums, Real) {
+        use crate::math::exact_sum::exact_fields;
         use crate::math::ExactSum;
+        type El = crate::elements::ElementSums;
         let t = std::time::Instant::now();
         let mine: Vec<BreakEvent> = events[first..]
             .iter()
             .filter(|e| self.joints.designated[e.joint])
             .cloned()
             .collect();
+        let (ne, nj) = (El::LEN * ExactSum::LEN, JointSums::LEN * ExactSum::LEN);
+        let counts = ne + nj + ExactSum::LEN;
         self.buffer.clear();
-        self.buffer.resize(ExactSum::LEN + 1, 0.0);
-        released.digits(&mut self.buffer[..ExactSum::LEN]);
-        self.buffer[ExactSum::LEN] = mine.len() as f64;
+        self.buffer.resize(counts + 2, 0.0);
+        {
+            let (e_part, rest) = self.buffer.split_at_mut(ne);
+            let (j_part, rest) = rest.split_at_mut(nj);
+            let el_designated = &self.elements.designated;
+            let sums = exact_fields(elements, |i| el_designated[i]);
+            for (s, out) in sums.iter().zip(e_part.chunks_exact_mut(ExactSum::LEN)) {
+                s.digits(out);
+            }
+            let jb_designated = &self.joint_blocks.designated;
+            let sums = exact_fields(&joints.unit_partials, |i| jb_designated[i]);
+            for (s, out) in sums.iter().zip(j_part.chunks_exact_mut(ExactSum::LEN)) {
+                s.digits(out);
+            }
+            released.digits(&mut rest[..ExactSum::LEN]);
+            rest[ExactSum::LEN] = mine.len() as f64;
+            rest[ExactSum::LEN + 1] = f64::from(u8::from(surface_moved_here));
+        }
         self.comm.sum_f64(&mut self.buffer);
         self.bytes += (self.buffer.len() * 8 * (self.comm.size() - 1)) as u64;
-        let released = ExactSum::from_digits(&self.buffer[..ExactSum::LEN]).value();
+        let el: El = read_exact(&self.buffer[..ne]);
+        let js: JointSums = read_exact(&self.buffer[ne..ne + nj]);
+        let released = ExactSum::from_digits(&self.buffer[ne + nj..counts]).value();
+        let n_events = self.buffer[counts];
+        self.skin_moved = Some(self.buffer[counts + 1] > 0.0);
         events.truncate(first);
-        if self.buffer[ExactSum::LEN] > 0.0 {
+        if n_events > 0.0 {
             let mut all = self.gather_items(&mine, "break events");
             all.sort_by_key(|e| e.joint);
             for e in &all {
@@ -1050,7 +1034,7 @@ impl Parallel {
             events.extend(all);
         }
         self.seconds += t.elapsed().as_secs_f64();
-        released
+        (el, js, released)
     }
 
     /// Every rank's `mine` to every rank, in rank order (a collective; `what` names the
@@ -1265,7 +1249,11 @@ impl crate::contact_detection::PairExchange for Parallel {
     }
 
     fn any_rank(&mut self, mine: bool) -> bool {
-        self.largest_over_ranks(if mine { 1.0 } else { 0.0 }) > 0.0
+        // Settled at the step's first meeting when the skin test is asked within a step.
+        match self.skin_moved {
+            Some(any) => any,
+            None => self.largest_over_ranks(if mine { 1.0 } else { 0.0 }) > 0.0,
+        }
     }
 
     fn owned_chunks(&self) -> (&[bool], usize) {
@@ -1315,40 +1303,80 @@ impl Parallel {
         }
     }
 
-    /// Close stage 5 of a step on every rank: the ranks' tallies of their designated pairs
-    /// (exact sums, [`crate::contact_interaction::ContactTally`]) summed and their maxima
-    /// taken, a fixed 2.8 kB per rank whatever the model's size; then, only in a step where
-    /// some pair handed a joint over, started touching or had its friction law fail, those
-    /// pairs' records to all, merged in pair order. Every rank gets what one rank gets.
-    pub fn merge_contact(
+    /// The step's second meeting, after stage 7's nodes (the halo follows): one sum over the
+    /// ranks of the exact sums of stage 7's chunks (each one rank's) and of stage 5's tally
+    /// of the pairs designated to each rank ([`crate::contact_interaction::ContactTally`],
+    /// when `contact`), with the count of their records; the largest of stage 5's maxima;
+    /// then, only in a step where some pair handed a joint over, started touching or saw its
+    /// friction law fail, those records to all, merged in pair order. Stage 5's totals wait
+    /// for this meeting instead of having their own. Every rank gets what one rank gets.
+    pub fn close_contact_and_integration(
         &mut self,
+        chunks: &[IntegrationSums],
         ci: &mut crate::contact_interaction::ContactInteraction,
+        contact: bool,
         time: Real,
-    ) -> crate::contact_interaction::ContactSums {
-        use crate::contact_interaction::{ContactTally, PairRecord};
+    ) -> (IntegrationSums, crate::contact_interaction::ContactSums) {
+        use crate::contact_interaction::{ContactSums, ContactTally, PairRecord};
+        use crate::math::exact_sum::exact_fields;
+        use crate::math::ExactSum;
         let t = std::time::Instant::now();
-        let mine: Vec<PairRecord> = ci.records_to_send();
-        let tally = ci.rank_tally();
-        let n = ContactTally::SUM_LEN;
+        let ni = IntegrationSums::LEN * ExactSum::LEN;
+        let nc = if contact {
+            ContactTally::SUM_LEN + 1
+        } else {
+            0
+        };
         self.buffer.clear();
-        self.buffer.resize(n + 1, 0.0);
-        tally.write_sums(&mut self.buffer[..n]);
-        self.buffer[n] = mine.len() as f64;
-        self.comm.sum_f64(&mut self.buffer);
-        let mut maxima = tally.maxima();
-        self.comm.max_f64(&mut maxima);
-        self.bytes += ((n + 1 + maxima.len()) * 8 * (self.comm.size() - 1)) as u64;
-        let all = if self.buffer[n] > 0.0 {
-            let mut all = self.gather_items(&mine, "contact records");
-            all.sort_by_key(|r| r.pair);
-            all
+        self.buffer.resize(ni + nc, 0.0);
+        let p = &self.partition;
+        let sums = exact_fields(chunks, |c| p.owns_chunk(c));
+        for (s, out) in sums
+            .iter()
+            .zip(self.buffer[..ni].chunks_exact_mut(ExactSum::LEN))
+        {
+            s.digits(out);
+        }
+        let mine: Vec<PairRecord> = if contact {
+            ci.records_to_send()
         } else {
             Vec::new()
         };
-        let law_failure = all.iter().find_map(|r| r.law_failure.map(|f| (r.pair, f)));
-        let tally = ContactTally::read_sums(&self.buffer[..n], maxima, law_failure);
+        if contact {
+            ci.rank_tally()
+                .write_sums(&mut self.buffer[ni..ni + ContactTally::SUM_LEN]);
+            self.buffer[ni + ContactTally::SUM_LEN] = mine.len() as f64;
+        }
+        self.comm.sum_f64(&mut self.buffer);
+        self.bytes += (self.buffer.len() * 8 * (self.comm.size() - 1)) as u64;
+        let is: IntegrationSums = read_exact(&self.buffer[..ni]);
+        let mut cs = ContactSums::default();
+        if contact {
+            let mut maxima = ci.rank_tally().maxima();
+            self.comm.max_f64(&mut maxima);
+            self.bytes += (maxima.len() * 8 * (self.comm.size() - 1)) as u64;
+            let all = if self.buffer[ni + ContactTally::SUM_LEN] > 0.0 {
+                let mut all = self.gather_items(&mine, "contact records");
+                all.sort_by_key(|r| r.pair);
+                all
+            } else {
+                Vec::new()
+            };
+            let law_failure = all.iter().find_map(|r| r.law_failure.map(|f| (r.pair, f)));
+            let tally = ContactTally::read_sums(
+                &self.buffer[ni..ni + ContactTally::SUM_LEN],
+                maxima,
+                law_failure,
+            );
+            cs = ci.apply_records(&tally, &all, time);
+        }
         self.seconds += t.elapsed().as_secs_f64();
-        ci.apply_records(&tally, &all, time)
+        (is, cs)
+    }
+
+    /// The skin test's answer settled at this step's first meeting (consumed).
+    pub fn take_skin_moved(&mut self) -> Option<bool> {
+        self.skin_moved.take()
     }
 
     /// Give every rank every candidate pair's history from its designated rank (a rank
@@ -1427,6 +1455,17 @@ impl Parallel {
         }
         self.seconds += t.elapsed().as_secs_f64();
     }
+}
+
+/// A [`Partial`] from the summed digits of its fields' exact sums.
+fn read_exact<P: Partial>(digits: &[f64]) -> P {
+    use crate::math::exact_sum::{read_rounded, MAX_FIELDS};
+    use crate::math::ExactSum;
+    let mut all: [ExactSum; MAX_FIELDS] = Default::default();
+    for (s, d) in all.iter_mut().zip(digits.chunks_exact(ExactSum::LEN)) {
+        *s = ExactSum::from_digits(d);
+    }
+    read_rounded(&all)
 }
 
 impl Partial for crate::elements::ElementSums {

@@ -1125,6 +1125,9 @@ impl Simulation {
             || crate::joints::audit::on();
         self.sample_next = false;
         let (dt, time) = (self.dt, self.time);
+        // On a decomposed model the ranks meet twice a step: after stage 3 (stages 1–3's
+        // totals, break events, the skin test) and after stage 7 (stages 5 and 7's totals,
+        // then the halo). A stage's totals are read only after its meeting.
         let mut el = timed(&mut self.timers, Stage::Elements, || {
             elements::add_internal_forces(
                 &mut self.nodes,
@@ -1135,18 +1138,6 @@ impl Simulation {
                 sample,
             )
         });
-        if let Some(par) = &mut self.parallel {
-            el = par.exchange_partials(
-                &self.elements_ws.unit_partials,
-                crate::parallel::Units::Elements,
-            );
-        }
-        // An element inverted by the last step's motion stops the run here, before the
-        // other stages act on it (a neo-Hookean stress is NaN there, and would make the
-        // nodes non-finite, hiding the cause).
-        if el.inverted > 0 {
-            return Err(self.unstable(el.inverted));
-        }
         let bs = timed(&mut self.timers, Stage::Elements, || {
             elements::bar2::add_bar_forces(
                 &mut self.nodes,
@@ -1168,18 +1159,23 @@ impl Simulation {
                 ),
             )
         });
-        if let Some(par) = &mut self.parallel {
-            js = par.exchange_partials(
-                &self.joints.unit_partials,
-                crate::parallel::Units::JointBlocks,
-            );
-        }
         if crate::joints::audit::on() {
             crate::joints::audit::close_step(&self.joints.faces, &self.nodes.x, time);
         }
-        self.fracture_stage(js.newly_failed);
+        // (This rank's count on a decomposed model: it scans the joints it computes.)
+        (el, js) = self.fracture_stage(el, js);
+        // An element inverted by the last step's motion stops the run here, before stages
+        // 4–7 act on it (a neo-Hookean stress is NaN there, and would make the nodes
+        // non-finite, hiding the cause). Stages 2 and 3 do not read stage 1's forces.
+        if el.inverted > 0 {
+            return Err(self.unstable(el.inverted));
+        }
         if self.contact.is_enabled() {
-            self.contact_stages()?; // 4. contact detection, 5. contact interaction
+            self.contact_stages(); // 4. contact detection, 5. contact interaction
+        }
+        if let Some(par) = &mut self.parallel {
+            // This step's skin test is answered; a test outside a step asks again.
+            par.take_skin_moved();
         }
         timed(&mut self.timers, Stage::ExternalLoads, || {
             loads::add_external_forces(&mut self.loads, &mut self.nodes, time, self.dt_prev, dt)
@@ -1199,6 +1195,9 @@ impl Simulation {
             self.update_body_frame();
         }
         let is = self.integration_stage(params, body_frame);
+        if let Some(failure) = &self.contact.last.law_failure {
+            return Err(SimError::Law(self.describe_friction_failure(failure)));
+        }
         self.account(sample, &el, &js, &is, (&bs, &bond))?;
         self.dt_prev = dt;
         self.time += dt;
@@ -1206,8 +1205,14 @@ impl Simulation {
         Ok(())
     }
 
-    /// Stage 3, and on a decomposed model the merge of every rank's break events.
-    fn fracture_stage(&mut self, newly_failed: usize) {
+    /// Stage 3, and on a decomposed model the step's first meeting (stages 1–3's totals,
+    /// the break events, the skin test: [`crate::parallel::Parallel::close_joint_stages`]).
+    /// Takes this rank's stage 1 and 2 totals, returns every rank's.
+    fn fracture_stage(
+        &mut self,
+        el: elements::ElementSums,
+        js: crate::joints::JointSums,
+    ) -> (elements::ElementSums, crate::joints::JointSums) {
         let (time, step) = (self.time, self.step);
         let events_before = self.break_events.len();
         let released = timed(&mut self.timers, Stage::Fracture, || {
@@ -1217,22 +1222,34 @@ impl Simulation {
                 &self.tets.body,
                 time,
                 step,
-                newly_failed,
+                js.newly_failed,
                 self.fracture_criterion.as_mut(),
                 &mut self.break_events,
                 self.parallel.as_ref().map(|p| &p.joints),
             )
         });
-        let released = match &mut self.parallel {
-            Some(par) => par.merge_break_events(
-                &mut self.break_events,
-                events_before,
-                &mut self.joints,
-                &released,
-            ),
-            None => released.value(),
+        let Some(par) = &mut self.parallel else {
+            self.accumulated.fracture += released.value();
+            return (el, js);
         };
+        // Stage 4's skin test for this rank's nodes, answered at the meeting (the nodes do
+        // not move before stage 7).
+        let moved_here = self.contact.is_enabled() && {
+            let (owned, chunk) = (&par.owned_chunks[..], crate::integration::CHUNK);
+            contact_detection::surface_moved_here(&self.contact_detection, &self.nodes.x, |n| {
+                owned[n as usize / chunk]
+            })
+        };
+        let (el, js, released) = par.close_joint_stages(
+            &self.elements_ws.unit_partials,
+            &released,
+            &mut self.break_events,
+            events_before,
+            &mut self.joints,
+            moved_here,
+        );
         self.accumulated.fracture += released;
+        (el, js)
     }
 
     /// Stage 7 (and the rigid bodies'); on a decomposed model, the exchange of the chunks'
@@ -1254,10 +1271,20 @@ impl Simulation {
             is
         });
         self.nodes.body = node_body;
+        let contact = self.contact.is_enabled();
         if let Some(par) = &mut self.parallel {
-            is = par.exchange_chunk_partials(&self.integration_partials);
+            let (sums, cs) = par.close_contact_and_integration(
+                &self.integration_partials,
+                &mut self.contact,
+                contact,
+                time,
+            );
+            is = sums;
             // The rank owning a rigid body's nodes has all their forces.
             par.share_rigid_loads(&mut self.rigid);
+            if contact {
+                self.close_contact_step(&cs);
+            }
         }
         // Every rank advances every rigid body, after the nodes' sums: the same bits.
         timed(&mut self.timers, Stage::Integration, || {
@@ -1337,7 +1364,7 @@ impl Simulation {
     /// Stages 4 and 5: stage 4 refreshes the candidate pairs and hands stage 5 the remap of
     /// its pair history; stage 5 adds the contact forces, and the joints whose faces contact
     /// took over stop acting. A friction law's invalid result stops the run.
-    fn contact_stages(&mut self) -> Result<(), SimError> {
+    fn contact_stages(&mut self) {
         self.contact_detection.joints_broke(self.break_events.len());
         // On a decomposed model: whether stage 4 detects this step (None: not asked). The
         // answer is the same on every rank (each tests its own nodes; combined).
@@ -1389,7 +1416,7 @@ impl Simulation {
         if let Some(par) = &self.parallel {
             self.timers.seconds[Stage::ContactDetection as usize] -= par.seconds - exchange_before;
         }
-        let mut cs = timed(&mut self.timers, Stage::ContactInteraction, || {
+        let cs = timed(&mut self.timers, Stage::ContactInteraction, || {
             contact_interaction::add_contact_forces(
                 &mut self.contact,
                 &self.contact_detection,
@@ -1400,17 +1427,19 @@ impl Simulation {
                 self.time,
             )
         });
-        if let Some(par) = &mut self.parallel {
-            // Timed as exchange, like the other stages' merges.
-            cs = par.merge_contact(&mut self.contact, self.time);
+        if self.parallel.is_none() {
+            // (A decomposed model's totals come at the step's second meeting.)
+            self.close_contact_step(&cs);
         }
+    }
+
+    /// What stage 5's totals change after it: the joints contact took over, the contact
+    /// energies of the account. (A friction law's failure stops the run after stage 7,
+    /// from `contact.last`.)
+    fn close_contact_step(&mut self, cs: &contact_interaction::ContactSums) {
         self.joints.hand_over(&self.contact.handover);
         self.contact_energy = cs.energy;
         self.contact_dissipated = cs.dissipated;
-        match &cs.law_failure {
-            Some(failure) => Err(SimError::Law(self.describe_friction_failure(failure))),
-            None => Ok(()),
-        }
     }
 
     /// The energy account at t_n: path-dependent terms summed up to t_n with the trapezoidal
