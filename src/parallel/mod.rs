@@ -1084,11 +1084,16 @@ impl Parallel {
         self.bytes += (digits.len() * 8 * (self.comm.size() - 1)) as u64;
     }
 
-    /// The largest of one value per rank (the same on every rank).
+    /// The largest of one value per rank (the same on every rank): one max-reduction of a
+    /// single number (until 2026-12-07 every rank's value to every rank; it runs every
+    /// step, for the stop signal).
     pub fn largest_over_ranks(&mut self, value: Real) -> Real {
-        self.values_of_ranks(value)
-            .iter()
-            .fold(Real::NEG_INFINITY, |a, &b| a.max(b))
+        let t = std::time::Instant::now();
+        let mut v = [value];
+        self.comm.max_f64(&mut v);
+        self.bytes += (8 * (self.comm.size() - 1)) as u64;
+        self.seconds += t.elapsed().as_secs_f64();
+        v[0]
     }
 
     /// Every rank's stage times and exchange time into [`Parallel::rank_seconds`] (a
