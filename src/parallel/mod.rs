@@ -533,6 +533,10 @@ pub struct Parallel {
     pub bytes: u64,
     /// Of [`Parallel::bytes`], those received in the halo after each step.
     pub halo_bytes: u64,
+    /// Of [`Parallel::bytes`], those received when the whole model's state was shared
+    /// (every node before a full detection, for output or a whole-model query; every joint's
+    /// and pair's history for output, checkpoints and the end of a run): not every step.
+    pub whole_bytes: u64,
     /// The steps at which all nodes, and all joint histories, were last shared.
     pub nodes_shared_at: Option<u64>,
     pub joints_shared_at: Option<u64>,
@@ -700,6 +704,7 @@ impl Parallel {
             seconds: 0.0,
             bytes: 0,
             halo_bytes: 0,
+            whole_bytes: 0,
             nodes_shared_at: None,
             joints_shared_at: None,
             contact_shared_at: None,
@@ -1225,6 +1230,7 @@ impl Parallel {
         }
         let mine = p.nodes_per_rank[self.comm.rank()];
         self.bytes += (8 * PER_NODE * (nodes.len() - mine)) as u64;
+        self.whole_bytes += (8 * PER_NODE * (nodes.len() - mine)) as u64;
         self.seconds += t.elapsed().as_secs_f64();
     }
 }
@@ -1394,7 +1400,9 @@ impl Parallel {
         use crate::contact_interaction::PairState;
         let t = std::time::Instant::now();
         let mine = ci.designated_states();
+        let before = self.bytes;
         let mut all: Vec<(u32, u8, Option<PairState>)> = self.gather_items(&mine, "pair histories");
+        self.whole_bytes += self.bytes - before;
         all.sort_by_key(|s| s.0);
         assert_eq!(
             all.len(),
@@ -1441,7 +1449,10 @@ impl Parallel {
                 rate: joints.rate.get(j).copied(),
             })
             .collect();
-        for h in self.gather_items(&mine, "joint histories") {
+        let before = self.bytes;
+        let all = self.gather_items(&mine, "joint histories");
+        self.whole_bytes += self.bytes - before;
+        for h in all {
             let j = h.joint as usize;
             joints.state[j] = h.state;
             joints.anchor[j] = h.anchor;

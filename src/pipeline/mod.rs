@@ -660,12 +660,13 @@ impl Simulation {
     }
 
     /// Wall time this rank spent exchanging data with the others [s], the bytes it
-    /// received, and those of them in the halo after each step ((0, 0, 0) unless
-    /// decomposed).
-    pub fn exchanged(&self) -> (Real, u64, u64) {
-        self.parallel
-            .as_ref()
-            .map_or((0.0, 0, 0), |p| (p.seconds, p.bytes, p.halo_bytes))
+    /// received, those of them in the halo after each step, and those in sharing the whole
+    /// model's state (every node, every joint's or pair's history: before full detections,
+    /// output, checkpoints and whole-model queries; not every step). Zeros unless decomposed.
+    pub fn exchanged(&self) -> (Real, u64, u64, u64) {
+        self.parallel.as_ref().map_or((0.0, 0, 0, 0), |p| {
+            (p.seconds, p.bytes, p.halo_bytes, p.whole_bytes)
+        })
     }
 
     /// A stop signal (SIGINT, SIGTERM) as every rank of a decomposed model sees it: the

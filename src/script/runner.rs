@@ -1027,14 +1027,16 @@ fn stage_table(sim: &Simulation) -> String {
     s.push_str(&format!("   {:<20} {:>9.3}\n", "total", total));
     let (rank, ranks) = sim.rank_and_size();
     if ranks > 1 {
-        let (seconds, bytes, halo) = sim.exchanged();
+        let (seconds, bytes, halo, whole) = sim.exchanged();
         let per_step = |b: u64| sig(b as f64 / sim.step.max(1) as f64 / 1e6, 3);
         s.push_str(&format!(
-            "   {:<20} {:>9.3}            (rank {rank} of {ranks}, besides the stages; received {} MB per step, {} of them the halo)\n",
+            "   {:<20} {:>9.3}            (rank {rank} of {ranks}, besides the stages; received {} MB per step: {} the halo, {} the whole model's state for detections, output and queries, {} the rest)\n",
             "exchange",
             seconds,
             per_step(bytes),
             per_step(halo),
+            per_step(whole),
+            per_step(bytes.saturating_sub(halo + whole)),
         ));
         s.push_str(&rank_table(sim.rank_seconds()));
     }
