@@ -1194,11 +1194,6 @@ impl ContactInteraction {
         total
     }
 
-    /// This rank's records of the last step (its designated pairs), in pair order.
-    pub fn records(&self) -> impl Iterator<Item = &PairRecord> {
-        self.chunk_records.iter().flatten()
-    }
-
     /// The records this rank sends to close a decomposed step, in pair order (every rank
     /// then applies all ranks', [`ContactInteraction::apply_records`]).
     pub fn records_to_send(&self) -> Vec<PairRecord> {

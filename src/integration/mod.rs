@@ -58,18 +58,6 @@ pub struct IntegrationSums {
 }
 
 impl IntegrationSums {
-    /// Add another set of sums (a chunk's, the rigid bodies').
-    pub fn add(&mut self, s: &IntegrationSums) {
-        self.kinetic += s.kinetic;
-        self.gravity_work += s.gravity_work;
-        self.reaction_work_before += s.reaction_work_before;
-        self.reaction_work_after += s.reaction_work_after;
-        self.damping_before += s.damping_before;
-        self.damping_after += s.damping_after;
-        self.non_finite += s.non_finite;
-        self.momentum += s.momentum;
-    }
-
     /// The chunks' sums: exact sums, rounded once (the same bits for any thread or rank
     /// count, [`crate::math::ExactSum`]).
     pub fn total(partials: &[IntegrationSums]) -> IntegrationSums {

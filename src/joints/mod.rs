@@ -328,16 +328,6 @@ pub struct JointSums {
     pub parted: usize,
 }
 
-impl JointSums {
-    /// Add another block's sums.
-    pub fn add(&mut self, p: &JointSums) {
-        self.energy += p.energy;
-        self.dissipated += p.dissipated;
-        self.newly_failed += p.newly_failed;
-        self.parted += p.parted;
-    }
-}
-
 impl Joints {
     /// The joints of each work unit (at most [`UNIT`] consecutive joints of a block), in
     /// schedule order: the order of [`Joints::unit_partials`] and [`Joints::compute`]. Valid

@@ -108,11 +108,7 @@ impl ExactSum {
     /// Carry every digit into [0, 2³²) but the top one, which keeps the sign: the value
     /// is unchanged.
     fn carry(&mut self) {
-        for k in 0..DIGITS - 1 {
-            let c = self.digits[k] >> DIGIT_BITS; // floor division by 2³²
-            self.digits[k] -= c << DIGIT_BITS;
-            self.digits[k + 1] += c;
-        }
+        carry(&mut self.digits);
         self.pending = 0;
     }
 
@@ -243,9 +239,10 @@ pub fn read_rounded<P: Partial>(sums: &[ExactSum; MAX_FIELDS]) -> P {
     P::read(&values[..P::LEN])
 }
 
+/// Carry every digit but the top one into [0, 2³²); the value is unchanged.
 fn carry(d: &mut [i64; DIGITS]) {
     for k in 0..DIGITS - 1 {
-        let c = d[k] >> DIGIT_BITS;
+        let c = d[k] >> DIGIT_BITS; // floor division by 2³²
         d[k] -= c << DIGIT_BITS;
         d[k + 1] += c;
     }

@@ -44,7 +44,7 @@
 //! tets, so its history is current wherever it is computed). The pairs' totals are exact
 //! sums over each rank's designated pairs, summed over the ranks; the few pairs that hand a
 //! joint over, start touching or see their friction law fail send a record, merged in pair
-//! order ([`Parallel::merge_contact`]). Pair histories are shared at
+//! order ([`Parallel::close_contact_and_integration`]). Pair histories are shared at
 //! [`Parallel::share_contact_histories`].
 //!
 //! **Rebars and rigid bodies.** Every rank computes every bar, hinge and bond point (few
@@ -992,7 +992,6 @@ impl Parallel {
         joints: &mut Joints,
         surface_moved_here: bool,
     ) -> (crate::elements::ElementSums, JointSums, Real) {
-        use crate::math::exact_sum::exact_fields;
         use crate::math::ExactSum;
         type El = crate::elements::ElementSums;
         let t = std::time::Instant::now();
@@ -1008,16 +1007,10 @@ impl Parallel {
         {
             let (e_part, rest) = self.buffer.split_at_mut(ne);
             let (j_part, rest) = rest.split_at_mut(nj);
-            let el_designated = &self.elements.designated;
-            let sums = exact_fields(elements, |i| el_designated[i]);
-            for (s, out) in sums.iter().zip(e_part.chunks_exact_mut(ExactSum::LEN)) {
-                s.digits(out);
-            }
-            let jb_designated = &self.joint_blocks.designated;
-            let sums = exact_fields(&joints.unit_partials, |i| jb_designated[i]);
-            for (s, out) in sums.iter().zip(j_part.chunks_exact_mut(ExactSum::LEN)) {
-                s.digits(out);
-            }
+            let (el_designated, jb_designated) =
+                (&self.elements.designated, &self.joint_blocks.designated);
+            write_exact(elements, |i| el_designated[i], e_part);
+            write_exact(&joints.unit_partials, |i| jb_designated[i], j_part);
             released.digits(&mut rest[..ExactSum::LEN]);
             rest[ExactSum::LEN] = mine.len() as f64;
             rest[ExactSum::LEN + 1] = f64::from(u8::from(surface_moved_here));
@@ -1329,7 +1322,6 @@ impl Parallel {
         time: Real,
     ) -> (IntegrationSums, crate::contact_interaction::ContactSums) {
         use crate::contact_interaction::{ContactSums, ContactTally, PairRecord};
-        use crate::math::exact_sum::exact_fields;
         use crate::math::ExactSum;
         let t = std::time::Instant::now();
         let ni = IntegrationSums::LEN * ExactSum::LEN;
@@ -1341,13 +1333,7 @@ impl Parallel {
         self.buffer.clear();
         self.buffer.resize(ni + nc, 0.0);
         let p = &self.partition;
-        let sums = exact_fields(chunks, |c| p.owns_chunk(c));
-        for (s, out) in sums
-            .iter()
-            .zip(self.buffer[..ni].chunks_exact_mut(ExactSum::LEN))
-        {
-            s.digits(out);
-        }
+        write_exact(chunks, |c| p.owns_chunk(c), &mut self.buffer[..ni]);
         let mine: Vec<PairRecord> = if contact {
             ci.records_to_send()
         } else {
@@ -1470,6 +1456,18 @@ impl Parallel {
             }
         }
         self.seconds += t.elapsed().as_secs_f64();
+    }
+}
+
+/// The digits ([`crate::math::ExactSum::digits`]) of the exact sums, field by field, of the
+/// partials `include`d, into `out` (`P::LEN` × `ExactSum::LEN` values) for a sum over ranks.
+fn write_exact<P: Partial>(partials: &[P], include: impl Fn(usize) -> bool, out: &mut [f64]) {
+    let sums = crate::math::exact_sum::exact_fields(partials, include);
+    for (s, o) in sums
+        .iter()
+        .zip(out.chunks_exact_mut(crate::math::ExactSum::LEN))
+    {
+        s.digits(o);
     }
 }
 

@@ -1364,7 +1364,8 @@ impl Simulation {
 
     /// Stages 4 and 5: stage 4 refreshes the candidate pairs and hands stage 5 the remap of
     /// its pair history; stage 5 adds the contact forces, and the joints whose faces contact
-    /// took over stop acting. A friction law's invalid result stops the run.
+    /// took over stop acting (on a decomposed model after the step's second meeting). A
+    /// friction law's invalid result stops the run after stage 7 (`step`).
     fn contact_stages(&mut self) {
         self.contact_detection.joints_broke(self.break_events.len());
         // On a decomposed model: whether stage 4 detects this step (None: not asked). The
