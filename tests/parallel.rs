@@ -89,16 +89,39 @@ fn same_on_any_rank_count(build: impl Fn() -> Simulation + Sync, steps: usize) -
         let runs = ThreadComm::run(ranks, |comm| {
             let mut sim = build();
             sim.decompose(comm);
-            for _ in 0..steps {
+            for step in 0..steps {
                 sim.step().unwrap();
+                // The whole model's state shared now and then, as output does; the next
+                // step's ranks take back their own pairs.
+                if step % 97 == 40 {
+                    sim.synchronize();
+                }
             }
+            // Each rank holds only the candidate pairs it computes.
+            let cd = &sim.contact_detection;
+            let pairs = (cd.pairs.len(), cd.candidate_pairs());
             sim.synchronize();
             let (rank, size) = sim.rank_and_size();
             assert_eq!(size, ranks);
-            (rank, outcome(&sim))
+            (rank, outcome(&sim), pairs)
         });
-        for (rank, o) in runs {
+        let held: usize = runs.iter().map(|r| r.2 .0).sum();
+        let each: Vec<usize> = runs.iter().map(|r| r.2 .0).collect();
+        println!(
+            "{ranks} ranks hold {each:?} of {} pairs",
+            reference.pairs.len()
+        );
+        for (rank, o, (mine, all)) in runs {
             let place = format!("rank {rank} of {ranks}");
+            assert_eq!(
+                all,
+                reference.pairs.len(),
+                "{place}: the count of all pairs"
+            );
+            assert!(mine <= all, "{place}: holds {mine} of {all} pairs");
+            if all > 100 {
+                assert!(mine < all, "{place}: holds every pair ({all})");
+            }
             assert!(o.x == reference.x, "{place}: positions differ");
             assert!(o.v == reference.v, "{place}: velocities differ");
             assert!(
@@ -128,6 +151,7 @@ fn same_on_any_rank_count(build: impl Fn() -> Simulation + Sync, steps: usize) -
                 "{place}: joints handed over to contact differ"
             );
             assert!(o.rigid == reference.rigid, "{place}: rigid bodies differ");
+            assert!(held >= all, "{ranks} ranks hold {held} of {all} pairs");
             assert!(
                 o.rebars == reference.rebars,
                 "{place}: bars or bond points differ"
@@ -380,6 +404,56 @@ fn a_bar_thrown_on_a_slab_breaks_identically_on_any_rank_count() {
         reference.events.len()
     );
     assert!(handed > 0, "broken joints must be handed over to contact");
+}
+
+/// Before a full detection a rank receives only the nodes within reach of its own (the
+/// pairs of its tets cannot reach further: 2·e_max + skin), not every node: on 3 ranks
+/// the thrown bar's ranks hold fewer positions than the model's at their last detections,
+/// and receive fewer bytes for them than every node would cost (while the equality test
+/// above shows the pairs found are the one-rank ones). Before, each rank received every
+/// other rank's nodes (x, v and reaction, 72 bytes a node) at every detection.
+#[test]
+fn before_a_detection_a_rank_receives_only_the_nodes_within_reach() {
+    check_halo();
+    let runs = ThreadComm::run(3, |comm| {
+        let mut sim = bar_thrown_on_a_slab();
+        sim.decompose(comm);
+        let mut held = Vec::new();
+        for _ in 0..600 {
+            let before = sim.contact_detection.detector.detections;
+            sim.step().unwrap();
+            let d = &sim.contact_detection.detector;
+            if d.detections > before && !d.current.is_empty() {
+                held.push(d.current.iter().filter(|&&c| c).count());
+            }
+        }
+        let e = sim.exchanged();
+        (
+            sim.nodes.len(),
+            held,
+            e.near,
+            sim.contact_detection.detector.detections,
+        )
+    });
+    let n = runs[0].0;
+    for (rank, (_, held, near, detections)) in runs.iter().enumerate() {
+        println!("rank {rank}: {detections} detections, positions held {held:?} of {n}, {near} bytes received for them");
+        assert!(
+            held.len() as u64 + 1 >= *detections,
+            "rank {rank}: every detection after the first near ({held:?})"
+        );
+        assert!(!held.is_empty(), "rank {rank}: detections must run");
+    }
+    // Every node to every rank at each detection after the first: 2·n nodes received per
+    // detection over the 3 ranks.
+    let every_node = (runs[0].1.len() * 2 * n * 72) as u64;
+    let near: u64 = runs.iter().map(|r| r.2).sum();
+    println!("received before detections: {near} bytes, every node would be {every_node}");
+    assert!(near < every_node, "{near} bytes, every node {every_node}");
+    assert!(
+        runs.iter().any(|r| r.1.iter().any(|&h| h < n)),
+        "some rank must hold less than every node"
+    );
 }
 
 /// A friction law that turns negative once a pair slips faster than 0.5 m/s (μ = 0.5 − v)
@@ -664,7 +738,8 @@ fn every_rank_sees_every_ranks_stage_times() {
         let (rank, _) = sim.rank_and_size();
         let own = fdem::parallel::RankSeconds {
             stages: sim.timers.seconds,
-            exchange: sim.exchanged().0,
+            exchange: sim.exchanged().seconds,
+            pairs_held: 0.0,
         };
         (rank, own, sim.rank_seconds().to_vec())
     });

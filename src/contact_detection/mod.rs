@@ -24,9 +24,7 @@
 
 pub mod nbs;
 
-pub use nbs::{
-    brute_force_pairs, nbs_pairs, nbs_pairs_with_first_in, sweep_pairs, Aabb, NbsWorkspace,
-};
+pub use nbs::{brute_force_pairs, nbs_pairs, nbs_pairs_of, sweep_pairs, Aabb, NbsWorkspace};
 
 use crate::joints::Joints;
 use crate::math::{Real, Vec3};
@@ -55,6 +53,12 @@ pub struct Detector {
     /// restart until then, when the skin test reads `x_at_detection`).
     #[serde(skip)]
     surface_x: Vec<Vec3>,
+    /// On a rank of a decomposed model: per node, whether its position was current on this
+    /// rank at the last full detection (its own, or within reach of its own,
+    /// [`PairExchange::make_near_current`]): `x_at_detection` holds only those. Empty when
+    /// every node's is held (one process, or after the ranks shared them).
+    #[serde(skip)]
+    pub current: Vec<bool>,
 }
 
 impl Detector {
@@ -128,8 +132,19 @@ pub struct ContactDetection {
     pub fragment0: Vec<u32>,
     /// Tet pairs (lower id first) across a broken joint, sorted, with the joint id.
     pub broken_faces: Vec<([u32; 2], u32)>,
-    /// Candidate pairs (indices into `surface`, lower first), ordered by first index.
+    /// Candidate pairs (indices into `surface`, lower first), sorted. On a rank of a
+    /// decomposed model, only the pairs it computes (`local`), between the script's reads of
+    /// the whole model's state.
     pub pairs: Vec<[u32; 2]>,
+    /// `pairs` holds only this rank's pairs (a decomposed model: those with a tet holding a
+    /// node of the rank, [`keep_this_ranks_pairs`]); false on one process and while the
+    /// whole list is shared for output, checkpoints and queries.
+    #[serde(skip)]
+    pub local: bool,
+    /// With `local`: the number of candidate pairs over all ranks, as of the last change of
+    /// the list ([`ContactDetection::candidate_pairs`]).
+    #[serde(skip)]
+    pub all_ranks_pairs: usize,
     /// For every pair of `pairs`: where it comes from, from a detection until stage 5 takes
     /// it ([`ContactDetection::take_remap`]).
     pub origins: Vec<PairOrigin>,
@@ -174,6 +189,16 @@ impl ContactDetection {
         }
     }
 
+    /// The number of candidate pairs of the whole model (on a rank holding only its own,
+    /// the count over all ranks).
+    pub fn candidate_pairs(&self) -> usize {
+        if self.local {
+            self.all_ranks_pairs
+        } else {
+            self.pairs.len()
+        }
+    }
+
     /// The old→new remap of the last detection, for stage 5 (the buffer goes with it, so the
     /// remap costs no memory between detections).
     pub fn take_remap(&mut self) -> Vec<PairOrigin> {
@@ -194,25 +219,48 @@ impl ContactDetection {
 }
 
 /// How the ranks of a decomposed model share stage 4 (implemented by `crate::parallel`).
-/// Every rank holds the whole state and reaches every detection with the same inputs; each
-/// searches a share of the work and [`PairExchange::gather_pairs`] puts the shares
-/// together, so every rank ends with the one list a single process finds. Positions are
-/// made current where they are read: every node before a full detection (it records them
-/// all); after an incremental one (which reads the positions of its last full detection),
-/// the nodes of the tets of the pairs it added, which stage 5 reads on every rank computing
-/// them. The skin test reads each rank's own nodes ([`must_detect`]).
+/// Every rank holds the surface, fragments and boxes, and reaches every detection with the
+/// same inputs; each searches only the pairs it computes (a tet of the pair holds a node of
+/// the rank, [`PairExchange::computes`]) and keeps those ([`ContactDetection::local`]):
+/// each rank's list is the sub-list of the single-process list with its pairs, in the same
+/// order, and no list is gathered. Positions are made current where they are read: before
+/// a full detection, the nodes within reach of a rank's own (every node at the first, which
+/// sets the skin from the whole surface); an incremental one reads the positions of its last
+/// full detection, which are current for the same nodes. The skin test reads each rank's
+/// own nodes ([`must_detect`]).
 pub trait PairExchange {
-    /// This rank and the number of ranks.
-    fn rank_of(&self) -> (usize, usize);
-    /// Every rank's `mine`, concatenated in rank order (a collective).
-    fn gather_pairs(&mut self, mine: &[[u32; 2]]) -> Vec<[u32; 2]>;
-    /// Positions and velocities of the nodes `which` (sorted; every node when None) from
-    /// their owners, on every rank (a collective).
-    fn make_current(&mut self, nodes: &mut Nodes, which: Option<&[u32]>);
+    /// Per tet: it has a node of this rank (the rank computes every pair it is in).
+    fn computes(&self) -> &[bool];
+    /// Every node's position and velocity from its owner, on every rank (a collective).
+    fn make_every_node_current(&mut self, nodes: &mut Nodes);
+    /// The position and velocity of every node within `reach` of this rank's own nodes'
+    /// bounding box, from their owners (a collective); per node, whether it is current.
+    fn make_near_current(&mut self, nodes: &mut Nodes, reach: Real) -> Vec<bool>;
+    /// The largest of one value per rank (a collective).
+    fn largest(&mut self, value: Real) -> Real;
     /// Whether `mine` holds on some rank (a collective).
     fn any_rank(&mut self, mine: bool) -> bool;
     /// The node chunks this rank owns (its nodes are current on it), and the chunk size.
     fn owned_chunks(&self) -> (&[bool], usize);
+}
+
+/// On a rank of a decomposed model holding the whole list (after the script read the whole
+/// model's state, or a checkpoint was restored), keep only the pairs it computes (`computes`:
+/// per tet, it has a node of the rank) and hand stage 5 the remap, as a detection does.
+/// Returns false, doing nothing, when the list is this rank's already.
+pub fn keep_this_ranks_pairs(cd: &mut ContactDetection, computes: &[bool]) -> bool {
+    if cd.local {
+        return false;
+    }
+    let surface = &cd.surface;
+    let mine = |p: &[u32; 2]| p.iter().any(|&i| computes[surface[i as usize] as usize]);
+    cd.origins = (cd.pairs.iter().enumerate())
+        .filter(|(_, p)| mine(p))
+        .map(|(k, _)| PairOrigin::Kept(k as u32))
+        .collect();
+    cd.pairs = cd.pairs.iter().filter(|p| mine(p)).copied().collect();
+    cd.local = true;
+    true
 }
 
 /// Whether stage 4 must run this step: the surface changed, a detection is due, or a
@@ -266,42 +314,17 @@ fn surface_moved(
     }
 }
 
-/// The ranges of first indices ranks `0..ranks` search, of `n` elements weighed by
-/// `weight` (1 + the pairs each element led in the last list: the search's work follows
-/// the candidates), cut at equal shares of the total. Contiguous and in rank order.
-fn shares_of_first(n: usize, pairs: &[[u32; 2]], ranks: usize) -> Vec<std::ops::Range<u32>> {
-    let mut weight = vec![1u64; n];
-    for p in pairs {
-        if let Some(w) = weight.get_mut(p[0] as usize) {
-            *w += 1;
-        }
-    }
-    let total: u64 = weight.iter().sum();
-    let mut cuts = vec![0u32; ranks + 1];
-    let (mut acc, mut r) = (0u64, 1);
-    for (i, w) in weight.iter().enumerate() {
-        acc += w;
-        // Element i ends the share of every rank whose cut r·total/ranks it passes.
-        while r < ranks && acc * ranks as u64 >= r as u64 * total {
-            cuts[r] = i as u32 + 1;
-            r += 1;
-        }
-    }
-    for c in &mut cuts[r..] {
-        *c = n as u32;
-    }
-    cuts.windows(2).map(|w| w[0]..w[1]).collect()
-}
-
 /// Stage 4: refresh the surface lists when the topology changed, and re-detect the candidate
 /// pairs when a node moved more than skin/2 since the last detection. Returns true when it
 /// detected: then `origins` maps every new pair to its old index (or marks it new), for
 /// stage 5 to carry its history over.
 ///
-/// On a decomposed model (`ranks`), the search (a full detection's NBS, an incremental
-/// one's tests of the tets that joined the surface) is shared between the ranks, and its
-/// result is the single-process list on every rank; `nodes` are written only there, where
-/// the positions a detection reads are made current from their owners.
+/// On a decomposed model (`ranks`), each rank searches and keeps only the pairs it computes
+/// (a full detection's NBS, an incremental one's tests of the tets that joined the surface):
+/// its list is the single-process list's sub-list of those pairs. `nodes` are written only
+/// there: every node is made current from its owner before a full detection. (After an
+/// incremental one, stage 5 reads the nodes of the added pairs that two ranks compute:
+/// the caller brings those with the halo, `crate::parallel::Parallel::follow_pairs`.)
 pub fn update_pairs(
     cd: &mut ContactDetection,
     nodes: &mut Nodes,
@@ -333,17 +356,6 @@ pub fn update_pairs(
                 &joined,
                 ranks.as_deref_mut(),
             ) {
-                // The added pairs' tets: other ranks computing them read all their nodes.
-                if let Some(r) = ranks {
-                    let mut which: Vec<u32> = (cd.pairs.iter().zip(&cd.origins))
-                        .filter(|(_, o)| matches!(o, PairOrigin::New { .. }))
-                        .flat_map(|(p, _)| p.map(|i| cd.surface[i as usize]))
-                        .flat_map(|t| tets.nodes[t as usize])
-                        .collect();
-                    which.sort_unstable();
-                    which.dedup();
-                    r.make_current(nodes, Some(&which));
-                }
                 return true;
             }
         }
@@ -353,22 +365,55 @@ pub fn update_pairs(
         cd.carried.clear();
         cd.carried.extend(0..cd.pairs.len() as u32);
     }
-    // A full detection reads, and records, every node's position.
-    if let Some(r) = ranks.as_deref_mut() {
-        r.make_current(nodes, None);
-    }
-    detect_all_pairs(cd, nodes, tets, bodies, ranks);
+    // A full detection reads, and records, the positions of the nodes within reach of the
+    // tets this rank computes (every node on one process).
+    let current = match ranks.as_deref_mut() {
+        Some(r) => make_reach_current(cd, nodes, tets, r),
+        None => None,
+    };
+    detect_all_pairs(cd, nodes, tets, bodies, ranks, current);
     true
 }
 
+/// On a rank of a decomposed model, before a full detection: make current the nodes that the
+/// pairs of the tets it computes can reach, and return which nodes are current (None: every
+/// node, at the first detection, which sets the skin from every surface tet). A pair's two
+/// inflated boxes overlap, so every node of a partner of a tet with a node `o` of this rank
+/// lies within e_a + e_b + skin of `o` in each coordinate (e: the tets' extents): within
+/// 2·e_max + skin of this rank's nodes' box, e_max the largest extent of any tet (each rank
+/// measures the tets with a node of its own, whose nodes are all current on it: a work unit
+/// of stage 1 spanning ranks is read whole by each). A 1 % margin covers rounding.
+fn make_reach_current(
+    cd: &ContactDetection,
+    nodes: &mut Nodes,
+    tets: &Tets,
+    r: &mut (dyn PairExchange + '_),
+) -> Option<Vec<bool>> {
+    let skin = cd.skin.unwrap_or(cd.detector.skin);
+    if skin <= 0.0 {
+        r.make_every_node_current(nodes);
+        return None;
+    }
+    let (x, computes) = (&nodes.x, r.computes());
+    let extent = (tets.nodes.par_iter().zip(computes))
+        .filter(|(_, &c)| c)
+        .map(|(t, _)| Aabb::of_points(&t.map(|n| x[n as usize])).max_extent())
+        .reduce(|| 0.0, Real::max);
+    let extent = r.largest(extent);
+    let reach = 1.01 * (2.0 * extent + skin);
+    Some(r.make_near_current(nodes, reach))
+}
+
 /// A full detection at the current positions (every node current): NBS over every surface
-/// box (its search shared between `ranks`), then the old→new remap; records the positions.
+/// box (on a decomposed model only around the tets this rank computes, keeping its pairs),
+/// then the old→new remap; records the positions.
 fn detect_all_pairs(
     cd: &mut ContactDetection,
     nodes: &Nodes,
     tets: &Tets,
     bodies: &[Body],
     ranks: Option<&mut (dyn PairExchange + '_)>,
+    current: Option<Vec<bool>>,
 ) {
     let x = &nodes.x;
     let tn = &tets.nodes;
@@ -386,13 +431,27 @@ fn detect_all_pairs(
         cd.detector.skin = s;
     }
     let half = 0.5 * cd.detector.skin;
-    surface_boxes(&mut cd.boxes, &cd.surface, tn, x, half);
+    // On a decomposed model, the surface tets whose nodes are current here: every partner
+    // of this rank's tets is among them; the others get a box that overlaps nothing.
+    let held =
+        |e: u32| (current.as_ref()).is_none_or(|c| tn[e as usize].iter().all(|&n| c[n as usize]));
+    cd.boxes.clear();
+    cd.boxes.par_extend(cd.surface.par_iter().map(|&e| {
+        if held(e) {
+            Aabb::of_points(&tn[e as usize].map(|n| x[n as usize])).inflate(half)
+        } else {
+            Aabb::of_points(&[Vec3::repeat(Real::NAN)])
+        }
+    }));
     // Each element meets dozens of overlapping boxes: its face planes once, not per pair
     // (freed after the search, like NBS's pair buffers).
     let planes: Vec<FacePlanes> = cd
         .surface
         .par_iter()
-        .map(|&e| FacePlanes::of(&tn[e as usize].map(|n| x[n as usize])))
+        .map(|&e| match held(e) {
+            true => FacePlanes::of(&tn[e as usize].map(|n| x[n as usize])),
+            false => FacePlanes::default(),
+        })
         .collect();
     let continuous: Vec<bool> = bodies.iter().map(|b| b.layout != Layout::Jointed).collect();
     let filter = CandidateFilter {
@@ -408,25 +467,40 @@ fn detect_all_pairs(
         skin: cd.detector.skin,
         planes: Some(&planes),
     };
-    let first = match &ranks {
-        Some(r) => {
-            let (rank, size) = r.rank_of();
-            shares_of_first(cd.surface.len(), &cd.pairs, size)[rank].clone()
-        }
-        None => 0..cd.surface.len() as u32,
-    };
+    let computes = ranks.as_ref().map(|r| r.computes());
+    let surface = &cd.surface;
+    let mine = |i: u32| computes.is_none_or(|c| c[surface[i as usize] as usize]);
     std::mem::swap(&mut cd.pairs, &mut cd.old_pairs);
-    nbs_pairs_with_first_in(
-        &cd.boxes,
-        &mut cd.detector.workspace,
-        &|i, j| filter.keep(i, j),
-        first,
-        &mut cd.pairs,
-    );
-    cd.detector.workspace.release_pair_buffers();
-    if let Some(r) = ranks {
-        cd.pairs = r.gather_pairs(&cd.pairs);
+    match &current {
+        None => nbs_pairs_of(
+            &cd.boxes,
+            &mut cd.detector.workspace,
+            &|i, j| filter.keep(i, j),
+            &mine,
+            &mut cd.pairs,
+        ),
+        Some(_) => {
+            // Only the surface tets whose nodes are current here (every partner of this
+            // rank's tets is among them); indices in order, so the pairs stay sorted.
+            let near: Vec<u32> = (0..surface.len() as u32)
+                .filter(|&i| held(surface[i as usize]))
+                .collect();
+            let boxes: Vec<Aabb> = near.iter().map(|&i| cd.boxes[i as usize]).collect();
+            nbs_pairs_of(
+                &boxes,
+                &mut cd.detector.workspace,
+                &|i, j| filter.keep(near[i as usize], near[j as usize]),
+                &|i| mine(near[i as usize]),
+                &mut cd.pairs,
+            );
+            for p in &mut cd.pairs {
+                *p = p.map(|i| near[i as usize]);
+            }
+        }
     }
+    cd.detector.workspace.release_pair_buffers();
+    cd.local = computes.is_some();
+    cd.detector.current = current.unwrap_or_default();
     // Find every new pair in the old list (both are ordered by their first index).
     cd.origins.clear();
     let old = &cd.old_pairs;
@@ -551,27 +625,39 @@ fn add_pairs_of_broken_joints(
     };
     let mut is_joined = vec![false; cd.surface.len()];
     joined.iter().for_each(|&i| is_joined[i as usize] = true);
-    let (is_joined, test, n_surface) = (&is_joined, &test, cd.surface.len() as u32);
-    // A joined tet against every surface tet (a pair of two joined tets once: from the
-    // lower); on a decomposed model each rank tests a share of the joined tets.
-    let mine = match &ranks {
-        Some(r) => {
-            let (rank, size) = r.rank_of();
-            joined.len() * rank / size..joined.len() * (rank + 1) / size
-        }
-        None => 0..joined.len(),
+    // On a decomposed model, only the pairs with a tet this rank computes.
+    let computes = ranks.as_ref().map(|r| r.computes());
+    let surface = &cd.surface;
+    let mine = |i: u32| computes.is_none_or(|c| c[surface[i as usize] as usize]);
+    // A rank holds the positions at t₀ of the nodes within reach of its own: the tets it can
+    // pair with (see `make_reach_current`).
+    let held_at_t0 = |i: u32| {
+        let c = &cd.detector.current;
+        c.is_empty()
+            || tn[surface[i as usize] as usize]
+                .iter()
+                .all(|&n| c[n as usize])
     };
-    let mut added: Vec<[u32; 2]> = joined[mine]
+    let all: Vec<u32> = (0..cd.surface.len() as u32)
+        .filter(|&i| held_at_t0(i))
+        .collect();
+    let my_surface: Vec<u32> = match computes {
+        Some(_) => all.iter().copied().filter(|&i| mine(i)).collect(),
+        None => Vec::new(),
+    };
+    let (is_joined, test, mine) = (&is_joined, &test, &mine);
+    // A joined tet against every surface tet (a pair of two joined tets once: from the
+    // lower); a joined tet this rank does not compute only against those it does.
+    let mut added: Vec<[u32; 2]> = joined
         .par_iter()
+        .filter(|&&n| held_at_t0(n))
         .flat_map_iter(|&n| {
-            (0..n_surface)
+            let partners = if mine(n) { &all } else { &my_surface };
+            (partners.iter().copied())
                 .filter(move |&i| !is_joined[i as usize] || i > n)
                 .filter_map(move |i| test(n, i))
         })
         .collect();
-    if let Some(r) = ranks {
-        added = r.gather_pairs(&added);
-    }
     // The two sides of each newly broken joint, both on the surface before.
     let index_of = |e: u32| cd.surface.binary_search(&e).ok().map(|i| i as u32);
     for (pair, _) in &cd.broken_faces {
@@ -581,7 +667,12 @@ fn add_pairs_of_broken_joints(
         let (Some(i), Some(j)) = (index_of(pair[0]), index_of(pair[1])) else {
             continue;
         };
-        if !is_joined[i as usize] && !is_joined[j as usize] {
+        if !is_joined[i as usize]
+            && !is_joined[j as usize]
+            && (mine(i) || mine(j))
+            && held_at_t0(i)
+            && held_at_t0(j)
+        {
             added.extend(test(i, j));
         }
     }
@@ -859,48 +950,4 @@ fn refresh_surface(
     cd.broken_faces = broken;
     cd.surface_stale = false;
     cd.detector.stale = true;
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The ranks' shares of the search cover every first index once, in rank order, and
-    /// each holds its part of the weight to within one element's (1 + the pairs it led).
-    #[test]
-    fn the_search_shares_are_contiguous_and_balanced() {
-        // 1000 elements; element i leads (i % 37) pairs, and 200 lead 300 each.
-        let mut pairs = Vec::new();
-        for i in 0..1000u32 {
-            let led = if (400..600).contains(&i) { 300 } else { i % 37 };
-            pairs.extend((0..led).map(|k| [i, i + 1 + k]));
-        }
-        let weight = |r: &std::ops::Range<u32>| -> u64 {
-            r.clone()
-                .map(|i| 1 + pairs.iter().filter(|p| p[0] == i).count() as u64)
-                .sum()
-        };
-        let total = weight(&(0..1000));
-        for ranks in 1..=5 {
-            let shares = shares_of_first(1000, &pairs, ranks);
-            assert_eq!(shares.len(), ranks);
-            assert_eq!(shares[0].start, 0);
-            assert_eq!(shares[ranks - 1].end, 1000);
-            for (r, w) in shares.windows(2).enumerate() {
-                assert_eq!(w[0].end, w[1].start, "ranks {ranks}, rank {r}");
-            }
-            for s in &shares {
-                let share = weight(s) as f64;
-                assert!(
-                    (share - total as f64 / ranks as f64).abs() <= 301.0,
-                    "ranks {ranks}: {s:?} holds {share} of {total}"
-                );
-            }
-        }
-        // No elements, or more ranks than elements: empty shares, still in order.
-        assert_eq!(shares_of_first(0, &[], 3), vec![0..0, 0..0, 0..0]);
-        let few = shares_of_first(2, &[], 4);
-        assert_eq!(few.first().unwrap().start, 0);
-        assert_eq!(few.last().unwrap().end, 2);
-    }
 }

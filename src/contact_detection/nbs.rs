@@ -159,19 +159,20 @@ pub fn nbs_pairs(
     keep: &(impl Fn(u32, u32) -> bool + Sync),
     out: &mut Vec<[u32; 2]>,
 ) {
-    nbs_pairs_with_first_in(boxes, ws, keep, 0..boxes.len() as u32, out);
+    nbs_pairs_of(boxes, ws, keep, &|_| true, out);
 }
 
-/// [`nbs_pairs`] restricted to the pairs whose first (lower) index lies in `first`: the
-/// part of the list one rank of a decomposed model searches (concatenated in order of the
-/// ranges, the parts are the whole list). The grid is built over every box; only the
-/// search around the elements of `first` runs (and, when the sizes are mixed, the large
-/// boxes' lookups keep the pairs that start in `first`).
-pub fn nbs_pairs_with_first_in(
+/// [`nbs_pairs`] restricted to the pairs with an element that passes `mine` (either one):
+/// the pairs one rank of a decomposed model computes, those with a tet holding a node of its
+/// own. Sorted like the whole list, of which it is the sub-list. The grid is built over
+/// every box; the search runs only around the elements of `mine`, in both directions (a
+/// pair of two such elements from the lower, a pair with one from that one), and, when the
+/// sizes are mixed, the large boxes' lookups keep the pairs with an element of `mine`.
+pub fn nbs_pairs_of(
     boxes: &[Aabb],
     ws: &mut NbsWorkspace,
     keep: &(impl Fn(u32, u32) -> bool + Sync),
-    first: std::ops::Range<u32>,
+    mine: &(impl Fn(u32) -> bool + Sync),
     out: &mut Vec<[u32; 2]>,
 ) {
     out.clear();
@@ -189,7 +190,7 @@ pub fn nbs_pairs_with_first_in(
     // jointed bar on a slab twice as coarse, largest/median 2.8, stage 4 −23 %).
     let split = 1.5 * median;
     if !(largest > 2.0 * median && median > 0.0) {
-        single_level(boxes, ws, keep, &|e| first.contains(&e), out);
+        single_level(boxes, ws, keep, mine, out);
         // Grouped by first index already: sort each group by the second.
         out.chunk_by_mut(|a, b| a[0] == b[0])
             .for_each(|g| g.sort_unstable_by_key(|p| p[1]));
@@ -202,9 +203,9 @@ pub fn nbs_pairs_with_first_in(
     for class in [&big, &small] {
         let sub: Vec<Aabb> = class.iter().map(|&i| boxes[i as usize]).collect();
         let sub_keep = |i: u32, j: u32| keep(class[i as usize], class[j as usize]);
-        let sub_first = |e: u32| first.contains(&class[e as usize]);
+        let sub_mine = |e: u32| mine(class[e as usize]);
         let mut pairs = Vec::new();
-        single_level(&sub, ws, &sub_keep, &sub_first, &mut pairs);
+        single_level(&sub, ws, &sub_keep, &sub_mine, &mut pairs);
         out.extend(
             pairs
                 .iter()
@@ -220,7 +221,7 @@ pub fn nbs_pairs_with_first_in(
             for &g in chunk {
                 large_box_pairs(boxes, ws, &small, g, keep, &mut pairs);
             }
-            pairs.retain(|p| first.contains(&p[0]));
+            pairs.retain(|p| mine(p[0]) || mine(p[1]));
             pairs
         })
         .collect();
@@ -272,13 +273,13 @@ fn large_box_pairs(
     }
 }
 
-/// NBS over all of `boxes` with one cell size: the pairs whose first element passes
-/// `first`, ordered by their first index.
+/// NBS over all of `boxes` with one cell size: the pairs with an element that passes
+/// `mine`, ordered by their first index.
 fn single_level(
     boxes: &[Aabb],
     ws: &mut NbsWorkspace,
     keep: &(impl Fn(u32, u32) -> bool + Sync),
-    first: &(impl Fn(u32) -> bool + Sync),
+    mine: &(impl Fn(u32) -> bool + Sync),
     out: &mut Vec<[u32; 2]>,
 ) {
     out.clear();
@@ -287,7 +288,7 @@ fn single_level(
     }
     assign_cells(boxes, ws);
     sort_into_cells(boxes, ws);
-    search_neighbour_cells(boxes.len(), ws, keep, first);
+    search_neighbour_cells(boxes.len(), ws, keep, mine);
     order_by_first(boxes.len(), ws, out);
 }
 
@@ -366,14 +367,16 @@ fn sort_into_cells(boxes: &[Aabb], ws: &mut NbsWorkspace) {
         .par_extend(ws.sorted.par_iter().map(|&e| boxes[e as usize]));
 }
 
-/// Search the 27 cells around each element's cell for higher-indexed overlapping boxes that
-/// pass `keep`, visiting the elements cell by cell (neighbouring elements share their
-/// lookups' cache lines); pairs per chunk of elements in `ws.chunk_pairs`.
+/// Search the 27 cells around each element of `mine`'s cell for overlapping boxes that pass
+/// `keep`: higher-indexed ones, and lower-indexed ones not in `mine` (so that each pair
+/// with an element of `mine` is found once), visiting the elements cell by cell
+/// (neighbouring elements share their lookups' cache lines); pairs, [lower, higher], per
+/// chunk of elements in `ws.chunk_pairs`.
 fn search_neighbour_cells(
     n: usize,
     ws: &mut NbsWorkspace,
     keep: &(impl Fn(u32, u32) -> bool + Sync),
-    first: &(impl Fn(u32) -> bool + Sync),
+    mine: &(impl Fn(u32) -> bool + Sync),
 ) {
     let n_chunks = n.div_ceil(CHUNK);
     ws.chunk_pairs.resize_with(n_chunks, Vec::new);
@@ -386,11 +389,12 @@ fn search_neighbour_cells(
             pairs.clear();
             for k in ci * CHUNK..((ci + 1) * CHUNK).min(n) {
                 let e = sorted[k] as usize;
-                if !first(e as u32) {
+                if !mine(e as u32) {
                     continue;
                 }
                 let c = cell_xyz[e];
                 let be = &sorted_boxes[k];
+                let e = e as u32;
                 for dz in -1..=1 {
                     for dy in -1..=1 {
                         for dx in -1..=1 {
@@ -399,8 +403,11 @@ fn search_neighbour_cells(
                             };
                             let run = s.start as usize..(s.start + s.count) as usize;
                             for (&f, bf) in sorted[run.clone()].iter().zip(&sorted_boxes[run]) {
-                                if f as usize > e && be.overlaps(bf) && keep(e as u32, f) {
-                                    pairs.push([e as u32, f]);
+                                if (f > e || (f < e && !mine(f)))
+                                    && be.overlaps(bf)
+                                    && keep(e.min(f), e.max(f))
+                                {
+                                    pairs.push([e.min(f), e.max(f)]);
                                 }
                             }
                         }
@@ -530,12 +537,12 @@ mod tests {
         }
     }
 
-    /// The search split by first index (as the ranks of a decomposed model split it): the
-    /// parts, concatenated in order, are the whole list, for one grid and for two (mixed
-    /// sizes, where large boxes look up small ones), at cuts through the index range that
-    /// include empty parts.
+    /// The search restricted to the pairs with an element of a rank's set (as the ranks of
+    /// a decomposed model restrict it): the sub-list of the whole list with an element in
+    /// the set, in its order, for one grid and for two (mixed sizes, where large boxes look
+    /// up small ones), for sets that are ranges, scattered, empty or everything.
     #[test]
-    fn the_parts_by_first_index_make_the_whole_list() {
+    fn the_pairs_of_a_set_are_the_whole_lists_pairs_with_an_element_in_it() {
         let mut ws = NbsWorkspace::default();
         let (mut whole, mut part) = (Vec::new(), Vec::new());
         for (seed, sizes) in [
@@ -547,18 +554,20 @@ mod tests {
             let keep = |i: u32, j: u32| !(i * 7 + j).is_multiple_of(5);
             nbs_pairs(&boxes, &mut ws, &keep, &mut whole);
             assert!(whole.len() > 1000, "seed {seed}: {} pairs", whole.len());
-            for cuts in [
-                vec![0, 600, 1200],
-                vec![0, 1, 400, 400, 1199, 1200],
-                vec![0, 0, 1200],
-            ] {
-                let mut joined = Vec::new();
-                for w in cuts.windows(2) {
-                    nbs_pairs_with_first_in(&boxes, &mut ws, &keep, w[0]..w[1], &mut part);
-                    assert!(part.iter().all(|p| (w[0]..w[1]).contains(&p[0])));
-                    joined.extend_from_slice(&part);
-                }
-                assert_eq!(joined, whole, "seed {seed}, cuts {cuts:?}");
+            let sets: [&(dyn Fn(u32) -> bool + Sync); 5] = [
+                &|e| e < 600,
+                &|e| (400..1199).contains(&e),
+                &|e| e % 3 == 1,
+                &|_| false,
+                &|_| true,
+            ];
+            for (s, set) in sets.iter().enumerate() {
+                nbs_pairs_of(&boxes, &mut ws, &keep, &|e| set(e), &mut part);
+                let expected: Vec<[u32; 2]> = (whole.iter())
+                    .filter(|p| set(p[0]) || set(p[1]))
+                    .copied()
+                    .collect();
+                assert_eq!(part, expected, "seed {seed}, set {s}");
             }
         }
     }

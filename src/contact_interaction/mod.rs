@@ -252,8 +252,9 @@ pub struct ContactTally {
     max_overlap: Real,
     max_overlap_ratio: Real,
     max_pressure: Real,
-    /// (pair, failure) of the lowest pair whose friction law failed.
-    law_failure: Option<(u32, FrictionLawFailure)>,
+    /// (pair, failure) of the lowest pair whose friction law failed (the pair by its
+    /// [`pair_key`]).
+    law_failure: Option<(u64, FrictionLawFailure)>,
 }
 
 impl ContactTally {
@@ -262,9 +263,9 @@ impl ContactTally {
     /// Values [`ContactTally::write_sums`] writes: the exact sums and the count.
     pub const SUM_LEN: usize = Self::SUMS * ExactSum::LEN + 1;
 
-    /// Add what pair `pair` contributed (its own contributions, summed first).
+    /// Add what pair `pair` ([`pair_key`]) contributed (its own contributions, summed first).
     #[inline]
-    fn add_pair(&mut self, pair: u32, s: &ContactSums) {
+    fn add_pair(&mut self, pair: u64, s: &ContactSums) {
         self.energy.add(s.energy);
         self.dissipated.add(s.dissipated);
         self.normal_force.add(s.normal_force);
@@ -342,7 +343,7 @@ impl ContactTally {
     pub fn read_sums(
         summed: &[f64],
         maxima: [Real; 3],
-        law_failure: Option<(u32, FrictionLawFailure)>,
+        law_failure: Option<(u64, FrictionLawFailure)>,
     ) -> Self {
         let part = |i: usize| ExactSum::from_digits(&summed[i * ExactSum::LEN..]);
         ContactTally {
@@ -448,10 +449,20 @@ pub struct ContactInteraction {
 /// pair to one rank: the lowest owning a node of it). Indexed like stage 4's pairs.
 #[derive(Clone, Debug, Default)]
 pub struct PairMask {
+    /// Made for a rank of a decomposed model (the default mask, on one process, computes
+    /// and designates every pair).
+    pub decomposed: bool,
     pub compute: Vec<bool>,
     pub designated: Vec<bool>,
     /// Per surface tet: in a pair this rank computes (the others' geometry is not updated).
     pub surface: Vec<bool>,
+}
+
+/// A candidate pair (surface indices, lower first) as one number that sorts like the list:
+/// the lists of all ranks are sorted the same way, so keys order pairs across ranks.
+#[inline]
+pub fn pair_key(p: [u32; 2]) -> u64 {
+    ((p[0] as u64) << 32) | p[1] as u64
 }
 
 /// What one pair did in a step that every rank must see in pair order: the joint it handed
@@ -460,10 +471,18 @@ pub struct PairMask {
 /// a sum of [`ContactTally`]s.
 #[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct PairRecord {
-    pub pair: u32,
+    /// The pair's [`pair_key`]: its place in the whole list, whichever ranks hold it.
+    pub pair: u64,
     pub handover: Option<u32>,
     pub event: Option<ContactEvent>,
     pub law_failure: Option<FrictionLawFailure>,
+}
+
+impl PairMask {
+    /// A decomposed model's mask for a list of `n` pairs (a rank may hold none).
+    pub fn is_for(&self, n: usize) -> bool {
+        self.decomposed && self.compute.len() == n
+    }
 }
 
 impl ContactInteraction {
@@ -956,7 +975,7 @@ pub fn add_contact_forces(
         time,
     };
     let record_events = *record_events;
-    let masked = !mask.compute.is_empty();
+    let masked = mask.decomposed;
     // The tallies are exact sums: any split of the chunks among threads gives their bits.
     let tally = slots
         .par_chunks_mut(CHUNK)
@@ -1046,7 +1065,7 @@ fn evaluate_chunk(
         handover,
         records,
     } = chunk;
-    let masked = !mask.compute.is_empty();
+    let masked = mask.decomposed;
     out.clear();
     handover.clear();
     records.clear();
@@ -1096,11 +1115,11 @@ fn evaluate_chunk(
             };
         let designated = !masked || mask.designated[pi];
         if designated && pair_sums != ContactSums::default() {
-            tally.add_pair(pi as u32, &pair_sums);
+            tally.add_pair(pair_key(inputs.pairs[pi]), &pair_sums);
         }
         if masked && designated {
             let record = PairRecord {
-                pair: pi as u32,
+                pair: pair_key(inputs.pairs[pi]),
                 handover: handover.get(handed).copied(),
                 event: (flag != 0).then_some(ContactEvent {
                     time: inputs.time,
@@ -1222,24 +1241,29 @@ impl ContactInteraction {
         self.close_step(tally.sums(), time)
     }
 
-    /// On a decomposed model, every candidate pair's witness and history as this rank holds
-    /// them, for the pairs designated to it: (pair, witness, history if stored).
-    pub fn designated_states(&self) -> Vec<(u32, u8, Option<PairState>)> {
+    /// On a decomposed model, the witness and history of every pair designated to this
+    /// rank, as it holds them: (the pair's [`pair_key`], witness, history if stored), from
+    /// stage 4's list `pairs`.
+    pub fn designated_states(&self, pairs: &[[u32; 2]]) -> Vec<(u64, u8, Option<PairState>)> {
         (0..self.slots.len())
             .filter(|&k| self.mask.designated.get(k).copied().unwrap_or(true))
             .map(|k| {
                 let s = self.slots[k];
                 let h = (s.hist != NO_HISTORY).then(|| self.hist[k / CHUNK][s.hist as usize]);
-                (k as u32, s.witness, h)
+                (pair_key(pairs[k]), s.witness, h)
             })
             .collect()
     }
 
-    /// Replace every pair's witness and history (`states`: one per candidate pair, in pair
-    /// order) and lay the histories out afresh in pair order; the outputs of the last step
-    /// are those of the touching pairs. The forces a later step computes do not depend on
-    /// the layout.
-    pub fn set_states(&mut self, states: impl Iterator<Item = (u8, Option<PairState>)>) {
+    /// Replace every pair's witness and history (`states`: one per candidate pair of a list
+    /// of `n` pairs, in pair order) and lay the histories out afresh in pair order; the
+    /// outputs of the last step are those of the touching pairs. The forces a later step
+    /// computes do not depend on the layout. The list's mask goes (a decomposed model makes
+    /// it again for the pairs of the next step).
+    pub fn set_states(&mut self, n: usize, states: impl Iterator<Item = (u8, Option<PairState>)>) {
+        self.slots.clear();
+        self.slots.resize(n, PairSlot::default());
+        self.mask = PairMask::default();
         let n_chunks = self.slots.len().div_ceil(CHUNK);
         self.hist.iter_mut().for_each(Vec::clear);
         self.free.iter_mut().for_each(Vec::clear);

@@ -32,6 +32,16 @@ pub trait Comm: Send + Sync {
     /// send or receive); a rank appears at most once in each list, never this rank, and the
     /// two sides agree on every message's length (empty messages are not sent).
     fn exchange_f64(&self, sends: &[(usize, &[f64])], recvs: &mut [(usize, &mut [f64])]);
+    /// One count from every rank to every rank: `send[q]` is what this rank tells rank q;
+    /// returns what each rank told this one, indexed by rank (a collective; how the two
+    /// sides of a neighbour exchange agree on lengths that only the sender knows).
+    fn alltoall_counts(&self, send: &[u64]) -> Vec<u64> {
+        let bytes: Vec<u8> = send.iter().flat_map(|c| c.to_le_bytes()).collect();
+        let at = 8 * self.rank();
+        (self.allgather_bytes(&bytes).iter())
+            .map(|b| u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes")))
+            .collect()
+    }
 }
 
 /// One rank: every collective is the identity.
@@ -274,6 +284,12 @@ impl Comm for MpiComm {
         let mut part = PartitionMut::new(data, &counts[..], &displs[..]);
         self.world.all_gather_varcount_into(&mine[..], &mut part);
     }
+    fn alltoall_counts(&self, send: &[u64]) -> Vec<u64> {
+        use mpi::traits::CommunicatorCollectives;
+        let mut recv = vec![0u64; self.size()];
+        self.world.all_to_all_into(send, &mut recv[..]);
+        recv
+    }
     fn exchange_f64(&self, sends: &[(usize, &[f64])], recvs: &mut [(usize, &mut [f64])]) {
         use mpi::traits::{Communicator, Destination, Source};
         // One tag for the neighbour exchange: messages between two ranks arrive in the
@@ -341,9 +357,12 @@ mod tests {
             let out = vec![r as f64; if r == 1 { 0 } else { r + 1 }];
             let mut got = vec![f64::NAN; if before == 1 { 0 } else { before + 1 }];
             c.exchange_f64(&[(next, &out)], &mut [(before, &mut got)]);
-            (s, d, b, got)
+            // Rank r tells rank q 10·r + q.
+            let counts = c.alltoall_counts(&[10 * r as u64, 10 * r as u64 + 1, 10 * r as u64 + 2]);
+            (s, d, b, got, counts)
         });
-        for (r, (s, d, b, got)) in out.into_iter().enumerate() {
+        for (r, (s, d, b, got, counts)) in out.into_iter().enumerate() {
+            assert_eq!(counts, vec![r as u64, 10 + r as u64, 20 + r as u64]);
             assert_eq!(s, [0.1, 0.2, 0.30000000000000004]);
             assert_eq!(d, [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
             assert_eq!(b, vec![vec![0, 0], vec![1, 1], vec![2, 2]]);

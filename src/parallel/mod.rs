@@ -31,21 +31,24 @@
 //! some joint broke (each joint's by its designated rank), merged in joint order, and every
 //! rank marks them broken, so the surfaces that contact detection derives from them agree.
 //!
-//! **Contact.** Every rank holds stage 4's whole state and list (the nodes of the pairs two
-//! ranks compute are exported, [`Parallel::follow_pairs`]; the skin test is each rank's own
-//! nodes' and the answers combined; every node is made current before a full detection,
-//! the nodes of the tets that joined the surface and of the pairs added after an
-//! incremental one), and
-//! the ranks share its search: each finds the pairs whose first surface index lies in its
-//! share, and the shares gathered in rank order are the single-process list (the
-//! [`crate::contact_detection::PairExchange`] impl), so all have the same candidate pairs
-//! in the same order. A rank computes in stage 5 every pair
-//! with a node of its own ([`Parallel::contact_mask`]: a choice fixed by the pair's two
-//! tets, so its history is current wherever it is computed). The pairs' totals are exact
-//! sums over each rank's designated pairs, summed over the ranks; the few pairs that hand a
-//! joint over, start touching or see their friction law fail send a record, merged in pair
-//! order ([`Parallel::close_contact_and_integration`]). Pair histories are shared at
-//! [`Parallel::share_contact_histories`].
+//! **Contact.** Every rank holds stage 4's surface, fragments and boxes, but only the
+//! candidate pairs it computes: those with a tet holding a node of its own, a choice fixed
+//! by the pair's two tets, so a pair's history is current wherever it is computed. Each rank
+//! searches only around those tets and keeps their pairs (the
+//! [`crate::contact_detection::PairExchange`] impl), so its list is the single-process
+//! list's sub-list of its pairs, in the same order, and no list is gathered. The nodes of the
+//! pairs two ranks compute are exported ([`Parallel::follow_pairs`]: every owner of a node of
+//! such a pair computes it, so both sides of each message know it); the skin test is each
+//! rank's own nodes' and the answers combined; before a full detection each rank receives
+//! the nodes within reach of its own ([`Parallel::share_nodes_near`]: the pairs of its tets
+//! cannot reach further), every node only at the first, and after an incremental one the
+//! halo is exchanged once more for the pairs it added. The pairs' totals are exact sums over each rank's designated pairs (the lowest
+//! rank owning a node of the pair), summed over the ranks; the few pairs that hand a joint
+//! over, start touching or see their friction law fail send a record, keyed by the pair's
+//! two surface tets and merged in that order ([`Parallel::close_contact_and_integration`]).
+//! The whole list with every pair's history is shared for output, checkpoints and contact
+//! queries ([`Parallel::share_contact_histories`]); the next step's stage 4 keeps each
+//! rank's own pairs again.
 //!
 //! **Rebars and rigid bodies.** Every rank computes every bar, hinge and bond point (few
 //! beside the host's tets), in the one-rank order, so their nodes and their host tets' are
@@ -53,9 +56,10 @@
 //! force and torque and shares them ([`Parallel::share_rigid_loads`]), and every rank
 //! advances every rigid body alike, after the nodes' sums.
 //!
-//! **What this is not yet.** The model is replicated: memory per rank does not shrink.
-//! Contact detection's search is shared but its bookkeeping and its pair list are whole on
-//! every rank (docs/cluster.md lists the next steps).
+//! **What this is not yet.** The model is replicated: memory per rank does not shrink,
+//! except stage 5's pair state and stage 4's pair list. Stage 4's surface and fragment
+//! lists are whole on every rank, and its grid is built over the surface tets within reach
+//! (docs/cluster.md lists the next steps).
 
 pub mod comm;
 
@@ -533,6 +537,9 @@ pub struct Parallel {
     pub bytes: u64,
     /// Of [`Parallel::bytes`], those received in the halo after each step.
     pub halo_bytes: u64,
+    /// Of [`Parallel::bytes`], those received before full contact detections: the nodes
+    /// within reach of each rank's own ([`Parallel::share_nodes_near`]).
+    pub near_bytes: u64,
     /// Of [`Parallel::bytes`], those received when the whole model's state was shared
     /// (every node before a full detection, for output or a whole-model query; every joint's
     /// and pair's history for output, checkpoints and the end of a run): not every step.
@@ -550,14 +557,18 @@ pub struct Parallel {
     /// skin/2), settled at the meeting after stage 3 ([`Parallel::close_joint_stages`]);
     /// None outside a step.
     skin_moved: Option<bool>,
+    /// The most candidate pairs this rank held at once while stepping (its own: those it
+    /// computes), for the summary.
+    pub pairs_held: usize,
 }
 
 /// One rank's wall time: per stage (in [`crate::pipeline::Stage::ALL`] order) and in
-/// exchanges [s].
+/// exchanges [s]; and the most candidate contact pairs it held at once.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RankSeconds {
     pub stages: [f64; 7],
     pub exchange: f64,
+    pub pairs_held: f64,
 }
 
 impl std::fmt::Debug for Parallel {
@@ -711,6 +722,8 @@ impl Parallel {
             rank_seconds: Vec::new(),
             stage_seconds_at_check: 0.0,
             skin_moved: None,
+            pairs_held: 0,
+            near_bytes: 0,
         }
     }
 
@@ -861,6 +874,22 @@ impl Parallel {
         if self.share_every_node {
             return self.share_nodes(nodes);
         }
+        self.exchange_halo(nodes, self.check_halo.is_some());
+    }
+
+    /// Within a step, after an incremental detection: the halo exchanged once more, so that
+    /// stage 5 finds current the nodes of the pairs it added that two ranks compute
+    /// ([`Parallel::follow_pairs`] added them to the halo). Nothing when every node is
+    /// shared (it is, then).
+    pub fn share_added_pairs_nodes(&mut self, nodes: &mut crate::state::Nodes) {
+        if !self.share_every_node {
+            self.exchange_halo(nodes, false);
+        }
+    }
+
+    /// The halo's neighbour exchange; with `poison`, every node not kept current first set
+    /// to NaN (`FDEM_CHECK_HALO`).
+    fn exchange_halo(&mut self, nodes: &mut crate::state::Nodes, poison: bool) {
         let t = std::time::Instant::now();
         let halo = &mut self.halo;
         for ((_, which), buf) in halo.send.iter().zip(&mut halo.send_buf) {
@@ -876,7 +905,7 @@ impl Parallel {
             .map(|((r, _), b)| (*r, b.as_mut_slice()))
             .collect();
         self.comm.exchange_f64(&sends, &mut recvs);
-        if let Some(current) = &self.check_halo {
+        if let Some(current) = self.check_halo.as_ref().filter(|_| poison) {
             // Every node not kept current poisoned; the halo's are written just below.
             let stale = Vec3::repeat(Real::NAN);
             for n in (0..current.len()).filter(|&n| !current[n]) {
@@ -1094,21 +1123,23 @@ impl Parallel {
         v[0]
     }
 
-    /// Every rank's stage times and exchange time into [`Parallel::rank_seconds`] (a
-    /// collective: one sum of 8 numbers per rank). The exchange time is this rank's up to the
-    /// call; the gather itself is not counted.
+    /// Every rank's stage times, exchange time and most pairs held into
+    /// [`Parallel::rank_seconds`] (a collective: one sum of 9 numbers per rank). The exchange
+    /// time is this rank's up to the call; the gather itself is not counted.
     pub fn gather_timings(&mut self, stages: &[f64; 7]) {
-        const PER_RANK: usize = 8;
+        const PER_RANK: usize = 9;
         let (n, rank) = (self.comm.size(), self.comm.rank());
         let mut buf = vec![0.0; n * PER_RANK];
         buf[rank * PER_RANK..rank * PER_RANK + 7].copy_from_slice(stages);
         buf[rank * PER_RANK + 7] = self.seconds;
+        buf[rank * PER_RANK + 8] = self.pairs_held as f64;
         self.comm.sum_f64(&mut buf);
         self.rank_seconds = buf
             .chunks_exact(PER_RANK)
             .map(|c| RankSeconds {
                 stages: c[..7].try_into().expect("7 stages"),
                 exchange: c[7],
+                pairs_held: c[8],
             })
             .collect();
     }
@@ -1127,13 +1158,8 @@ impl Parallel {
     }
 
     /// The positions and velocities of the nodes `which` (the same list on every rank) from
-    /// their owners to every rank: each rank sends those it owns, in list order.
-    pub fn share_some_nodes(&mut self, nodes: &mut crate::state::Nodes, which: &[u32]) {
-        self.share_listed_nodes(nodes, which, false);
-    }
-
-    /// [`Parallel::share_some_nodes`], with the reactions when `reactions` (for the script's
-    /// queries of node sets).
+    /// their owners to every rank, each rank sending those it owns in list order, with the
+    /// reactions when `reactions` (for the script's queries of node sets).
     pub fn share_listed_nodes(
         &mut self,
         nodes: &mut crate::state::Nodes,
@@ -1228,28 +1254,152 @@ impl Parallel {
     }
 }
 
-impl crate::contact_detection::PairExchange for Parallel {
-    fn rank_of(&self) -> (usize, usize) {
-        (self.comm.rank(), self.comm.size())
+impl Parallel {
+    /// Before a full contact detection: the x and v of every node within `reach` of the
+    /// bounding box of this rank's own nodes, from their owners (a collective). Each rank
+    /// learns every rank's box so inflated (6 numbers a rank), sends each rank the nodes of
+    /// its own inside that rank's box (the counts first, one number per pair of ranks, then a
+    /// neighbour exchange of id, x and v) and receives alike. Returns, per node, whether it
+    /// is current on this rank now: its own and those received. (Until 2026-12-07 every
+    /// node went to every rank.)
+    pub fn share_nodes_near(&mut self, nodes: &mut crate::state::Nodes, reach: Real) -> Vec<bool> {
+        use rayon::prelude::*;
+        let t = std::time::Instant::now();
+        let (me, size) = (self.comm.rank(), self.comm.size());
+        let p = &self.partition;
+        let own: Vec<usize> = p.nodes_of(me).flatten().collect();
+        let x = &nodes.x;
+        let (lo, hi) = own.par_iter().map(|&n| (x[n], x[n])).reduce(
+            || {
+                (
+                    Vec3::repeat(Real::INFINITY),
+                    Vec3::repeat(Real::NEG_INFINITY),
+                )
+            },
+            |a, b| (a.0.inf(&b.0), a.1.sup(&b.1)),
+        );
+        let mut boxes = vec![0.0; 6 * size];
+        boxes[6 * me..6 * me + 3].copy_from_slice((lo - Vec3::repeat(reach)).as_slice());
+        boxes[6 * me + 3..6 * me + 6].copy_from_slice((hi + Vec3::repeat(reach)).as_slice());
+        let ranges: Vec<Range<usize>> = (0..size).map(|r| 6 * r..6 * r + 6).collect();
+        self.comm.allgather_ranges_f64(&mut boxes, &ranges);
+        let inside = |q: usize, v: &Vec3| {
+            let b = &boxes[6 * q..6 * q + 6];
+            (0..3).all(|k| b[k] <= v[k] && v[k] <= b[k + 3])
+        };
+        // Only the ranks whose box meets this rank's nodes' box can hold any of them.
+        let near: Vec<usize> = (0..size)
+            .filter(|&q| {
+                q != me
+                    && (0..3).all(|k| boxes[6 * q + k] <= hi[k] && lo[k] <= boxes[6 * q + k + 3])
+            })
+            .collect();
+        let mut sends: Vec<Vec<f64>> = vec![Vec::new(); size];
+        for &q in &near {
+            let list: Vec<usize> = own
+                .par_iter()
+                .copied()
+                .filter(|&n| inside(q, &x[n]))
+                .collect();
+            let buf = &mut sends[q];
+            buf.reserve(7 * list.len());
+            for n in list {
+                buf.push(n as f64);
+                buf.extend_from_slice(x[n].as_slice());
+                buf.extend_from_slice(nodes.v[n].as_slice());
+            }
+        }
+        let counts: Vec<u64> = sends.iter().map(|b| b.len() as u64).collect();
+        let incoming = self.comm.alltoall_counts(&counts);
+        let mut recv_bufs: Vec<Vec<f64>> =
+            incoming.iter().map(|&c| vec![0.0; c as usize]).collect();
+        {
+            let send_list: Vec<(usize, &[f64])> = (sends.iter().enumerate())
+                .filter(|(q, b)| *q != me && !b.is_empty())
+                .map(|(q, b)| (q, b.as_slice()))
+                .collect();
+            let mut recv_list: Vec<(usize, &mut [f64])> = (recv_bufs.iter_mut().enumerate())
+                .filter(|(r, b)| *r != me && !b.is_empty())
+                .map(|(r, b)| (r, b.as_mut_slice()))
+                .collect();
+            self.comm.exchange_f64(&send_list, &mut recv_list);
+        }
+        let mut current = vec![false; nodes.len()];
+        for &n in &own {
+            current[n] = true;
+        }
+        let mut received = 0u64;
+        for buf in &recv_bufs {
+            for v in buf.chunks_exact(7) {
+                let n = v[0] as usize;
+                nodes.x[n] = Vec3::new(v[1], v[2], v[3]);
+                nodes.v[n] = Vec3::new(v[4], v[5], v[6]);
+                current[n] = true;
+            }
+            received += 8 * buf.len() as u64;
+        }
+        let overhead = 8 * (6 * (size - 1) + size) as u64;
+        self.bytes += received + overhead;
+        self.near_bytes += received + overhead;
+        self.seconds += t.elapsed().as_secs_f64();
+        current
     }
 
-    /// Every rank's candidate pairs (8 bytes each), in rank order; timed as exchange.
-    fn gather_pairs(&mut self, mine: &[[u32; 2]]) -> Vec<[u32; 2]> {
+    /// Every node's position at the last full contact detection (`x_at`) from its owner, on
+    /// every rank (a collective): a rank records only the positions it had current then
+    /// ([`Parallel::share_nodes_near`]), and output, checkpoints and a new split need them
+    /// all.
+    pub fn share_positions_at_detection(&mut self, x_at: &mut [Vec3]) {
         let t = std::time::Instant::now();
-        let bytes: Vec<u8> = mine
-            .iter()
-            .flatten()
-            .flat_map(|i| i.to_le_bytes())
+        let p = &self.partition;
+        let mut at = 0;
+        let segments: Vec<Range<usize>> = (p.nodes_per_rank.iter())
+            .map(|&n| {
+                at += 3 * n;
+                at - 3 * n..at
+            })
             .collect();
-        let received = self.comm.allgather_bytes(&bytes);
-        let word = |b: &[u8]| u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-        let all = received
-            .iter()
-            .flat_map(|b| b.chunks_exact(8).map(|p| [word(&p[..4]), word(&p[4..])]))
-            .collect();
-        self.bytes += received.iter().map(|b| b.len() as u64).sum::<u64>() - bytes.len() as u64;
+        let buf = &mut self.buffer;
+        buf.clear();
+        buf.resize(at, 0.0);
+        let mut k = segments[self.comm.rank()].start;
+        for n in p.nodes_of(self.comm.rank()).flatten() {
+            buf[k..k + 3].copy_from_slice(x_at[n].as_slice());
+            k += 3;
+        }
+        self.comm.allgather_ranges_f64(buf, &segments);
+        for (r, seg) in segments.iter().enumerate() {
+            if r == self.comm.rank() {
+                continue;
+            }
+            let mut k = seg.start;
+            for n in p.nodes_of(r).flatten() {
+                x_at[n] = Vec3::new(buf[k], buf[k + 1], buf[k + 2]);
+                k += 3;
+            }
+        }
+        let received = (8 * (at - segments[self.comm.rank()].len())) as u64;
+        self.bytes += received;
+        self.whole_bytes += received;
         self.seconds += t.elapsed().as_secs_f64();
-        all
+    }
+}
+
+impl crate::contact_detection::PairExchange for Parallel {
+    fn computes(&self) -> &[bool] {
+        &self.partition.tet_relevant
+    }
+
+    fn make_every_node_current(&mut self, nodes: &mut crate::state::Nodes) {
+        self.share_nodes(nodes);
+    }
+
+    fn make_near_current(&mut self, nodes: &mut crate::state::Nodes, reach: Real) -> Vec<bool> {
+        self.share_nodes_near(nodes, reach)
+    }
+
+    fn largest(&mut self, value: Real) -> Real {
+        self.largest_over_ranks(value)
     }
 
     fn any_rank(&mut self, mine: bool) -> bool {
@@ -1262,13 +1412,6 @@ impl crate::contact_detection::PairExchange for Parallel {
 
     fn owned_chunks(&self) -> (&[bool], usize) {
         (&self.owned_chunks, crate::integration::CHUNK)
-    }
-
-    fn make_current(&mut self, nodes: &mut crate::state::Nodes, which: Option<&[u32]>) {
-        match which {
-            None => self.share_nodes(nodes),
-            Some(which) => self.share_some_nodes(nodes, which),
-        }
     }
 }
 
@@ -1301,6 +1444,7 @@ impl Parallel {
             needed[b as usize] = true;
         }
         crate::contact_interaction::PairMask {
+            decomposed: true,
             compute,
             designated,
             surface: needed,
@@ -1376,26 +1520,29 @@ impl Parallel {
         self.skin_moved.take()
     }
 
-    /// Give every rank every candidate pair's history from its designated rank (a rank
-    /// keeps current only the pairs it computes). Before output, checkpoints and the
-    /// script's contact queries; a collective.
+    /// Give every rank the whole candidate list, with every pair's history from its
+    /// designated rank (a rank holds and keeps current only the pairs it computes). Before
+    /// output, checkpoints and the script's contact queries; a collective. The next step's
+    /// stage 4 keeps this rank's pairs again
+    /// ([`crate::contact_detection::keep_this_ranks_pairs`]).
     pub fn share_contact_histories(
         &mut self,
+        cd: &mut crate::contact_detection::ContactDetection,
         ci: &mut crate::contact_interaction::ContactInteraction,
     ) {
         use crate::contact_interaction::PairState;
         let t = std::time::Instant::now();
-        let mine = ci.designated_states();
+        let mine = ci.designated_states(&cd.pairs);
         let before = self.bytes;
-        let mut all: Vec<(u32, u8, Option<PairState>)> = self.gather_items(&mine, "pair histories");
+        let mut all: Vec<(u64, u8, Option<PairState>)> = self.gather_items(&mine, "pair histories");
         self.whole_bytes += self.bytes - before;
         all.sort_by_key(|s| s.0);
-        assert_eq!(
-            all.len(),
-            ci.slots.len(),
-            "every candidate pair is designated to one rank"
-        );
-        ci.set_states(all.into_iter().map(|(_, w, s)| (w, s)));
+        cd.pairs = all
+            .iter()
+            .map(|s| [(s.0 >> 32) as u32, s.0 as u32])
+            .collect();
+        cd.local = false;
+        ci.set_states(all.len(), all.into_iter().map(|(_, w, s)| (w, s)));
         self.seconds += t.elapsed().as_secs_f64();
     }
 }

@@ -398,6 +398,23 @@ pub struct Simulation {
     parallel: Option<crate::parallel::Parallel>,
 }
 
+/// What one rank of a decomposed model exchanged with the others so far.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Exchanged {
+    /// Wall time spent exchanging [s].
+    pub seconds: Real,
+    /// Bytes received.
+    pub bytes: u64,
+    /// Of `bytes`, those in the halo after each step.
+    pub halo: u64,
+    /// Of `bytes`, those of the nodes within reach of this rank's, before full detections.
+    pub near: u64,
+    /// Of `bytes`, those of the whole model's state (every node, every joint's or pair's
+    /// history, every node's position at the last detection: for output, checkpoints,
+    /// whole-model queries, the first detection; not every step).
+    pub whole: u64,
+}
+
 impl Simulation {
     /// Continue from `saved`, a checkpoint of this model (the caller has compared their
     /// [`crate::io::checkpoint::Fingerprint`]s): every state variable is taken from `saved`;
@@ -449,6 +466,20 @@ impl Simulation {
         self.synchronize_nodes();
         self.synchronize_joints();
         self.synchronize_contact();
+        self.synchronize_detection();
+    }
+
+    /// On a decomposed model, every node's position at the last full contact detection from
+    /// its owner (a rank records only those within reach of its own nodes): what a
+    /// checkpoint and a new split need (a collective, once per detection).
+    pub fn synchronize_detection(&mut self) {
+        if let Some(par) = &mut self.parallel {
+            let d = &mut self.contact_detection.detector;
+            if par.partition.is_split() && !d.current.is_empty() {
+                par.share_positions_at_detection(&mut d.x_at_detection);
+                d.current.clear();
+            }
+        }
     }
 
     /// Every node's position, velocity and reaction from the rank that owns it (once per
@@ -498,8 +529,8 @@ impl Simulation {
     pub fn contact_force_on(&mut self, body: usize) -> Vec3 {
         let range = self.bodies[body].nodes.clone();
         let step = self.step;
-        let masked = self.contact.is_enabled()
-            && self.contact.mask.compute.len() == self.contact.slots.len();
+        let masked =
+            self.contact.is_enabled() && self.contact.mask.is_for(self.contact.slots.len());
         match &mut self.parallel {
             Some(par)
                 if par.partition.is_split() && par.contact_shared_at != Some(step) && masked =>
@@ -534,9 +565,9 @@ impl Simulation {
             if par.contact_shared_at != Some(step)
                 && par.partition.is_split()
                 && self.contact.is_enabled()
-                && self.contact.mask.compute.len() == self.contact.slots.len()
+                && self.contact.mask.is_for(self.contact.slots.len())
             {
-                par.share_contact_histories(&mut self.contact);
+                par.share_contact_histories(&mut self.contact_detection, &mut self.contact);
                 par.contact_shared_at = Some(step);
             }
         }
@@ -659,14 +690,17 @@ impl Simulation {
         self.parallel.as_ref().map_or(&[], |p| &p.rank_seconds)
     }
 
-    /// Wall time this rank spent exchanging data with the others [s], the bytes it
-    /// received, those of them in the halo after each step, and those in sharing the whole
-    /// model's state (every node, every joint's or pair's history: before full detections,
-    /// output, checkpoints and whole-model queries; not every step). Zeros unless decomposed.
-    pub fn exchanged(&self) -> (Real, u64, u64, u64) {
-        self.parallel.as_ref().map_or((0.0, 0, 0, 0), |p| {
-            (p.seconds, p.bytes, p.halo_bytes, p.whole_bytes)
-        })
+    /// What this rank exchanged with the others ([`Exchanged`]); zeros unless decomposed.
+    pub fn exchanged(&self) -> Exchanged {
+        self.parallel
+            .as_ref()
+            .map_or(Exchanged::default(), |p| Exchanged {
+                seconds: p.seconds,
+                bytes: p.bytes,
+                halo: p.halo_bytes,
+                near: p.near_bytes,
+                whole: p.whole_bytes,
+            })
     }
 
     /// A stop signal (SIGINT, SIGTERM) as every rank of a decomposed model sees it: the
@@ -969,8 +1003,11 @@ impl Simulation {
         if self.ready {
             return Ok(());
         }
-        // (A decomposed model edited between steps: from every node's current state.)
+        // (A decomposed model edited between steps: from every node's current state, and
+        // the whole pair list, which the new split shares out again.)
         self.synchronize_nodes();
+        self.synchronize_contact();
+        self.synchronize_detection();
         if self.tets.is_empty() {
             return Err(SimError::Invalid(
                 "the model has no bodies: add one with sim.add_body(..)".into(),
@@ -1378,10 +1415,21 @@ impl Simulation {
                 Some(par as &mut dyn contact_detection::PairExchange),
             ));
         }
-        // The ranks share the search, gather its pairs and make current the positions it
-        // reads: exchange time, not stage 4's (taken out below).
+        // Each rank searches and keeps the pairs it computes, after making current the
+        // positions the search reads: exchange time, not stage 4's (taken out below).
         let exchange_before = self.parallel.as_ref().map_or(0.0, |p| p.seconds);
         timed(&mut self.timers, Stage::ContactDetection, || {
+            if let Some(par) = &self.parallel {
+                // The whole list was shared (output, a checkpoint, a new split): this
+                // rank's pairs again.
+                let computes = &par.partition.tet_relevant;
+                if contact_detection::keep_this_ranks_pairs(&mut self.contact_detection, computes) {
+                    let remap = self.contact_detection.take_remap();
+                    let n_surface = self.contact_detection.surface.len();
+                    self.contact.carry_history(remap, n_surface);
+                }
+            }
+            let incremental_before = self.contact_detection.detector.incremental;
             // (A quiet step answered above need not run the skin test again.)
             if detects != Some(false)
                 && contact_detection::update_pairs(
@@ -1400,15 +1448,23 @@ impl Simulation {
                     let cd = &self.contact_detection;
                     let generation = (cd.detector.detections, cd.detector.incremental);
                     par.follow_pairs(&self.tets, &cd.surface, &cd.pairs, &cd.origins, generation);
+                    if cd.detector.incremental != incremental_before {
+                        // Stage 5 reads the added pairs' nodes on every rank computing them.
+                        par.share_added_pairs_nodes(&mut self.nodes);
+                    }
                 }
                 let remap = self.contact_detection.take_remap();
                 let n_surface = self.contact_detection.surface.len();
                 self.contact.carry_history(remap, n_surface);
             }
             if let Some(par) = &mut self.parallel {
-                let cd = &self.contact_detection;
-                if self.contact.mask.compute.len() != cd.pairs.len() {
+                let cd = &mut self.contact_detection;
+                if !self.contact.mask.is_for(cd.pairs.len()) {
                     self.contact.mask = par.contact_mask(&cd.surface, &cd.pairs);
+                    // The whole model's count, for the summary and the script's queries.
+                    let designated = self.contact.mask.designated.iter().filter(|&&d| d);
+                    cd.all_ranks_pairs = par.sum_in_rank_order(designated.count() as Real) as usize;
+                    par.pairs_held = par.pairs_held.max(cd.pairs.len());
                 }
                 // (After a split without a detection: from the whole list.)
                 let generation = (cd.detector.detections, cd.detector.incremental);

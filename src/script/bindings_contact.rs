@@ -110,7 +110,7 @@ pub fn register(engine: &mut Engine, ctx: Rc<ScriptContext>) {
         let st = s.0.borrow();
         let (c, cd) = (&st.sim.contact, &st.sim.contact_detection);
         let mut m = Map::new();
-        m.insert("pairs".into(), (cd.pairs.len() as i64).into());
+        m.insert("pairs".into(), (cd.candidate_pairs() as i64).into());
         m.insert("active".into(), (c.last.active as i64).into());
         m.insert("surface_elements".into(), (cd.surface.len() as i64).into());
         m.insert("normal_force".into(), c.last.normal_force.into());

@@ -945,7 +945,7 @@ pub fn summary(
             "contact (elastic)",
             joules(e.contact),
             cd.surface.len(),
-            cd.pairs.len(),
+            cd.candidate_pairs(),
             c.last.active,
             cd.detector.detections,
             cd.detector.incremental
@@ -1027,16 +1027,17 @@ fn stage_table(sim: &Simulation) -> String {
     s.push_str(&format!("   {:<20} {:>9.3}\n", "total", total));
     let (rank, ranks) = sim.rank_and_size();
     if ranks > 1 {
-        let (seconds, bytes, halo, whole) = sim.exchanged();
+        let e = sim.exchanged();
         let per_step = |b: u64| sig(b as f64 / sim.step.max(1) as f64 / 1e6, 3);
         s.push_str(&format!(
-            "   {:<20} {:>9.3}            (rank {rank} of {ranks}, besides the stages; received {} MB per step: {} the halo, {} the whole model's state for detections, output and queries, {} the rest)\n",
+            "   {:<20} {:>9.3}            (rank {rank} of {ranks}, besides the stages; received {} MB per step: {} the halo, {} the nodes near its own before detections, {} the whole model's state for output and queries, {} the rest)\n",
             "exchange",
-            seconds,
-            per_step(bytes),
-            per_step(halo),
-            per_step(whole),
-            per_step(bytes.saturating_sub(halo + whole)),
+            e.seconds,
+            per_step(e.bytes),
+            per_step(e.halo),
+            per_step(e.near),
+            per_step(e.whole),
+            per_step(e.bytes.saturating_sub(e.halo + e.near + e.whole)),
         ));
         s.push_str(&rank_table(sim.rank_seconds()));
     }
@@ -1071,6 +1072,14 @@ fn rank_table(ranks: &[crate::parallel::RankSeconds]) -> String {
     let total = |r: &crate::parallel::RankSeconds| r.stages.iter().sum::<f64>();
     s.push_str(&row("all stages", &total));
     s.push_str(&row("exchange", &|r| r.exchange));
+    if ranks.iter().any(|r| r.pairs_held > 0.0) {
+        let mut line = format!("   {:<20}", "pairs held (most)");
+        for r in ranks {
+            line.push_str(&format!(" {:>9}", r.pairs_held));
+        }
+        s.push_str(&line);
+        s.push_str("   (candidate contact pairs: each rank holds those it computes)\n");
+    }
     let slowest = ranks.iter().map(total).fold(0.0, f64::max);
     let mean = ranks.iter().map(total).sum::<f64>() / ranks.len() as f64;
     if mean > 0.0 {
