@@ -521,6 +521,9 @@ pub struct Parallel {
     /// The readers with contact (base readers and those of pairs two ranks compute), kept
     /// to grow after incremental detections.
     contact_readers: Readers,
+    /// After an incremental detection, until stage 5: the exchange of the nodes its added
+    /// pairs read ([`Parallel::share_added_pairs_nodes`]).
+    added_halo: Option<Halo>,
     /// Every node is shared after each step (a contact model until stage 4 first reports).
     share_every_node: bool,
     /// With `FDEM_CHECK_HALO=1`: the nodes current on this rank after each step besides the
@@ -709,6 +712,7 @@ impl Parallel {
             base_readers: Readers::default(),
             pairs_exported: None,
             contact_readers: Readers::default(),
+            added_halo: None,
             share_every_node: false,
             check_halo: None,
             buffer: Vec::new(),
@@ -857,10 +861,20 @@ impl Parallel {
             pairs.par_iter().filter_map(spanning).collect()
         };
         let before = self.contact_readers.keys.len();
+        let mut new_readers = incremental.then(|| Readers::new(self.contact_readers.shared.len()));
         for nodes in &added {
             self.contact_readers.add(p, me, nodes, nodes);
+            if let Some(r) = &mut new_readers {
+                r.add(p, me, nodes, nodes);
+            }
         }
         self.contact_readers.finish();
+        // What the added pairs read, for the exchange before this step's stage 5
+        // ([`Parallel::share_added_pairs_nodes`]).
+        self.added_halo = new_readers.map(|mut r| {
+            r.finish();
+            Halo::new(p, me, &r.keys)
+        });
         if !incremental || self.contact_readers.keys.len() != before || self.share_every_node {
             self.halo = Halo::new(p, me, &self.contact_readers.keys);
         }
@@ -877,13 +891,17 @@ impl Parallel {
         self.exchange_halo(nodes, self.check_halo.is_some());
     }
 
-    /// Within a step, after an incremental detection: the halo exchanged once more, so that
-    /// stage 5 finds current the nodes of the pairs it added that two ranks compute
-    /// ([`Parallel::follow_pairs`] added them to the halo). Nothing when every node is
-    /// shared (it is, then).
+    /// Within a step, after an incremental detection: the nodes of the pairs it added that
+    /// two ranks compute, from their owners to the ranks that compute the pairs (a neighbour
+    /// exchange of its own, [`Parallel::follow_pairs`] made it), so that stage 5 finds them
+    /// current. Nothing when every node is shared (it is, then).
     pub fn share_added_pairs_nodes(&mut self, nodes: &mut crate::state::Nodes) {
-        if !self.share_every_node {
-            self.exchange_halo(nodes, false);
+        if let Some(mut added) = self.added_halo.take() {
+            if !self.share_every_node {
+                std::mem::swap(&mut self.halo, &mut added);
+                self.exchange_halo(nodes, false);
+                std::mem::swap(&mut self.halo, &mut added);
+            }
         }
     }
 

@@ -723,7 +723,7 @@ impl Simulation {
         let nodes: Vec<String> = per_rank.iter().map(|n| n.to_string()).collect();
         let exported = par.shared_nodes();
         let when = if self.contact.is_enabled() {
-            "in the first step (then the nodes of work and contact pairs shared between ranks, and every node before a full contact detection)"
+            "in the first step (then the nodes of work and contact pairs shared between ranks, and before a full contact detection those within reach of each rank's own)"
         } else {
             "every step"
         };
