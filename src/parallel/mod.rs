@@ -544,8 +544,9 @@ pub struct Parallel {
     /// within reach of each rank's own ([`Parallel::share_nodes_near`]).
     pub near_bytes: u64,
     /// Of [`Parallel::bytes`], those received when the whole model's state was shared
-    /// (every node before a full detection, for output or a whole-model query; every joint's
-    /// and pair's history for output, checkpoints and the end of a run): not every step.
+    /// (every node before the first detection, for output or a whole-model query; every
+    /// joint's and pair's history and every node's position at the last detection for
+    /// output, checkpoints and the end of a run): not every step.
     pub whole_bytes: u64,
     /// The steps at which all nodes, and all joint histories, were last shared.
     pub nodes_shared_at: Option<u64>,
