@@ -150,6 +150,11 @@ pub struct ContactDetection {
     pub origins: Vec<PairOrigin>,
     /// Inflated boxes of the surface tets at the last detection.
     pub boxes: Vec<Aabb>,
+    /// On a rank of a decomposed model: the surface nodes it owns, which its share of the
+    /// skin test reads every step ([`surface_moved_here`]; None until first asked after the
+    /// surface or the split changed).
+    #[serde(skip)]
+    pub own_surface_nodes: Option<Vec<u32>>,
     /// Surface lists must be rebuilt (joints broke, model changed).
     pub surface_stale: bool,
     /// Break events seen by the last surface refresh.
@@ -281,16 +286,28 @@ pub fn must_detect(
 /// One rank's part of the skin test: some surface node that passes `owned` moved more than
 /// skin/2 since the last detection. False when the detection's record does not fit the
 /// nodes (then [`must_detect`] answers without the test). A decomposed step answers it for
-/// all ranks at its first meeting, before stage 4 asks (`crate::parallel`).
+/// all ranks at its first meeting, before stage 4 asks (`crate::parallel`). It reads the
+/// rank's own surface nodes, listed once per surface and split
+/// ([`ContactDetection::own_surface_nodes`]), not the whole surface every step.
 pub fn surface_moved_here(
-    cd: &ContactDetection,
+    cd: &mut ContactDetection,
     x: &[Vec3],
     owned: impl Fn(u32) -> bool + Sync,
 ) -> bool {
     if cd.detector.stale || cd.detector.x_at_detection.len() != x.len() {
         return false;
     }
-    cd.detector.moved_beyond_skin(x, &cd.surface_nodes, owned)
+    let surface_nodes = &cd.surface_nodes;
+    let own = (cd.own_surface_nodes.get_or_insert_with(|| {
+        surface_nodes
+            .par_iter()
+            .copied()
+            .filter(|&n| owned(n))
+            .collect()
+    }))
+    .as_slice();
+    // (When the rank owns every surface node the list is the surface's, in its order.)
+    cd.detector.moved_beyond_skin(x, own, |_| true)
 }
 
 /// Some surface node moved more than skin/2 since the last detection (on every rank alike:
@@ -501,26 +518,7 @@ fn detect_all_pairs(
     cd.detector.workspace.release_pair_buffers();
     cd.local = computes.is_some();
     cd.detector.current = current.unwrap_or_default();
-    // Find every new pair in the old list (both are ordered by their first index).
-    cd.origins.clear();
-    let old = &cd.old_pairs;
-    let mut k = 0;
-    for p in &cd.pairs {
-        while k < old.len() && old[k][0] < p[0] {
-            k += 1;
-        }
-        let mut q = k;
-        let mut origin = None;
-        while q < old.len() && old[q][0] == p[0] {
-            if old[q][1] == p[1] {
-                origin = Some(PairOrigin::Kept(cd.carried[q]));
-                break;
-            }
-            q += 1;
-        }
-        cd.origins
-            .push(origin.unwrap_or_else(|| filter.new_pair(p[0], p[1])));
-    }
+    cd.origins = origins_in(&cd.pairs, &cd.old_pairs, &cd.carried, &filter);
     cd.old_pairs = Vec::new();
     cd.carried = Vec::new();
     cd.detector.x_at_detection.clear();
@@ -528,6 +526,33 @@ fn detect_all_pairs(
     cd.record_surface_positions();
     cd.detector.stale = false;
     cd.detector.detections += 1;
+}
+
+/// Where each pair of the new list `pairs` comes from: kept from the old list `old` (its
+/// index before the surface refresh, `carried`), or new. Both lists are sorted.
+fn origins_in(
+    pairs: &[[u32; 2]],
+    old: &[[u32; 2]],
+    carried: &[u32],
+    filter: &CandidateFilter,
+) -> Vec<PairOrigin> {
+    let mut k = 0;
+    pairs
+        .iter()
+        .map(|p| {
+            while k < old.len() && old[k][0] < p[0] {
+                k += 1;
+            }
+            let mut q = k;
+            while q < old.len() && old[q][0] == p[0] {
+                if old[q][1] == p[1] {
+                    return PairOrigin::Kept(carried[q]);
+                }
+                q += 1;
+            }
+            filter.new_pair(p[0], p[1])
+        })
+        .collect()
 }
 
 /// The box of each surface tet at the positions `x`, inflated by `half` (skin/2).
@@ -942,6 +967,7 @@ fn refresh_surface(
     sn.sort_unstable();
     sn.dedup();
     cd.surface_nodes = sn;
+    cd.own_surface_nodes = None;
     cd.record_surface_positions();
     cd.fragment = crate::fracture::fragments(&tets.nodes, joints, nodes.len());
     if cd.fragment0.len() != tets.len() {

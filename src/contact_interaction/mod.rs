@@ -454,8 +454,9 @@ pub struct PairMask {
     pub decomposed: bool,
     pub compute: Vec<bool>,
     pub designated: Vec<bool>,
-    /// Per surface tet: in a pair this rank computes (the others' geometry is not updated).
-    pub surface: Vec<bool>,
+    /// The surface tets in a pair this rank computes, ascending (the others' geometry is not
+    /// updated: stage 5's per-step work on a rank follows its pairs, not the whole surface).
+    pub surface: Vec<u32>,
 }
 
 /// A candidate pair (surface indices, lower first) as one number that sorts like the list:
@@ -938,7 +939,14 @@ pub fn add_contact_forces(
     time: Real,
 ) -> ContactSums {
     let needed = std::mem::take(&mut ci.mask.surface);
-    update_surface_geometry(ci, &needed, &detection.surface, &tets.nodes, &nodes.x);
+    let decomposed = ci.mask.decomposed;
+    update_surface_geometry(
+        ci,
+        decomposed.then_some(&needed[..]),
+        &detection.surface,
+        &tets.nodes,
+        &nodes.x,
+    );
     ci.mask.surface = needed;
     // Checkpoints leave the records out: one list per chunk again after a restart.
     let n_chunks = ci.hist.len();
@@ -1287,15 +1295,38 @@ impl ContactInteraction {
     }
 }
 
-/// Current geometry, box and 1/(smallest height) of the surface tets (those `needed`, when
-/// given: a decomposed model's rank reads only the tets of its pairs), in one pass.
+/// Current geometry, box and 1/(smallest height) of the surface tets (only those `needed`,
+/// when given: a decomposed model's rank reads only the tets of its pairs), in one pass.
 fn update_surface_geometry(
     ci: &mut ContactInteraction,
-    needed: &[bool],
+    needed: Option<&[u32]>,
     surface: &[u32],
     tet_nodes: &[[u32; 4]],
     x: &[Vec3],
 ) {
+    let of = |e: u32| {
+        let xs = tet_nodes[e as usize].map(|n| x[n as usize]);
+        let g = TetGeom::new(xs);
+        let ih = g.as_ref().map_or(0.0, |g| {
+            g.height
+                .iter()
+                .fold(Real::INFINITY, |a, &h| a.min(h))
+                .recip()
+        });
+        (Aabb::of_points(&xs), g, ih)
+    };
+    if let Some(needed) = needed {
+        let fresh: Vec<(Aabb, Option<TetGeom>, Real)> = needed
+            .par_iter()
+            .with_min_len(256)
+            .map(|&s| of(surface[s as usize]))
+            .collect();
+        for (&s, (bx, g, ih)) in needed.iter().zip(fresh) {
+            let s = s as usize;
+            (ci.current_boxes[s], ci.geom[s], ci.inv_h[s]) = (bx, g, ih);
+        }
+        return;
+    }
     ci.geom
         .par_iter_mut()
         .zip(ci.current_boxes.par_iter_mut())
@@ -1304,9 +1335,6 @@ fn update_surface_geometry(
         .enumerate()
         .with_min_len(256)
         .for_each(|(s, (((g, bx), ih), &e))| {
-            if !needed.is_empty() && !needed[s] {
-                return;
-            }
             // The surface tets of a large body are scattered through the node arrays (its
             // spatial order, `mesh::order`): fetch the nodes of the tet 8 ahead meanwhile.
             #[cfg(target_arch = "x86_64")]
@@ -1321,15 +1349,7 @@ fn update_surface_geometry(
                     };
                 }
             }
-            let xs = tet_nodes[e as usize].map(|n| x[n as usize]);
-            *bx = Aabb::of_points(&xs);
-            *g = TetGeom::new(xs);
-            *ih = g.as_ref().map_or(0.0, |g| {
-                g.height
-                    .iter()
-                    .fold(Real::INFINITY, |a, &h| a.min(h))
-                    .recip()
-            });
+            (*bx, *g, *ih) = of(e);
         });
 }
 

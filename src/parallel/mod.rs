@@ -1229,26 +1229,31 @@ impl Parallel {
     /// model current on every rank (before the script reads it, before output).
     pub fn share_nodes(&mut self, nodes: &mut crate::state::Nodes) {
         let t = std::time::Instant::now();
-        // Each rank's nodes, chunk by chunk, 9 numbers a node (x, v, reaction), one
-        // segment per rank in rank order.
-        const PER_NODE: usize = 9;
+        let received = self.gather_owned(&mut [&mut nodes.x, &mut nodes.v, &mut nodes.reaction]);
+        self.bytes += received;
+        self.whole_bytes += received;
+        self.seconds += t.elapsed().as_secs_f64();
+    }
+
+    /// Every node's value of each of `fields` from the rank that owns it, on every rank (one
+    /// all-gather: each rank's nodes chunk by chunk, 3 numbers a field and node, one segment
+    /// per rank in rank order). Returns the bytes received.
+    fn gather_owned(&mut self, fields: &mut [&mut Vec<Vec3>]) -> u64 {
+        let per_node = 3 * fields.len();
         let p = &self.partition;
         let mut at = 0;
-        let segments: Vec<Range<usize>> = p
-            .nodes_per_rank
-            .iter()
+        let segments: Vec<Range<usize>> = (p.nodes_per_rank.iter())
             .map(|&n| {
-                at += PER_NODE * n;
-                at - PER_NODE * n..at
+                at += per_node * n;
+                at - per_node * n..at
             })
             .collect();
         let buf = &mut self.buffer;
         buf.clear();
         buf.resize(at, 0.0);
-        let mut fields = [&mut nodes.x, &mut nodes.v, &mut nodes.reaction];
         let mut k = segments[self.comm.rank()].start;
         for n in p.nodes_of(self.comm.rank()).flatten() {
-            for field in &fields {
+            for field in fields.iter() {
                 buf[k..k + 3].copy_from_slice(field[n].as_slice());
                 k += 3;
             }
@@ -1266,10 +1271,7 @@ impl Parallel {
                 }
             }
         }
-        let mine = p.nodes_per_rank[self.comm.rank()];
-        self.bytes += (8 * PER_NODE * (nodes.len() - mine)) as u64;
-        self.whole_bytes += (8 * PER_NODE * (nodes.len() - mine)) as u64;
-        self.seconds += t.elapsed().as_secs_f64();
+        (8 * (at - segments[self.comm.rank()].len())) as u64
     }
 }
 
@@ -1368,36 +1370,9 @@ impl Parallel {
     /// every rank (a collective): a rank records only the positions it had current then
     /// ([`Parallel::share_nodes_near`]), and output, checkpoints and a new split need them
     /// all.
-    pub fn share_positions_at_detection(&mut self, x_at: &mut [Vec3]) {
+    pub fn share_positions_at_detection(&mut self, x_at: &mut Vec<Vec3>) {
         let t = std::time::Instant::now();
-        let p = &self.partition;
-        let mut at = 0;
-        let segments: Vec<Range<usize>> = (p.nodes_per_rank.iter())
-            .map(|&n| {
-                at += 3 * n;
-                at - 3 * n..at
-            })
-            .collect();
-        let buf = &mut self.buffer;
-        buf.clear();
-        buf.resize(at, 0.0);
-        let mut k = segments[self.comm.rank()].start;
-        for n in p.nodes_of(self.comm.rank()).flatten() {
-            buf[k..k + 3].copy_from_slice(x_at[n].as_slice());
-            k += 3;
-        }
-        self.comm.allgather_ranges_f64(buf, &segments);
-        for (r, seg) in segments.iter().enumerate() {
-            if r == self.comm.rank() {
-                continue;
-            }
-            let mut k = seg.start;
-            for n in p.nodes_of(r).flatten() {
-                x_at[n] = Vec3::new(buf[k], buf[k + 1], buf[k + 2]);
-                k += 3;
-            }
-        }
-        let received = (8 * (at - segments[self.comm.rank()].len())) as u64;
+        let received = self.gather_owned(&mut [x_at]);
         self.bytes += received;
         self.whole_bytes += received;
         self.seconds += t.elapsed().as_secs_f64();
@@ -1466,7 +1441,9 @@ impl Parallel {
             decomposed: true,
             compute,
             designated,
-            surface: needed,
+            surface: (0..needed.len() as u32)
+                .filter(|&i| needed[i as usize])
+                .collect(),
         }
     }
 

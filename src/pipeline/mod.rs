@@ -1066,8 +1066,10 @@ impl Simulation {
             contact: self.contact.is_enabled(),
             work,
         });
-        // Stage 5's mask is made for the pairs of the next step.
+        // Stage 5's mask is made for the pairs of the next step, and the skin test's list
+        // of this rank's surface nodes anew.
         self.contact.mask = Default::default();
+        self.contact_detection.own_surface_nodes = None;
         self.elements_ws.compute = par.elements.compute.clone();
         self.joints.compute = par.joint_blocks.compute.clone();
         Ok(())
@@ -1274,7 +1276,7 @@ impl Simulation {
         // not move before stage 7).
         let moved_here = self.contact.is_enabled() && {
             let (owned, chunk) = (&par.owned_chunks[..], crate::integration::CHUNK);
-            contact_detection::surface_moved_here(&self.contact_detection, &self.nodes.x, |n| {
+            contact_detection::surface_moved_here(&mut self.contact_detection, &self.nodes.x, |n| {
                 owned[n as usize / chunk]
             })
         };
