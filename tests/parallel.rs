@@ -411,7 +411,8 @@ fn a_bar_thrown_on_a_slab_breaks_identically_on_any_rank_count() {
 /// the thrown bar's ranks hold fewer positions than the model's at their last detections,
 /// and receive fewer bytes for them than every node would cost (while the equality test
 /// above shows the pairs found are the one-rank ones). Before, each rank received every
-/// other rank's nodes (x, v and reaction, 72 bytes a node) at every detection.
+/// other rank's nodes (x, v and reaction, 72 bytes a node) at every detection; the first
+/// too, which sets the default skin (now an exact sum over the ranks).
 #[test]
 fn before_a_detection_a_rank_receives_only_the_nodes_within_reach() {
     check_halo();
@@ -438,14 +439,15 @@ fn before_a_detection_a_rank_receives_only_the_nodes_within_reach() {
     let n = runs[0].0;
     for (rank, (_, held, near, detections)) in runs.iter().enumerate() {
         println!("rank {rank}: {detections} detections, positions held {held:?} of {n}, {near} bytes received for them");
-        assert!(
-            held.len() as u64 + 1 >= *detections,
-            "rank {rank}: every detection after the first near ({held:?})"
+        assert_eq!(
+            held.len() as u64,
+            *detections,
+            "rank {rank}: every detection near ({held:?})"
         );
         assert!(!held.is_empty(), "rank {rank}: detections must run");
     }
-    // Every node to every rank at each detection after the first: 2·n nodes received per
-    // detection over the 3 ranks.
+    // Every node to every rank at each detection: 2·n nodes received per detection over the
+    // 3 ranks.
     let every_node = (runs[0].1.len() * 2 * n * 72) as u64;
     let near: u64 = runs.iter().map(|r| r.2).sum();
     println!("received before detections: {near} bytes, every node would be {every_node}");

@@ -27,7 +27,7 @@ pub mod nbs;
 pub use nbs::{brute_force_pairs, nbs_pairs, nbs_pairs_of, sweep_pairs, Aabb, NbsWorkspace};
 
 use crate::joints::Joints;
-use crate::math::{Real, Vec3};
+use crate::math::{ExactSum, Real, Vec3};
 use crate::state::{Body, Layout, Nodes, Tets};
 use rayon::prelude::*;
 
@@ -229,9 +229,9 @@ impl ContactDetection {
 /// the rank, [`PairExchange::computes`]) and keeps those ([`ContactDetection::local`]):
 /// each rank's list is the sub-list of the single-process list with its pairs, in the same
 /// order, and no list is gathered. Positions are made current where they are read: before
-/// a full detection, the nodes within reach of a rank's own (every node at the first, which
-/// sets the skin from the whole surface); an incremental one reads the positions of its last
-/// full detection, which are current for the same nodes. The skin test reads each rank's
+/// a full detection, the nodes within reach of a rank's own (the default skin, which sets
+/// the reach, an exact sum over the ranks' designated surface tets); an incremental one
+/// reads the positions of its last full detection, which are current for the same nodes. The skin test reads each rank's
 /// own nodes ([`must_detect`]).
 pub trait PairExchange {
     /// Per tet: it has a node of this rank (the rank computes every pair it is in).
@@ -243,6 +243,11 @@ pub trait PairExchange {
     fn make_near_current(&mut self, nodes: &mut Nodes, reach: Real) -> Vec<bool>;
     /// The largest of one value per rank (a collective).
     fn largest(&mut self, value: Real) -> Real;
+    /// Per tet: this rank is the lowest owning one of its nodes (each tet is designated to
+    /// one rank).
+    fn designates(&self, tet: usize) -> bool;
+    /// Every rank's exact sum added to `sum` (a collective; exact in any order).
+    fn sum_over_ranks(&mut self, sum: &mut ExactSum);
     /// Whether `mine` holds on some rank (a collective).
     fn any_rank(&mut self, mine: bool) -> bool;
     /// The node chunks this rank owns (its nodes are current on it), and the chunk size.
@@ -383,7 +388,10 @@ pub fn update_pairs(
         cd.carried.extend(0..cd.pairs.len() as u32);
     }
     // A full detection reads, and records, the positions of the nodes within reach of the
-    // tets this rank computes (every node on one process).
+    // tets this rank computes (every node on one process), a reach the skin sets.
+    if cd.skin.is_none() && cd.detector.skin == 0.0 {
+        cd.detector.skin = default_skin(cd, nodes, tets, ranks.as_deref_mut());
+    }
     let current = match ranks.as_deref_mut() {
         Some(r) => make_reach_current(cd, nodes, tets, r),
         None => None,
@@ -392,9 +400,41 @@ pub fn update_pairs(
     true
 }
 
+/// The skin when the script gives none: a quarter of the surface tets' mean extent at the
+/// current positions. The extents are summed exactly ([`ExactSum`]), so the skin has the
+/// same bits for any number of threads and ranks: on a decomposed model each rank sums the
+/// surface tets designated to it (their nodes are current there) and the sums are added.
+fn default_skin(
+    cd: &ContactDetection,
+    nodes: &Nodes,
+    tets: &Tets,
+    ranks: Option<&mut (dyn PairExchange + '_)>,
+) -> Real {
+    let (x, tn) = (&nodes.x, &tets.nodes);
+    let mine: Vec<u32> = match &ranks {
+        Some(r) => (cd.surface.iter().copied())
+            .filter(|&e| r.designates(e as usize))
+            .collect(),
+        None => cd.surface.clone(),
+    };
+    let mut sum = (mine.par_iter())
+        .fold(ExactSum::default, |mut s, &e| {
+            s.add(Aabb::of_points(&tn[e as usize].map(|n| x[n as usize])).max_extent());
+            s
+        })
+        .reduce(ExactSum::default, |mut a, b| {
+            a.merge(&b);
+            a
+        });
+    if let Some(r) = ranks {
+        r.sum_over_ranks(&mut sum);
+    }
+    0.25 * sum.value() / cd.surface.len().max(1) as Real
+}
+
 /// On a rank of a decomposed model, before a full detection: make current the nodes that the
 /// pairs of the tets it computes can reach, and return which nodes are current (None: every
-/// node, at the first detection, which sets the skin from every surface tet). A pair's two
+/// node, in a model without surface tets). A pair's two
 /// inflated boxes overlap, so every node of a partner of a tet with a node `o` of this rank
 /// lies within e_a + e_b + skin of `o` in each coordinate (e: the tets' extents): within
 /// 2·e_max + skin of this rank's nodes' box, e_max the largest extent of any tet (each rank
@@ -408,6 +448,7 @@ fn make_reach_current(
 ) -> Option<Vec<bool>> {
     let skin = cd.skin.unwrap_or(cd.detector.skin);
     if skin <= 0.0 {
+        // (A model without surface tets: nothing to reach.)
         r.make_every_node_current(nodes);
         return None;
     }
@@ -434,16 +475,6 @@ fn detect_all_pairs(
 ) {
     let x = &nodes.x;
     let tn = &tets.nodes;
-    // Boxes of the surface tets at the current positions.
-    if cd.skin.is_none() && cd.detector.skin == 0.0 {
-        let mean = cd
-            .surface
-            .par_iter()
-            .map(|&e| Aabb::of_points(&tn[e as usize].map(|n| x[n as usize])).max_extent())
-            .sum::<Real>()
-            / cd.surface.len().max(1) as Real;
-        cd.detector.skin = 0.25 * mean;
-    }
     if let Some(s) = cd.skin {
         cd.detector.skin = s;
     }

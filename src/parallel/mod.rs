@@ -544,7 +544,7 @@ pub struct Parallel {
     /// within reach of each rank's own ([`Parallel::share_nodes_near`]).
     pub near_bytes: u64,
     /// Of [`Parallel::bytes`], those received when the whole model's state was shared
-    /// (every node before the first detection, for output or a whole-model query; every
+    /// (every node for output or a whole-model query; every
     /// joint's and pair's history and every node's position at the last detection for
     /// output, checkpoints and the end of a run): not every step.
     pub whole_bytes: u64,
@@ -1394,6 +1394,20 @@ impl crate::contact_detection::PairExchange for Parallel {
 
     fn largest(&mut self, value: Real) -> Real {
         self.largest_over_ranks(value)
+    }
+
+    fn designates(&self, tet: usize) -> bool {
+        self.partition.tet_min_rank[tet] as usize == self.comm.rank()
+    }
+
+    fn sum_over_ranks(&mut self, sum: &mut crate::math::ExactSum) {
+        use crate::math::ExactSum;
+        let t = std::time::Instant::now();
+        let mut digits = vec![0.0; ExactSum::LEN];
+        sum.digits(&mut digits);
+        self.sum_exact_digits(&mut digits);
+        *sum = ExactSum::from_digits(&digits);
+        self.seconds += t.elapsed().as_secs_f64();
     }
 
     fn any_rank(&mut self, mine: bool) -> bool {
