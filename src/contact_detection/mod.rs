@@ -148,7 +148,9 @@ pub struct ContactDetection {
     /// For every pair of `pairs`: where it comes from, from a detection until stage 5 takes
     /// it ([`ContactDetection::take_remap`]).
     pub origins: Vec<PairOrigin>,
-    /// Inflated boxes of the surface tets at the last detection.
+    /// Inflated boxes of the surface tets at the last detection (on a rank of a decomposed
+    /// model, a box that overlaps nothing for the tets out of its reach; empty once the
+    /// positions at detection were shared, until an incremental detection makes them anew).
     pub boxes: Vec<Aabb>,
     /// On a rank of a decomposed model: the surface nodes it owns, which its share of the
     /// skin test reads every step ([`surface_moved_here`]; None until first asked after the
@@ -181,7 +183,9 @@ impl ContactDetection {
     }
 
     /// Copy the surface nodes' positions at the last detection into `detector.surface_x`
-    /// (nothing when no detection has recorded every node's position).
+    /// (nothing before the first detection; on a rank of a decomposed model the positions of
+    /// the nodes it did not hold then are stale until shared, and the skin test reads only
+    /// its own).
     fn record_surface_positions(&mut self) {
         let d = &mut self.detector;
         d.surface_x.clear();
@@ -192,6 +196,19 @@ impl ContactDetection {
                     .extend(self.surface_nodes.iter().map(|&n| at[n as usize]));
             }
         }
+    }
+
+    /// On a rank of a decomposed model, every node's position at the last full detection has
+    /// just been shared from its owner (`x_at_detection` whole): the positions no longer
+    /// depend on which nodes the rank held then, nor may what was computed from them. The
+    /// boxes (a box that overlaps nothing for each tet out of reach) go, so that an
+    /// incremental detection makes them anew from the whole positions (after a new split the
+    /// rank may compute tets it did not hold), and the skin test's copy of the surface's
+    /// positions is made again.
+    pub fn positions_at_detection_shared(&mut self) {
+        self.detector.current.clear();
+        self.boxes.clear();
+        self.record_surface_positions();
     }
 
     /// The number of candidate pairs of the whole model (on a rank holding only its own,
@@ -344,9 +361,10 @@ fn surface_moved(
 /// On a decomposed model (`ranks`), each rank searches and keeps only the pairs it computes
 /// (a full detection's NBS, an incremental one's tests of the tets that joined the surface):
 /// its list is the single-process list's sub-list of those pairs. `nodes` are written only
-/// there: every node is made current from its owner before a full detection. (After an
-/// incremental one, stage 5 reads the nodes of the added pairs that two ranks compute:
-/// the caller brings those with the halo, `crate::parallel::Parallel::follow_pairs`.)
+/// there: before a full detection the nodes within reach of the rank's own are made current
+/// from their owners. (After an incremental one, stage 5 reads the nodes of the added pairs
+/// that two ranks compute: the caller exchanges those,
+/// `crate::parallel::Parallel::share_added_pairs_nodes`.)
 pub fn update_pairs(
     cd: &mut ContactDetection,
     nodes: &mut Nodes,
@@ -462,7 +480,8 @@ fn make_reach_current(
     Some(r.make_near_current(nodes, reach))
 }
 
-/// A full detection at the current positions (every node current): NBS over every surface
+/// A full detection at the current positions (`current`: on a decomposed model, the nodes
+/// current on this rank, those within reach of its own; None: every node): NBS over the surface
 /// box (on a decomposed model only around the tets this rank computes, keeping its pairs),
 /// then the old→new remap; records the positions.
 fn detect_all_pairs(

@@ -31,7 +31,8 @@
 //! some joint broke (each joint's by its designated rank), merged in joint order, and every
 //! rank marks them broken, so the surfaces that contact detection derives from them agree.
 //!
-//! **Contact.** Every rank holds stage 4's surface, fragments and boxes, but only the
+//! **Contact.** Every rank holds stage 4's surface and fragments (and the boxes of the
+//! surface tets within its reach), but only the
 //! candidate pairs it computes: those with a tet holding a node of its own, a choice fixed
 //! by the pair's two tets, so a pair's history is current wherever it is computed. Each rank
 //! searches only around those tets and keeps their pairs (the
@@ -41,8 +42,8 @@
 //! such a pair computes it, so both sides of each message know it); the skin test is each
 //! rank's own nodes' and the answers combined; before a full detection each rank receives
 //! the nodes within reach of its own ([`Parallel::share_nodes_near`]: the pairs of its tets
-//! cannot reach further), every node only at the first, and after an incremental one the
-//! halo is exchanged once more for the pairs it added. The pairs' totals are exact sums over each rank's designated pairs (the lowest
+//! cannot reach further), and after an incremental one the nodes its added pairs read that
+//! two ranks compute ([`Parallel::share_added_pairs_nodes`]). The pairs' totals are exact sums over each rank's designated pairs (the lowest
 //! rank owning a node of the pair), summed over the ranks; the few pairs that hand a joint
 //! over, start touching or see their friction law fail send a record, keyed by the pair's
 //! two surface tets and merged in that order ([`Parallel::close_contact_and_integration`]).
@@ -822,8 +823,9 @@ impl Parallel {
     /// needs nothing from the others, and the skin test reads only a rank's own nodes
     /// ([`crate::contact_detection::must_detect`]). Called every step; recomputed when the
     /// list changes (`generation`: the full and incremental detections so far; after an
-    /// incremental one only its added pairs, from `origins`). A full detection makes every
-    /// node current first; an incremental one the nodes of the tets it added pairs of.
+    /// incremental one only its added pairs, from `origins`, whose nodes are then exchanged
+    /// at once: [`Parallel::share_added_pairs_nodes`]). A full detection makes the nodes
+    /// within reach current first ([`Parallel::share_nodes_near`]).
     pub fn follow_pairs(
         &mut self,
         tets: &crate::state::Tets,

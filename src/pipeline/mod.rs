@@ -410,8 +410,8 @@ pub struct Exchanged {
     /// Of `bytes`, those of the nodes within reach of this rank's, before full detections.
     pub near: u64,
     /// Of `bytes`, those of the whole model's state (every node, every joint's or pair's
-    /// history, every node's position at the last detection: for output, checkpoints,
-    /// whole-model queries, the first detection; not every step).
+    /// history, every node's position at the last detection: for output, checkpoints and
+    /// whole-model queries; not every step).
     pub whole: u64,
 }
 
@@ -474,10 +474,10 @@ impl Simulation {
     /// checkpoint and a new split need (a collective, once per detection).
     pub fn synchronize_detection(&mut self) {
         if let Some(par) = &mut self.parallel {
-            let d = &mut self.contact_detection.detector;
-            if par.partition.is_split() && !d.current.is_empty() {
-                par.share_positions_at_detection(&mut d.x_at_detection);
-                d.current.clear();
+            let cd = &mut self.contact_detection;
+            if par.partition.is_split() && !cd.detector.current.is_empty() {
+                par.share_positions_at_detection(&mut cd.detector.x_at_detection);
+                cd.positions_at_detection_shared();
             }
         }
     }
@@ -1468,7 +1468,8 @@ impl Simulation {
                     cd.all_ranks_pairs = par.sum_in_rank_order(designated.count() as Real) as usize;
                     par.pairs_held = par.pairs_held.max(cd.pairs.len());
                 }
-                // (After a split without a detection: from the whole list.)
+                // (After a split without a detection: from this rank's list, taken from the
+                // whole one above.)
                 let generation = (cd.detector.detections, cd.detector.incremental);
                 par.follow_pairs(&self.tets, &cd.surface, &cd.pairs, &[], generation);
             }

@@ -720,6 +720,9 @@ fn interrupted(ctx: &ScriptContext, s: &SimHandle, sig: i32) -> Box<rhai::EvalAl
 
 /// The checkpoint of an interrupted run, and how to continue from it (or why not).
 fn interrupt_checkpoint(ctx: &ScriptContext, s: &SimHandle) -> String {
+    // (Every rank of a decomposed model stops at the same step: the whole state first, as
+    // for any checkpoint.)
+    synchronize(s);
     let mut st = s.0.borrow_mut();
     if st.dry || st.restore_pending {
         return "no checkpoint was written".into();
