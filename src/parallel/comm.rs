@@ -7,7 +7,7 @@
 //! receives from the ranks it names, with message sizes both sides computed alike.
 
 use std::ops::Range;
-use std::sync::{Arc, Barrier, Mutex};
+use std::sync::{Arc, Condvar, Mutex};
 
 /// Collective communication between the ranks of one model.
 pub trait Comm: Send + Sync {
@@ -78,7 +78,7 @@ pub struct ThreadComm {
 }
 
 struct Shared {
-    barrier: Barrier,
+    barrier: RankBarrier,
     slots: Vec<Mutex<Vec<u8>>>,
     /// Neighbour messages, `from * size + to`.
     messages: Vec<Mutex<Vec<f64>>>,
@@ -91,7 +91,7 @@ impl ThreadComm {
     pub fn run<T: Send>(size: usize, f: impl Fn(Arc<dyn Comm>) -> T + Sync) -> Vec<T> {
         assert!(size >= 1);
         let shared = Arc::new(Shared {
-            barrier: Barrier::new(size),
+            barrier: RankBarrier::new(size),
             slots: (0..size).map(|_| Mutex::new(Vec::new())).collect(),
             messages: (0..size * size).map(|_| Mutex::new(Vec::new())).collect(),
         });
@@ -102,19 +102,93 @@ impl ThreadComm {
                         rank,
                         shared: shared.clone(),
                     });
-                    let f = &f;
+                    let (f, shared) = (&f, shared.clone());
                     std::thread::Builder::new()
                         .name(format!("rank {rank}"))
                         .stack_size(64 << 20)
-                        .spawn_scoped(s, move || f(comm))
+                        .spawn_scoped(s, move || {
+                            // A rank that panics releases the others from their next
+                            // collective (they panic there) instead of leaving them waiting.
+                            let _release = ReleaseOnPanic(&shared.barrier);
+                            f(comm)
+                        })
                         .expect("spawn a rank thread")
                 })
                 .collect();
-            handles
-                .into_iter()
-                .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-                .collect()
+            let results: Vec<_> = handles.into_iter().map(|h| h.join()).collect();
+            // Re-raise the panic that started it, not the other ranks' release.
+            let released =
+                |e: &Box<dyn std::any::Any + Send>| e.downcast_ref::<&str>() == Some(&RELEASED);
+            if let Some(i) = (results
+                .iter()
+                .position(|r| r.as_ref().is_err_and(|e| !released(e))))
+            .or_else(|| results.iter().position(Result::is_err))
+            {
+                let mut results = results;
+                std::panic::resume_unwind(results.swap_remove(i).err().expect("a panic"));
+            }
+            results.into_iter().map(|r| r.expect("no panic")).collect()
         })
+    }
+}
+
+/// What a rank panics with when another rank panicked (ThreadComm).
+const RELEASED: &str = "another rank panicked";
+
+/// The ranks' meeting point (ThreadComm): like `std::sync::Barrier`, but a rank that panics
+/// releases the others, which then panic at the collective they wait in, so that a test
+/// fails instead of hanging.
+struct RankBarrier {
+    size: usize,
+    /// Ranks arrived in this round, the round, a rank panicked.
+    state: Mutex<(usize, u64, bool)>,
+    turn: Condvar,
+}
+
+impl RankBarrier {
+    fn new(size: usize) -> Self {
+        RankBarrier {
+            size,
+            state: Mutex::new((0, 0, false)),
+            turn: Condvar::new(),
+        }
+    }
+
+    fn wait(&self) {
+        let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
+        let round = s.1;
+        if !s.2 {
+            s.0 += 1;
+            if s.0 == self.size {
+                (s.0, s.1) = (0, round + 1);
+                self.turn.notify_all();
+                return;
+            }
+            while s.1 == round && !s.2 {
+                s = self.turn.wait(s).unwrap_or_else(|e| e.into_inner());
+            }
+            if s.1 != round {
+                return;
+            }
+        }
+        drop(s);
+        std::panic::panic_any(RELEASED);
+    }
+
+    fn release(&self) {
+        self.state.lock().unwrap_or_else(|e| e.into_inner()).2 = true;
+        self.turn.notify_all();
+    }
+}
+
+/// Releases the other ranks when its rank's thread unwinds.
+struct ReleaseOnPanic<'a>(&'a RankBarrier);
+
+impl Drop for ReleaseOnPanic<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.0.release();
+        }
     }
 }
 
@@ -334,6 +408,21 @@ fn as_bytes(data: &[f64]) -> &[u8] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A rank that panics makes the run panic with its message; the ranks waiting in a
+    /// collective are released, not left to hang.
+    #[test]
+    #[should_panic(expected = "rank 1 fails")]
+    fn a_panicking_rank_fails_the_run_instead_of_hanging() {
+        ThreadComm::run(3, |c| {
+            if c.rank() == 1 {
+                panic!("rank 1 fails");
+            }
+            let mut v = [1.0];
+            c.sum_f64(&mut v);
+            c.sum_f64(&mut v);
+        });
+    }
 
     /// Each collective gives every rank the same answer: the designated-rank sum is exact,
     /// the range gather fills every range from its rank, bytes come back in rank order.
