@@ -248,8 +248,8 @@ impl ContactDetection {
 /// order, and no list is gathered. Positions are made current where they are read: before
 /// a full detection, the nodes within reach of a rank's own (the default skin, which sets
 /// the reach, an exact sum over the ranks' designated surface tets); an incremental one
-/// reads the positions of its last full detection, which are current for the same nodes. The skin test reads each rank's
-/// own nodes ([`must_detect`]).
+/// reads the positions of its last full detection, which are current for the same nodes.
+/// The skin test reads each rank's own nodes ([`must_detect`]).
 pub trait PairExchange {
     /// Per tet: it has a node of this rank (the rank computes every pair it is in).
     fn computes(&self) -> &[bool];

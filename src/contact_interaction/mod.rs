@@ -445,14 +445,14 @@ pub struct ContactInteraction {
 }
 
 /// Which candidate pairs one rank of a decomposed model computes (those with a node of the
-/// rank: their forces on its nodes are then the one-rank sums) and which it reports (each
-/// pair to one rank: the lowest owning a node of it). Indexed like stage 4's pairs.
+/// rank: their forces on its nodes are then the one-rank sums; a rank's list holds only
+/// those) and which it reports (each pair to one rank: the lowest owning a node of it).
+/// Indexed like stage 4's pairs.
 #[derive(Clone, Debug, Default)]
 pub struct PairMask {
     /// Made for a rank of a decomposed model (the default mask, on one process, computes
     /// and designates every pair).
     pub decomposed: bool,
-    pub compute: Vec<bool>,
     pub designated: Vec<bool>,
     /// The surface tets in a pair this rank computes, ascending (the others' geometry is not
     /// updated: stage 5's per-step work on a rank follows its pairs, not the whole surface).
@@ -482,7 +482,7 @@ pub struct PairRecord {
 impl PairMask {
     /// A decomposed model's mask for a list of `n` pairs (a rank may hold none).
     pub fn is_for(&self, n: usize) -> bool {
-        self.decomposed && self.compute.len() == n
+        self.decomposed && self.designated.len() == n
     }
 }
 
@@ -1081,9 +1081,6 @@ fn evaluate_chunk(
     let mut frame = Frame::new();
     for (k, slot) in sl.iter_mut().enumerate() {
         let pi = c * CHUNK + k;
-        if masked && !mask.compute[pi] {
-            continue;
-        }
         if slot.hist == NO_HISTORY {
             // No history: armed and not touching. Rejected pairs (most candidates,
             // most steps) only update their witness.

@@ -1427,10 +1427,9 @@ impl crate::contact_detection::PairExchange for Parallel {
 
 impl Parallel {
     /// Stage 5's work for this rank over stage 4's candidate `pairs` (indices into the
-    /// `surface` tets): a pair is computed when one of its tets has a node of this rank, and
-    /// designated to the lowest rank owning a node of one of its tets. Both depend only on
-    /// the pair's two tets, so a rank computes a pair every step the pair exists: its
-    /// history is current there.
+    /// `surface` tets), which are its own: each has a tet with a node of this rank, so the
+    /// rank computes them all, every step each exists (its history is current there). A pair
+    /// is designated to the lowest rank owning a node of one of its tets.
     pub fn contact_mask(
         &self,
         surface: &[u32],
@@ -1438,24 +1437,24 @@ impl Parallel {
     ) -> crate::contact_interaction::PairMask {
         let p = &self.partition;
         let rank = self.rank() as u32;
-        let (compute, designated): (Vec<bool>, Vec<bool>) = pairs
+        let designated: Vec<bool> = pairs
             .iter()
             .map(|&[a, b]| {
                 let (ea, eb) = (surface[a as usize] as usize, surface[b as usize] as usize);
-                (
+                debug_assert!(
                     p.tet_relevant[ea] || p.tet_relevant[eb],
-                    p.tet_min_rank[ea].min(p.tet_min_rank[eb]) == rank,
-                )
+                    "a rank's own pair"
+                );
+                p.tet_min_rank[ea].min(p.tet_min_rank[eb]) == rank
             })
-            .unzip();
+            .collect();
         let mut needed = vec![false; surface.len()];
-        for (&[a, b], _) in pairs.iter().zip(&compute).filter(|c| *c.1) {
+        for &[a, b] in pairs {
             needed[a as usize] = true;
             needed[b as usize] = true;
         }
         crate::contact_interaction::PairMask {
             decomposed: true,
-            compute,
             designated,
             surface: (0..needed.len() as u32)
                 .filter(|&i| needed[i as usize])
