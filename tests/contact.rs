@@ -1089,9 +1089,9 @@ fn incremental_detection_after_fracture_equals_a_full_detection() {
             25 => n_joints / 3,
             _ => 1 + (rng.next_u64() % 6) as usize,
         };
+        let mut now = Vec::new();
         for _ in 0..breaks {
-            let j = (rng.next_u64() % n_joints as u64) as usize;
-            sim.joints.broken[j] = true;
+            now.push((rng.next_u64() % n_joints as u64) as u32);
         }
         if round == 20 {
             for j in 0..n_joints {
@@ -1099,12 +1099,16 @@ fn incremental_detection_after_fracture_equals_a_full_detection() {
                 if f.iter()
                     .all(|&n| (sim.nodes.x0[n as usize].z - 0.3).abs() < 1e-9)
                 {
-                    sim.joints.broken[j] = true;
+                    now.push(j as u32);
                 }
             }
         }
+        // (The joints broken before are not broken again, as in a run.)
+        now.retain(|&j| !sim.joints.broken[j as usize]);
+        now.iter()
+            .for_each(|&j| sim.joints.broken[j as usize] = true);
         let (inc0, full0) = (cd.detector.incremental, cd.detector.detections);
-        cd.surface_stale = true;
+        cd.broken_since_refresh(now);
         assert!(update_pairs(
             &mut cd,
             &mut sim.nodes,
@@ -1129,7 +1133,14 @@ fn incremental_detection_after_fracture_equals_a_full_detection() {
             &sim.joints,
             None,
         );
+        // The surface lists made from the breaks alone are those made from scratch.
         assert_eq!(fresh.surface, cd.surface, "round {round}: surfaces differ");
+        assert_eq!(fresh.surface_nodes, cd.surface_nodes, "round {round}");
+        assert_eq!(fresh.broken_faces, cd.broken_faces, "round {round}");
+        assert!(
+            fdem::fracture::same_partition(&fresh.fragment, &cd.fragment),
+            "round {round}: the fragments differ"
+        );
         let (got, want) = (as_tets(&cd), as_tets(&fresh));
         assert!(
             got == want,
@@ -1148,6 +1159,10 @@ fn incremental_detection_after_fracture_equals_a_full_detection() {
         cd.surface.len()
     );
     assert!(incremental >= 30, "the incremental path must be taken");
+    assert_eq!(
+        cd.refreshes_from_breaks, 40,
+        "every refresh from the breaks alone"
+    );
     assert!(full >= 3, "rounds 20, 25 and 30 must detect in full");
 }
 

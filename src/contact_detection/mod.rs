@@ -26,6 +26,7 @@ pub mod nbs;
 
 pub use nbs::{brute_force_pairs, nbs_pairs, nbs_pairs_of, sweep_pairs, Aabb, NbsWorkspace};
 
+use crate::fracture::{BreakEvent, FragmentTracker};
 use crate::joints::Joints;
 use crate::math::{ExactSum, Real, Vec3};
 use crate::state::{Body, Layout, Nodes, Tets};
@@ -157,10 +158,29 @@ pub struct ContactDetection {
     /// surface or the split changed).
     #[serde(skip)]
     pub own_surface_nodes: Option<Vec<u32>>,
-    /// Surface lists must be rebuilt (joints broke, model changed).
-    pub surface_stale: bool,
+    /// Surface lists must be rebuilt (joints broke: [`ContactDetection::joints_broke`];
+    /// model changed: [`ContactDetection::prepare`]).
+    surface_stale: bool,
+    /// Surface refreshes made from the broken joints alone ([`refresh_after_breaks`]), not
+    /// from scratch.
+    #[serde(skip)]
+    pub refreshes_from_breaks: u64,
     /// Break events seen by the last surface refresh.
     seen_breaks: usize,
+    /// The joints broken since the last surface refresh, when they are all it must take in
+    /// ([`ContactDetection::joints_broke`]; the refresh is then made from them alone).
+    #[serde(skip)]
+    newly_broken: Vec<u32>,
+    /// The next refresh is made from scratch: the model changed ([`ContactDetection::prepare`]).
+    #[serde(skip)]
+    rebuild: bool,
+    /// Free faces of each tet (boundary faces and faces of broken joints), kept between
+    /// refreshes (empty until the first, and after a restart).
+    #[serde(skip)]
+    free_faces: Vec<i32>,
+    /// Fragments, split as joints break (`fragment` holds its labels).
+    #[serde(skip)]
+    fragments: FragmentTracker,
     /// During a detection: the previous pair list and, for each of its pairs, its index in
     /// the list before the surface refresh (freed after each detection, as the remap is).
     old_pairs: Vec<[u32; 2]>,
@@ -171,15 +191,25 @@ impl ContactDetection {
     /// Before the first step after the model changed: rebuild the surface at the next update.
     pub fn prepare(&mut self) {
         self.surface_stale = true;
+        self.rebuild = true;
     }
 
-    /// Joints broke since the last update (`break_events` is the number of break events so
-    /// far): the surface changes.
-    pub fn joints_broke(&mut self, break_events: usize) {
-        if break_events != self.seen_breaks {
-            self.surface_stale = true;
-            self.seen_breaks = break_events;
+    /// Joints broke since the last update (`break_events`: every break event so far, in
+    /// order): the surface changes, by those joints' faces.
+    pub fn joints_broke(&mut self, break_events: &[BreakEvent]) {
+        match break_events.get(self.seen_breaks..) {
+            Some([]) => return,
+            Some(new) => self.broken_since_refresh(new.iter().map(|e| e.joint as u32)),
+            None => self.prepare(),
         }
+        self.seen_breaks = break_events.len();
+    }
+
+    /// `joints` broke (their flags are set) since the last update: the next update refreshes
+    /// the surface from them.
+    pub fn broken_since_refresh(&mut self, joints: impl IntoIterator<Item = u32>) {
+        self.newly_broken.extend(joints);
+        self.surface_stale = true;
     }
 
     /// Copy the surface nodes' positions at the last detection into `detector.surface_x`
@@ -377,25 +407,23 @@ pub fn update_pairs(
         let detected_before = !cd.detector.stale
             && cd.detector.x_at_detection.len() == nodes.x.len()
             && cd.skin.is_none_or(|s| s == cd.detector.skin);
-        let before = Topology {
-            surface: cd.surface.clone(),
-            fragment: cd.fragment.clone(),
-            broken: cd.broken_faces.clone(),
-        };
-        refresh_surface(cd, nodes, tets, bodies, joints);
-        if let Some(joined) = detected_before
-            .then(|| tets_joining_the_surface(cd, &before))
-            .flatten()
+        let change = match cd.rebuild
+            || cd.free_faces.len() != tets.len()
+            || !cd.fragments.fits(tets.len(), joints.len())
         {
-            if add_pairs_of_broken_joints(
-                cd,
-                nodes,
-                tets,
-                bodies,
-                &before,
-                &joined,
-                ranks.as_deref_mut(),
-            ) {
+            false => refresh_after_breaks(cd, tets, joints),
+            true => {
+                let before = Topology {
+                    surface: cd.surface.clone(),
+                    fragment: cd.fragment.clone(),
+                    broken: cd.broken_faces.clone(),
+                };
+                refresh_surface(cd, nodes, tets, bodies, joints);
+                surface_change(cd, &before)
+            }
+        };
+        if let Some(change) = change.filter(|_| detected_before) {
+            if add_pairs_of_broken_joints(cd, nodes, tets, bodies, &change, ranks.as_deref_mut()) {
                 return true;
             }
         }
@@ -622,14 +650,24 @@ struct Topology {
     broken: Vec<([u32; 2], u32)>,
 }
 
-/// The surface indices of the tets that joined the surface at the last refresh (from
-/// `before`), when an incremental detection may add their pairs: None (a full detection)
-/// when a fragment split (pairs across the whole separating crack become candidates), a
-/// tet left the surface, or too many joined.
-fn tets_joining_the_surface(cd: &ContactDetection, before: &Topology) -> Option<Vec<u32>> {
-    if cd.fragment != before.fragment
-        || cd.surface.len() < before.surface.len()
+/// What a surface refresh changed, when an incremental detection can take it in: the tets
+/// that joined the surface and the faces of the joints that broke.
+struct SurfaceChange {
+    /// Surface tets before.
+    n_before: usize,
+    /// The surface indices of the tets that joined it, ascending.
+    joined: Vec<u32>,
+    /// The newly broken joints' tet pairs (lower id first), sorted, with the joint id.
+    new_faces: Vec<([u32; 2], u32)>,
+}
+
+/// What a refresh from scratch changed against `before`: None (a full detection) when a
+/// fragment split (pairs across the whole separating crack become candidates), a tet left
+/// the surface, or too many joined.
+fn surface_change(cd: &ContactDetection, before: &Topology) -> Option<SurfaceChange> {
+    if cd.surface.len() < before.surface.len()
         || cd.surface.len() - before.surface.len() > INCREMENTAL_LIMIT
+        || !crate::fracture::same_partition(&cd.fragment, &before.fragment)
     {
         return None;
     }
@@ -645,7 +683,15 @@ fn tets_joining_the_surface(cd: &ContactDetection, before: &Topology) -> Option<
         }
     }
     // (Otherwise a tet left the surface.)
-    (cd.surface.len() - joined.len() == before.surface.len()).then_some(joined)
+    let new_faces = (cd.broken_faces.iter())
+        .filter(|f| before.broken.binary_search_by_key(&f.0, |b| b.0).is_err())
+        .copied()
+        .collect();
+    (cd.surface.len() - joined.len() == before.surface.len()).then_some(SurfaceChange {
+        n_before: before.surface.len(),
+        joined,
+        new_faces,
+    })
 }
 
 /// Largest number of tets joining the surface at one refresh for which the incremental
@@ -659,16 +705,15 @@ const INCREMENTAL_LIMIT: usize = 256;
 /// (boxes and nearness from the positions at t₀, the skin test still measured from t₀). The
 /// list is then the one a full detection at t₀ with the new topology gives (breaking only
 /// lifts exclusions), so it holds every pair that can touch until the skin test fires.
-/// `joined`: the surface indices of the tets that joined ([`tets_joining_the_surface`],
-/// which says when there can be no incremental detection). Declines (returns false, for a
-/// full detection) when a surface node moved more than skin/2 since t₀.
+/// `change`: the tets that joined and the faces that broke ([`SurfaceChange`]; when there
+/// is none, there can be no incremental detection). Declines (returns false, for a full
+/// detection) when a surface node moved more than skin/2 since t₀.
 fn add_pairs_of_broken_joints(
     cd: &mut ContactDetection,
     nodes: &Nodes,
     tets: &Tets,
     bodies: &[Body],
-    before: &Topology,
-    joined: &[u32],
+    change: &SurfaceChange,
     mut ranks: Option<&mut (dyn PairExchange + '_)>,
 ) -> bool {
     if surface_moved(cd, &nodes.x, ranks.as_deref_mut()) {
@@ -676,7 +721,8 @@ fn add_pairs_of_broken_joints(
     }
     let tn = &tets.nodes;
     let half = 0.5 * cd.detector.skin;
-    boxes_after_joining(cd, joined, before.surface.len(), tn, half);
+    let joined = &change.joined[..];
+    boxes_after_joining(cd, joined, change.n_before, tn, half);
     let x = &cd.detector.x_at_detection;
     let continuous: Vec<bool> = bodies.iter().map(|b| b.layout != Layout::Jointed).collect();
     let filter = CandidateFilter {
@@ -713,32 +759,32 @@ fn add_pairs_of_broken_joints(
                 .iter()
                 .all(|&n| c[n as usize])
     };
-    let all: Vec<u32> = (0..cd.surface.len() as u32)
-        .filter(|&i| held_at_t0(i))
+    // Every held surface tet whose box overlaps the joined tets' common box, against each
+    // joined tet it may pair with: a joined tet against every surface tet (a pair of two
+    // joined tets once, from the lower), a joined tet this rank does not compute only
+    // against those it does.
+    let joined_held: Vec<u32> = (joined.iter().copied())
+        .filter(|&n| held_at_t0(n))
         .collect();
-    let my_surface: Vec<u32> = match computes {
-        Some(_) => all.iter().copied().filter(|&i| mine(i)).collect(),
+    let common = (joined_held.iter())
+        .map(|&n| boxes[n as usize])
+        .reduce(|a, b| a.union(&b));
+    let (is_joined, test, mine, joined_held) = (&is_joined, &test, &mine, &joined_held);
+    let mut added: Vec<[u32; 2]> = match common {
         None => Vec::new(),
+        Some(common) => (0..cd.surface.len() as u32)
+            .into_par_iter()
+            .filter(|&i| boxes[i as usize].overlaps(&common) && held_at_t0(i))
+            .flat_map_iter(|i| {
+                (joined_held.iter().copied())
+                    .filter(move |&n| (mine(n) || mine(i)) && (!is_joined[i as usize] || i > n))
+                    .filter_map(move |n| test(n, i))
+            })
+            .collect(),
     };
-    let (is_joined, test, mine) = (&is_joined, &test, &mine);
-    // A joined tet against every surface tet (a pair of two joined tets once: from the
-    // lower); a joined tet this rank does not compute only against those it does.
-    let mut added: Vec<[u32; 2]> = joined
-        .par_iter()
-        .filter(|&&n| held_at_t0(n))
-        .flat_map_iter(|&n| {
-            let partners = if mine(n) { &all } else { &my_surface };
-            (partners.iter().copied())
-                .filter(move |&i| !is_joined[i as usize] || i > n)
-                .filter_map(move |i| test(n, i))
-        })
-        .collect();
     // The two sides of each newly broken joint, both on the surface before.
     let index_of = |e: u32| cd.surface.binary_search(&e).ok().map(|i| i as u32);
-    for (pair, _) in &cd.broken_faces {
-        if before.broken.binary_search_by_key(pair, |b| b.0).is_ok() {
-            continue;
-        }
+    for (pair, _) in &change.new_faces {
         let (Some(i), Some(j)) = (index_of(pair[0]), index_of(pair[1])) else {
             continue;
         };
@@ -753,26 +799,27 @@ fn add_pairs_of_broken_joints(
     }
     added.sort_unstable();
     added.dedup();
-    // Merge into the renumbered list (sorted); a kept pair carries its history over.
-    let old = std::mem::take(&mut cd.pairs);
-    let mut merged = Vec::with_capacity(old.len() + added.len());
+    // Merge into the renumbered list (sorted), in place from the back; a kept pair carries
+    // its history over. (A pair added was no candidate before: a joined tet was not on the
+    // surface, and the two sides of an intact joint are excluded. Checked all the same.)
+    added.retain(|p| cd.pairs.binary_search(p).is_err());
+    let n_old = cd.pairs.len();
+    let n = n_old + added.len();
+    cd.pairs.resize(n, [0, 0]);
     cd.origins.clear();
-    let (mut a, mut b) = (0, 0);
-    while a < old.len() || b < added.len() {
-        if b == added.len() || (a < old.len() && old[a] <= added[b]) {
-            if b < added.len() && old[a] == added[b] {
-                b += 1;
-            }
-            merged.push(old[a]);
-            cd.origins.push(PairOrigin::Kept(cd.carried[a]));
-            a += 1;
+    cd.origins.resize(n, PairOrigin::Kept(0));
+    let (mut a, mut b) = (n_old, added.len());
+    for k in (0..n).rev() {
+        if b == 0 || (a > 0 && cd.pairs[a - 1] > added[b - 1]) {
+            a -= 1;
+            cd.pairs[k] = cd.pairs[a];
+            cd.origins[k] = PairOrigin::Kept(cd.carried[a]);
         } else {
-            merged.push(added[b]);
-            cd.origins.push(filter.new_pair(added[b][0], added[b][1]));
-            b += 1;
+            b -= 1;
+            cd.pairs[k] = added[b];
+            cd.origins[k] = filter.new_pair(added[b][0], added[b][1]);
         }
     }
-    cd.pairs = merged;
     cd.carried = Vec::new();
     cd.detector.stale = false;
     cd.detector.incremental += 1;
@@ -1019,11 +1066,121 @@ fn refresh_surface(
     cd.surface_nodes = sn;
     cd.own_surface_nodes = None;
     cd.record_surface_positions();
-    cd.fragment = crate::fracture::fragments(&tets.nodes, joints, nodes.len());
+    cd.fragments = FragmentTracker::build(&tets.nodes, &joints.tets, &joints.broken, nodes.len());
+    cd.fragment = cd.fragments.labels();
     if cd.fragment0.len() != tets.len() {
         cd.fragment0 = cd.fragment.clone();
     }
     cd.broken_faces = broken;
+    cd.free_faces = free;
+    cd.newly_broken.clear();
+    cd.rebuild = false;
     cd.surface_stale = false;
     cd.detector.stale = true;
+}
+
+/// The surface refresh after the joints `cd.newly_broken` broke, from them alone: the same
+/// lists as [`refresh_surface`] (tests/contact.rs,
+/// `incremental_detection_after_fracture_equals_a_full_detection`) without its passes over
+/// every tet and joint. A broken joint frees a face of each of its two tets: a tet with its
+/// first free face joins the surface (none leaves it), and the pairs are renumbered onto
+/// the longer list, in their order. The fragments are split from the breaks
+/// ([`FragmentTracker::split`]). Returns what changed, when an incremental detection can
+/// take it in (not when a fragment split off, or too many tets joined).
+fn refresh_after_breaks(
+    cd: &mut ContactDetection,
+    tets: &Tets,
+    joints: &Joints,
+) -> Option<SurfaceChange> {
+    let mut newly = std::mem::take(&mut cd.newly_broken);
+    newly.sort_unstable();
+    newly.dedup();
+    let (mut joined_tets, mut new_faces) = (Vec::new(), Vec::with_capacity(newly.len()));
+    for &j in &newly {
+        let [a, b] = joints.tets[j as usize];
+        for t in [a, b] {
+            let free = &mut cd.free_faces[t as usize];
+            *free += 1;
+            if *free == 1 {
+                joined_tets.push(t);
+            }
+        }
+        new_faces.push(([a.min(b), a.max(b)], j));
+    }
+    joined_tets.sort_unstable();
+    new_faces.sort_unstable();
+    cd.broken_faces = merge_sorted(&cd.broken_faces, &new_faces);
+    // The surface, and where each of its tets moves in the longer list.
+    let n_before = cd.surface.len();
+    let (surface, joined, moved_to) = merge_with_positions(&cd.surface, &joined_tets);
+    for p in &mut cd.pairs {
+        *p = p.map(|i| moved_to[i as usize]);
+    }
+    cd.carried.clear();
+    cd.carried.extend(0..cd.pairs.len() as u32);
+    cd.surface = surface;
+    // Their nodes, and those nodes' positions at the last detection.
+    let mut nodes: Vec<u32> = (joined_tets.iter())
+        .flat_map(|&e| tets.nodes[e as usize])
+        .collect();
+    nodes.sort_unstable();
+    nodes.dedup();
+    cd.surface_nodes = merge_with_positions(&cd.surface_nodes, &nodes).0;
+    cd.record_surface_positions();
+    cd.own_surface_nodes = None;
+    let split = cd
+        .fragments
+        .split(&newly, &joints.tets, &joints.broken, &mut cd.fragment);
+    cd.newly_broken = newly;
+    cd.newly_broken.clear();
+    cd.refreshes_from_breaks += 1;
+    cd.surface_stale = false;
+    cd.detector.stale = true;
+    (split == 0 && joined.len() <= INCREMENTAL_LIMIT).then_some(SurfaceChange {
+        n_before,
+        joined,
+        new_faces,
+    })
+}
+
+/// Two sorted lists merged: (the merged list, the positions in it of `added`'s items, the
+/// positions of `list`'s). An item in both is taken once, as `list`'s.
+fn merge_with_positions(list: &[u32], added: &[u32]) -> (Vec<u32>, Vec<u32>, Vec<u32>) {
+    let mut merged = Vec::with_capacity(list.len() + added.len());
+    let (mut at_added, mut at_list) = (
+        Vec::with_capacity(added.len()),
+        Vec::with_capacity(list.len()),
+    );
+    let (mut a, mut b) = (0, 0);
+    while a < list.len() || b < added.len() {
+        if b == added.len() || (a < list.len() && list[a] <= added[b]) {
+            if b < added.len() && list[a] == added[b] {
+                b += 1;
+            }
+            at_list.push(merged.len() as u32);
+            merged.push(list[a]);
+            a += 1;
+        } else {
+            at_added.push(merged.len() as u32);
+            merged.push(added[b]);
+            b += 1;
+        }
+    }
+    (merged, at_added, at_list)
+}
+
+/// Two sorted lists of broken faces merged (each joint is in one of them).
+fn merge_sorted(list: &[([u32; 2], u32)], added: &[([u32; 2], u32)]) -> Vec<([u32; 2], u32)> {
+    let mut merged = Vec::with_capacity(list.len() + added.len());
+    let (mut a, mut b) = (0, 0);
+    while a < list.len() || b < added.len() {
+        if b == added.len() || (a < list.len() && list[a] <= added[b]) {
+            merged.push(list[a]);
+            a += 1;
+        } else {
+            merged.push(added[b]);
+            b += 1;
+        }
+    }
+    merged
 }

@@ -48,6 +48,14 @@ impl Aabb {
             && self.lo.z <= o.hi.z
             && o.lo.z <= self.hi.z
     }
+    /// The smallest box holding both.
+    #[inline(always)]
+    pub fn union(&self, o: &Aabb) -> Self {
+        Aabb {
+            lo: self.lo.inf(&o.lo),
+            hi: self.hi.sup(&o.hi),
+        }
+    }
     #[inline(always)]
     pub fn centre(&self) -> Vec3 {
         (self.lo + self.hi) * 0.5

@@ -5,6 +5,10 @@
 //!
 //! Fragments are the connected components of tetrahedra over intact joints and shared nodes.
 
+mod fragments;
+
+pub use fragments::{same_partition, FragmentTracker};
+
 use crate::joints::{joint_kinematics, Joints};
 use crate::math::{ExactSum, Real, Vec3};
 
@@ -278,45 +282,5 @@ pub fn fragment_sizes(
 /// Connected components of tetrahedra over shared nodes and intact joints: a fragment id per
 /// tet, numbered 0.. in order of first tet.
 pub fn fragments(tet_nodes: &[[u32; 4]], joints: &Joints, n_nodes: usize) -> Vec<u32> {
-    let mut parent: Vec<u32> = (0..tet_nodes.len() as u32).collect();
-    fn find(p: &mut [u32], mut i: u32) -> u32 {
-        while p[i as usize] != i {
-            p[i as usize] = p[p[i as usize] as usize];
-            i = p[i as usize];
-        }
-        i
-    }
-    let union = |p: &mut Vec<u32>, a: u32, b: u32| {
-        let (ra, rb) = (find(p, a), find(p, b));
-        if ra != rb {
-            p[ra.max(rb) as usize] = ra.min(rb);
-        }
-    };
-    let mut owner = vec![u32::MAX; n_nodes];
-    for (e, t) in tet_nodes.iter().enumerate() {
-        for &n in t {
-            if owner[n as usize] == u32::MAX {
-                owner[n as usize] = e as u32;
-            } else {
-                union(&mut parent, owner[n as usize], e as u32);
-            }
-        }
-    }
-    for j in 0..joints.len() {
-        if !joints.broken[j] {
-            union(&mut parent, joints.tets[j][0], joints.tets[j][1]);
-        }
-    }
-    let mut id = vec![u32::MAX; tet_nodes.len()];
-    let mut next = 0;
-    (0..tet_nodes.len() as u32)
-        .map(|e| {
-            let r = find(&mut parent, e) as usize;
-            if id[r] == u32::MAX {
-                id[r] = next;
-                next += 1;
-            }
-            id[r]
-        })
-        .collect()
+    FragmentTracker::build(tet_nodes, &joints.tets, &joints.broken, n_nodes).labels()
 }

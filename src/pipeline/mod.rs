@@ -1406,7 +1406,7 @@ impl Simulation {
     /// took over stop acting (on a decomposed model after the step's second meeting). A
     /// friction law's invalid result stops the run after stage 7 (`step`).
     fn contact_stages(&mut self) {
-        self.contact_detection.joints_broke(self.break_events.len());
+        self.contact_detection.joints_broke(&self.break_events);
         // On a decomposed model: whether stage 4 detects this step (None: not asked). The
         // answer is the same on every rank (each tests its own nodes; combined).
         let mut detects = None;
