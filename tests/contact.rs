@@ -1138,6 +1138,10 @@ fn incremental_detection_after_fracture_equals_a_full_detection() {
         assert_eq!(fresh.surface_nodes, cd.surface_nodes, "round {round}");
         assert_eq!(fresh.broken_faces, cd.broken_faces, "round {round}");
         assert!(
+            fresh.detector.surface_positions() == cd.detector.surface_positions(),
+            "round {round}: the skin test's positions differ"
+        );
+        assert!(
             fdem::fracture::same_partition(&fresh.fragment, &cd.fragment),
             "round {round}: the fragments differ"
         );

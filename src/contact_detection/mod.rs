@@ -63,6 +63,13 @@ pub struct Detector {
 }
 
 impl Detector {
+    /// The surface nodes' positions at the last detection, in the order of
+    /// [`ContactDetection::surface_nodes`], as the skin test reads them (empty before the
+    /// first detection and after a restart, until the surface changes).
+    pub fn surface_positions(&self) -> &[Vec3] {
+        &self.surface_x
+    }
+
     /// True when some node in `nodes` moved more than skin/2 since the last detection (then
     /// a pair could come into contact that was not a candidate). `max` is exact, so the
     /// answer does not depend on threads.
@@ -265,6 +272,10 @@ impl ContactDetection {
             + self.origins.capacity() * size_of::<PairOrigin>()
             + self.boxes.capacity() * size_of::<Aabb>()
             + (self.surface.capacity() + self.surface_nodes.capacity()) * 4
+            + (self.fragment.capacity() + self.fragment0.capacity() + self.free_faces.capacity())
+                * 4
+            + self.broken_faces.capacity() * size_of::<([u32; 2], u32)>()
+            + self.fragments.bytes()
             + (self.detector.x_at_detection.capacity() + self.detector.surface_x.capacity())
                 * size_of::<Vec3>()
     }
@@ -297,6 +308,9 @@ pub trait PairExchange {
     fn sum_over_ranks(&mut self, sum: &mut ExactSum);
     /// Whether `mine` holds on some rank (a collective).
     fn any_rank(&mut self, mine: bool) -> bool;
+    /// The skin test's answer for every rank, when the step's first meeting settled it (a
+    /// decomposed step asks it there), else None.
+    fn skin_test_answered(&self) -> Option<bool>;
     /// The node chunks this rank owns (its nodes are current on it), and the chunk size.
     fn owned_chunks(&self) -> (&[bool], usize);
 }
@@ -374,6 +388,10 @@ fn surface_moved(
             .detector
             .moved_beyond_skin(x, &cd.surface_nodes, |_| true),
         Some(r) => {
+            // (Within a step the ranks answered it at their first meeting.)
+            if let Some(any) = r.skin_test_answered() {
+                return any;
+            }
             let (owned, chunk) = r.owned_chunks();
             let mine = cd
                 .detector
@@ -1125,8 +1143,8 @@ fn refresh_after_breaks(
         .collect();
     nodes.sort_unstable();
     nodes.dedup();
-    cd.surface_nodes = merge_with_positions(&cd.surface_nodes, &nodes).0;
-    cd.record_surface_positions();
+    nodes.retain(|n| cd.surface_nodes.binary_search(n).is_err());
+    add_surface_nodes(cd, &nodes);
     cd.own_surface_nodes = None;
     let split = cd
         .fragments
@@ -1141,6 +1159,43 @@ fn refresh_after_breaks(
         joined,
         new_faces,
     })
+}
+
+/// `nodes` (sorted, none on the surface yet) join the surface nodes: merged in place from
+/// the back, with their positions at the last detection when those are recorded (the
+/// lists [`ContactDetection::record_surface_positions`] makes, without reading every
+/// surface node's position again).
+fn add_surface_nodes(cd: &mut ContactDetection, nodes: &[u32]) {
+    let d = &mut cd.detector;
+    let at = &d.x_at_detection;
+    let recorded = d.surface_x.len() == cd.surface_nodes.len()
+        && (cd.surface_nodes.last().into_iter().chain(nodes.last()))
+            .all(|&n| (n as usize) < at.len());
+    let (sn, sx) = (&mut cd.surface_nodes, &mut d.surface_x);
+    let (mut a, mut b) = (sn.len(), nodes.len());
+    let n = a + b;
+    sn.resize(n, 0);
+    if recorded {
+        sx.resize(n, Vec3::zeros());
+    }
+    for k in (0..n).rev() {
+        if b == 0 || (a > 0 && sn[a - 1] > nodes[b - 1]) {
+            a -= 1;
+            sn[k] = sn[a];
+            if recorded {
+                sx[k] = sx[a];
+            }
+        } else {
+            b -= 1;
+            sn[k] = nodes[b];
+            if recorded {
+                sx[k] = at[nodes[b] as usize];
+            }
+        }
+    }
+    if !recorded {
+        cd.record_surface_positions();
+    }
 }
 
 /// Two sorted lists merged: (the merged list, the positions in it of `added`'s items, the

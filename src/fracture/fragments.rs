@@ -197,6 +197,15 @@ impl FragmentTracker {
             .collect()
     }
 
+    /// Bytes held (capacity).
+    pub fn bytes(&self) -> usize {
+        let lists = |l: &Lists<u32>| (l.start.capacity() + l.items.capacity()) * 4;
+        lists(&self.grain_tets)
+            + self.grain_joints.start.capacity() * 4
+            + self.grain_joints.items.capacity() * 8
+            + (self.grain.capacity() + self.grain_label.capacity() + self.visited_by.capacity()) * 4
+    }
+
     /// Built for a model of `n_tets` tets and `n_joints` joints.
     pub fn fits(&self, n_tets: usize, n_joints: usize) -> bool {
         self.grain.len() == n_tets
@@ -218,32 +227,32 @@ impl FragmentTracker {
         broken: &[bool],
         tet_labels: &mut [u32],
     ) -> usize {
-        // The grains on either side of the breaks, by fragment.
-        let mut sources: Vec<(u32, u32)> = Vec::new();
+        // The breaks inside a fragment: (label, grains on either side).
+        let mut breaks: Vec<(u32, u32, u32)> = Vec::new();
         for &j in newly_broken {
             let [a, b] = joint_tets[j as usize];
             let (ga, gb) = (self.grain[a as usize], self.grain[b as usize]);
             let la = self.grain_label[ga as usize];
             if ga != gb && la == self.grain_label[gb as usize] {
-                sources.push((la, ga));
-                sources.push((la, gb));
+                breaks.push((la, ga.min(gb), ga.max(gb)));
             }
         }
-        sources.sort_unstable();
-        sources.dedup();
+        breaks.sort_unstable();
+        breaks.dedup();
         let before = self.fragment_count;
         let mut budget = (self.grain_label.len() / 4).max(1024);
-        let mut i = 0;
-        while i < sources.len() {
-            let label = sources[i].0;
-            let n = sources[i..].iter().take_while(|s| s.0 == label).count();
-            let grains: Vec<u32> = sources[i..i + n].iter().map(|s| s.1).collect();
-            if !self.split_fragment(&grains, broken, tet_labels, &mut budget) {
+        for group in breaks.chunk_by(|a, b| a.0 == b.0) {
+            // The searches start from the grains beside the breaks, ascending.
+            let mut sources: Vec<u32> = group.iter().flat_map(|b| [b.1, b.2]).collect();
+            sources.sort_unstable();
+            sources.dedup();
+            let at = |g: u32| sources.binary_search(&g).unwrap_or_default() as u32;
+            let sides: Vec<[u32; 2]> = group.iter().map(|b| [at(b.1), at(b.2)]).collect();
+            if !self.split_fragment(&sources, &sides, broken, tet_labels, &mut budget) {
                 // The searches would cost about what labelling every grain anew does.
                 self.relabel_all(broken, tet_labels);
                 break;
             }
-            i += n;
         }
         self.fragment_count - before
     }
@@ -258,99 +267,142 @@ impl FragmentTracker {
         self.relabelled_all += 1;
     }
 
-    /// One fragment, with breaks at `sources` (its grains beside them, ascending): the
-    /// searches in turns (module doc), the pieces cut off labelled. False, with nothing
-    /// changed, when the searches visited more than `budget` grains.
+    /// One fragment, with breaks between the grains `sources` (ascending; `sides`: each
+    /// break's two, as indices into `sources`): the searches in turns, the pieces cut off
+    /// labelled. False, with nothing changed, when the searches visited more than `budget`
+    /// grains.
+    ///
+    /// First only the searches of breaks not yet settled take turns. A break is settled
+    /// when its two sides' searches met (they are still joined) or one of them ran out (a
+    /// piece cut off). When every break's sides met, nothing split: each removed joint can
+    /// be replaced by a path, so the fragment is whole, even where two breaks far apart have
+    /// not met each other. When a piece was cut off, the searches go on until one set is
+    /// left searching, which keeps the label (two unsettled pieces on either side of a piece
+    /// cut off may be apart).
     fn split_fragment(
         &mut self,
         sources: &[u32],
+        sides: &[[u32; 2]],
         broken: &[bool],
         tet_labels: &mut [u32],
         budget: &mut usize,
     ) -> bool {
-        let n = sources.len();
-        if n < 2 {
-            return true;
-        }
-        // Search s: the grains it visited, in order (a queue: those from `head[s]` on are
-        // still to expand). Searches that met are one set of `parent`, whose root counts
-        // the grains its searches still have to expand.
-        let mut visited: Vec<Vec<u32>> = sources.iter().map(|&g| vec![g]).collect();
-        let mut head = vec![0usize; n];
-        let mut parent: Vec<u32> = (0..n as u32).collect();
-        let mut pending = vec![1usize; n];
-        let mut searching = n;
+        let mut q = Searches::new(sources);
         for (s, &g) in sources.iter().enumerate() {
             self.visited_by[g as usize] = s as u32 + 1;
         }
-        let mut cut_off: Vec<u32> = Vec::new();
-        let mut over_budget = false;
-        'turns: while searching > 1 {
+        // Per set root, while some break is unsettled: it has one (None: all search).
+        let mut unsettled = Some(vec![false; sources.len()]);
+        let mut changed = true;
+        let within_budget = 'turns: loop {
+            if changed {
+                changed = false;
+                if let Some(active) = &mut unsettled {
+                    if !q.mark_unsettled(sides, active) {
+                        if q.cut_off.is_empty() {
+                            break 'turns true;
+                        }
+                        unsettled = None;
+                    }
+                }
+            }
+            if unsettled.is_none() && q.searching <= 1 {
+                break 'turns true;
+            }
             let mut expanded = false;
-            for s in 0..n {
-                if head[s] == visited[s].len() {
+            for s in 0..sources.len() {
+                let root = find(&mut q.parent, s as u32) as usize;
+                if q.head[s] == q.visited[s].len() || unsettled.as_ref().is_some_and(|a| !a[root]) {
                     continue;
                 }
                 expanded = true;
-                let g = visited[s][head[s]];
-                head[s] += 1;
-                let mut root = find(&mut parent, s as u32);
-                pending[root as usize] -= 1;
-                for &[j, h] in self.grain_joints.of(g) {
-                    if broken[j as usize] {
-                        continue;
-                    }
-                    match self.visited_by[h as usize] {
-                        0 if *budget == 0 => {
-                            over_budget = true;
-                            break 'turns;
-                        }
-                        0 => {
-                            *budget -= 1;
-                            self.visited_by[h as usize] = s as u32 + 1;
-                            visited[s].push(h);
-                            pending[root as usize] += 1;
-                        }
-                        by => {
-                            let other = find(&mut parent, by - 1);
-                            if other != root {
-                                let p = pending[root as usize] + pending[other as usize];
-                                root = union(&mut parent, root, other);
-                                pending[root as usize] = p;
-                                searching -= 1;
-                            }
-                        }
-                    }
-                }
-                if pending[root as usize] == 0 {
-                    // Every grain its searches reached is expanded: a whole piece.
-                    cut_off.push(root);
-                    searching -= 1;
-                }
-                if searching <= 1 {
-                    break 'turns;
+                match self.expand(&mut q, s, broken, budget, unsettled.as_mut()) {
+                    None => break 'turns false,
+                    Some(c) => changed |= c,
                 }
             }
-            // (Every set whose searches ran out is counted above, so this cannot be reached
-            // with two sets still searching.)
+            // (A set whose searches ran out is counted in `expand`, so this is not reached
+            // while a set is searching.)
             debug_assert!(expanded, "fragment searches stalled");
             if !expanded {
-                break;
+                break 'turns true;
+            }
+        };
+        self.label_pieces(&mut q, within_budget, tet_labels);
+        within_budget
+    }
+
+    /// Search `s` expands its next grain. Returns whether sets met or one ran out (None:
+    /// over `budget`).
+    fn expand(
+        &mut self,
+        q: &mut Searches,
+        s: usize,
+        broken: &[bool],
+        budget: &mut usize,
+        mut unsettled: Option<&mut Vec<bool>>,
+    ) -> Option<bool> {
+        let mut changed = false;
+        let g = q.visited[s][q.head[s]];
+        q.head[s] += 1;
+        let mut root = find(&mut q.parent, s as u32);
+        q.pending[root as usize] -= 1;
+        for &[j, h] in self.grain_joints.of(g) {
+            if broken[j as usize] {
+                continue;
+            }
+            match self.visited_by[h as usize] {
+                0 if *budget == 0 => return None,
+                0 => {
+                    *budget -= 1;
+                    self.visited_by[h as usize] = s as u32 + 1;
+                    q.visited[s].push(h);
+                    q.pending[root as usize] += 1;
+                }
+                by => {
+                    let other = find(&mut q.parent, by - 1);
+                    if other != root {
+                        let p = q.pending[root as usize] + q.pending[other as usize];
+                        let (r, o) = (root as usize, other as usize);
+                        let active = unsettled.as_ref().map(|a| a[r] || a[o]);
+                        root = union(&mut q.parent, root, other);
+                        q.pending[root as usize] = p;
+                        if let (Some(a), Some(w)) = (unsettled.as_mut(), active) {
+                            a[root as usize] = w;
+                        }
+                        q.searching -= 1;
+                        changed = true;
+                    }
+                }
             }
         }
-        // The pieces cut off take fresh labels (in the order they ran out, the same on every
-        // run); the piece still searching keeps the fragment's.
-        let mut label_of_root = vec![u32::MAX; n];
-        if !over_budget {
-            for &r in &cut_off {
+        if q.pending[root as usize] == 0 {
+            // Every grain its searches reached is expanded: a whole piece.
+            q.cut_off.push(root);
+            q.ran_out[root as usize] = true;
+            q.searching -= 1;
+            changed = true;
+        }
+        Some(changed)
+    }
+
+    /// After the searches: the pieces cut off take fresh labels, in the order they ran out
+    /// (the same on every run; none when the searches went over their budget); the set
+    /// still searching keeps the fragment's, as does the last piece when every set ran out.
+    /// The marks of every grain visited are cleared.
+    fn label_pieces(&mut self, q: &mut Searches, within_budget: bool, tet_labels: &mut [u32]) {
+        let mut label_of_root = vec![u32::MAX; q.visited.len()];
+        if within_budget {
+            let fresh = q.cut_off.len() - usize::from(q.searching == 0);
+            for &r in &q.cut_off[..fresh] {
                 label_of_root[r as usize] = self.next_label;
                 self.next_label += 1;
             }
-            self.fragment_count += cut_off.len();
+            self.fragment_count += fresh;
         }
-        for s in 0..n {
-            let label = label_of_root[find(&mut parent, s as u32) as usize];
-            for &g in &visited[s] {
+        for s in 0..q.visited.len() {
+            let label = label_of_root[find(&mut q.parent, s as u32) as usize];
+            for &g in &q.visited[s] {
                 self.visited_by[g as usize] = 0;
                 if label != u32::MAX {
                     self.grain_label[g as usize] = label;
@@ -360,7 +412,55 @@ impl FragmentTracker {
                 }
             }
         }
-        !over_budget
+    }
+}
+
+/// The breadth-first searches of one fragment's split, one per source grain
+/// ([`FragmentTracker::split_fragment`]).
+struct Searches {
+    /// Per search, the grains it visited in order: a queue, those from `head` on still to
+    /// expand.
+    visited: Vec<Vec<u32>>,
+    head: Vec<usize>,
+    /// Searches that met are one set (union–find); per set root, the grains its searches
+    /// still have to expand, and whether they ran out (a piece cut off).
+    parent: Vec<u32>,
+    pending: Vec<usize>,
+    ran_out: Vec<bool>,
+    /// Sets still searching.
+    searching: usize,
+    /// The roots of the sets that ran out, in order.
+    cut_off: Vec<u32>,
+}
+
+impl Searches {
+    fn new(sources: &[u32]) -> Self {
+        let n = sources.len();
+        Searches {
+            visited: sources.iter().map(|&g| vec![g]).collect(),
+            head: vec![0; n],
+            parent: (0..n as u32).collect(),
+            pending: vec![1; n],
+            ran_out: vec![false; n],
+            searching: n,
+            cut_off: Vec::new(),
+        }
+    }
+
+    /// Marks in `active` the set roots with an unsettled break (its two sides in sets that
+    /// have not met, neither run out); false when there is none.
+    fn mark_unsettled(&mut self, sides: &[[u32; 2]], active: &mut [bool]) -> bool {
+        active.fill(false);
+        let mut any = false;
+        for &[a, b] in sides {
+            let (ra, rb) = (find(&mut self.parent, a), find(&mut self.parent, b));
+            if ra != rb && !self.ran_out[ra as usize] && !self.ran_out[rb as usize] {
+                active[ra as usize] = true;
+                active[rb as usize] = true;
+                any = true;
+            }
+        }
+        any
     }
 }
 
@@ -425,12 +525,21 @@ mod tests {
                 .map(|_| (rng.next_u64() % joint_tets.len() as u64) as u32)
                 .filter(|&j| !broken[j as usize])
                 .collect();
-            if round % 15 == 7 {
-                let plane = (rng.next_u64() % (n as u64 - 1)) as u32;
+            // Now and then a whole plane of joints (a slab cut off), or two planes two cells
+            // apart in one batch (a layer cut out between two pieces that are apart).
+            let cut_plane = |now: &mut Vec<u32>, plane: u32| {
                 now.extend((0..joint_tets.len() as u32).filter(|&j| {
                     let [a, b] = joint_tets[j as usize];
                     a < first && b < first && a / (n * n) == plane && b / (n * n) == plane + 1
-                }));
+                }))
+            };
+            if round % 15 == 7 {
+                cut_plane(&mut now, (rng.next_u64() % (n as u64 - 1)) as u32);
+            }
+            if round % 15 == 11 {
+                let plane = (rng.next_u64() % (n as u64 - 3)) as u32;
+                cut_plane(&mut now, plane);
+                cut_plane(&mut now, plane + 2);
             }
             now.sort_unstable();
             now.dedup();

@@ -1420,6 +1420,10 @@ impl crate::contact_detection::PairExchange for Parallel {
         }
     }
 
+    fn skin_test_answered(&self) -> Option<bool> {
+        self.skin_moved
+    }
+
     fn owned_chunks(&self) -> (&[bool], usize) {
         (&self.owned_chunks, crate::integration::CHUNK)
     }
