@@ -1170,6 +1170,116 @@ fn incremental_detection_after_fracture_equals_a_full_detection() {
     assert!(full >= 3, "rounds 20, 25 and 30 must detect in full");
 }
 
+/// One rank holding the whole model, whose step answered the skin test at its first
+/// meeting (as a decomposed step does, before stage 4 refreshes the surface).
+struct AnsweredSkinTest {
+    computes: Vec<bool>,
+    owned: Vec<bool>,
+    answer: bool,
+}
+
+impl fdem::contact_detection::PairExchange for AnsweredSkinTest {
+    fn computes(&self) -> &[bool] {
+        &self.computes
+    }
+    fn make_every_node_current(&mut self, _: &mut fdem::state::Nodes) {}
+    fn make_near_current(&mut self, nodes: &mut fdem::state::Nodes, _: Real) -> Vec<bool> {
+        vec![true; nodes.len()]
+    }
+    fn largest(&mut self, value: Real) -> Real {
+        value
+    }
+    fn designates(&self, _: usize) -> bool {
+        true
+    }
+    fn sum_over_ranks(&mut self, _: &mut fdem::math::ExactSum) {}
+    fn any_rank(&mut self, mine: bool) -> bool {
+        mine
+    }
+    fn skin_test_answered(&self) -> Option<bool> {
+        Some(self.answer)
+    }
+    fn owned_chunks(&self) -> (&[bool], usize) {
+        (&self.owned, 1)
+    }
+}
+
+/// A tet joins the surface when a joint breaks; its nodes were inside the body and were not
+/// skin-tested. If one moved more than half the skin since the last detection, the joined
+/// tet's box at that detection no longer holds it, so the incremental detection must give
+/// way to a full one. One process tests the joined nodes with the refreshed surface; a rank
+/// answered the skin test at the step's first meeting, before the refresh, so it must test
+/// them apart. Both must detect in full, with the same pairs (found in review: ranks did
+/// the incremental detection).
+#[test]
+fn a_joined_tet_that_moved_past_the_skin_forces_a_full_detection_on_ranks_too() {
+    use fdem::contact_detection::{update_pairs, ContactDetection};
+    let mut sim = Simulation::new();
+    let m = sim.add_material(material(Formulation::StVenantKirchhoff, 2500.0, 1e8, 0.2));
+    let b = sim
+        .add_body(
+            "block",
+            &box_mesh(Vec3::zeros(), Vec3::repeat(0.4), [4, 4, 4]),
+            m,
+            Layout::Jointed,
+        )
+        .unwrap();
+    let law = sim.joints.add_law(fdem::joints::JointLaw::Tied {
+        normal_penalty: 1e9,
+        tangential_penalty: 1e9,
+    });
+    let body = sim.bodies[b].clone();
+    let (tn, x0) = (sim.tets.nodes.clone(), sim.nodes.x0.clone());
+    sim.joints
+        .insert_in_body(&body, &tn, &x0, law, |_| true)
+        .unwrap();
+    let mut runs = Vec::new();
+    for on_ranks in [false, true] {
+        let mut nodes = sim.nodes.clone();
+        let mut joints = sim.joints.clone();
+        let mut cd = ContactDetection::default();
+        cd.skin = Some(0.02);
+        cd.prepare();
+        update_pairs(&mut cd, &mut nodes, &sim.tets, &sim.bodies, &joints, None);
+        // An interior tet (no free face) and one of its joints.
+        let inner = (0..sim.tets.len() as u32)
+            .find(|e| cd.surface.binary_search(e).is_err())
+            .unwrap();
+        let j = (0..joints.len())
+            .find(|&j| joints.tets[j].contains(&inner))
+            .unwrap();
+        // Its node moves 0.6 skin; no surface node moves.
+        let n = sim.tets.nodes[inner as usize][0] as usize;
+        assert!(cd.surface_nodes.binary_search(&(n as u32)).is_err());
+        nodes.x[n].x += 0.6 * 0.02;
+        joints.broken[j] = true;
+        cd.broken_since_refresh([j as u32]);
+        let full = cd.detector.detections;
+        let mut rank = AnsweredSkinTest {
+            computes: vec![true; sim.tets.len()],
+            owned: vec![true; nodes.len()],
+            answer: false,
+        };
+        let ranks: Option<&mut dyn fdem::contact_detection::PairExchange> =
+            if on_ranks { Some(&mut rank) } else { None };
+        assert!(update_pairs(
+            &mut cd,
+            &mut nodes,
+            &sim.tets,
+            &sim.bodies,
+            &joints,
+            ranks
+        ));
+        assert!(
+            cd.surface.binary_search(&inner).is_ok(),
+            "the tet joined the surface"
+        );
+        assert_eq!(cd.detector.detections, full + 1, "on ranks: {on_ranks}");
+        runs.push(cd.pairs.clone());
+    }
+    assert_eq!(runs[0], runs[1]);
+}
+
 /// Issue 14: the kernel agrees with its oracle (the kernel before the speed work,
 /// `contact_interaction::oracle`) to 1e-12 of each pair's largest force on every pair that
 /// touches in the settled fragmented stack of `fdem bench` (non-matching blocks at rest under

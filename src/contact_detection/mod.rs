@@ -734,7 +734,9 @@ fn add_pairs_of_broken_joints(
     change: &SurfaceChange,
     mut ranks: Option<&mut (dyn PairExchange + '_)>,
 ) -> bool {
-    if surface_moved(cd, &nodes.x, ranks.as_deref_mut()) {
+    if surface_moved(cd, &nodes.x, ranks.as_deref_mut())
+        || joined_moved(cd, &nodes.x, tets, &change.joined, ranks.as_deref_mut())
+    {
         return false;
     }
     let tn = &tets.nodes;
@@ -842,6 +844,37 @@ fn add_pairs_of_broken_joints(
     cd.detector.stale = false;
     cd.detector.incremental += 1;
     true
+}
+
+/// On a decomposed model whose ranks answered the step's skin test at their first meeting,
+/// before the surface took in the tets that joined it: some node of a joined tet (`joined`:
+/// surface indices) moved more than skin/2 since the last detection (each rank tests those
+/// it owns; one collective). One process tests them with the rest of the surface
+/// ([`surface_moved`] reads the refreshed list), so both decline the incremental detection
+/// alike. False otherwise.
+fn joined_moved(
+    cd: &ContactDetection,
+    x: &[Vec3],
+    tets: &Tets,
+    joined: &[u32],
+    ranks: Option<&mut (dyn PairExchange + '_)>,
+) -> bool {
+    let Some(r) = ranks.filter(|r| r.skin_test_answered().is_some()) else {
+        return false;
+    };
+    let (owned, chunk) = r.owned_chunks();
+    let (at, limit) = (
+        &cd.detector.x_at_detection,
+        (0.5 * cd.detector.skin).powi(2),
+    );
+    let mine = (joined.iter()).any(|&i| {
+        tets.nodes[cd.surface[i as usize] as usize]
+            .iter()
+            .any(|&n| {
+                owned[n as usize / chunk] && (x[n as usize] - at[n as usize]).norm_squared() > limit
+            })
+    });
+    r.largest(if mine { 1.0 } else { 0.0 }) > 0.0
 }
 
 /// The inflated boxes at the positions of the last detection, t₀, of the surface after
@@ -1113,6 +1146,14 @@ fn refresh_after_breaks(
     let mut newly = std::mem::take(&mut cd.newly_broken);
     newly.sort_unstable();
     newly.dedup();
+    // (Only joints that are broken, once: a joint given again is in the list already.)
+    let known = |j: u32| {
+        let [a, b] = joints.tets[j as usize];
+        (cd.broken_faces)
+            .binary_search_by_key(&[a.min(b), a.max(b)], |f| f.0)
+            .is_ok()
+    };
+    newly.retain(|&j| joints.broken[j as usize] && !known(j));
     let (mut joined_tets, mut new_faces) = (Vec::new(), Vec::with_capacity(newly.len()));
     for &j in &newly {
         let [a, b] = joints.tets[j as usize];
