@@ -823,23 +823,16 @@ fn add_pairs_of_broken_joints(
     // its history over. (A pair added was no candidate before: a joined tet was not on the
     // surface, and the two sides of an intact joint are excluded. Checked all the same.)
     added.retain(|p| cd.pairs.binary_search(p).is_err());
-    let n_old = cd.pairs.len();
-    let n = n_old + added.len();
-    cd.pairs.resize(n, [0, 0]);
     cd.origins.clear();
-    cd.origins.resize(n, PairOrigin::Kept(0));
-    let (mut a, mut b) = (n_old, added.len());
-    for k in (0..n).rev() {
-        if b == 0 || (a > 0 && cd.pairs[a - 1] > added[b - 1]) {
-            a -= 1;
-            cd.pairs[k] = cd.pairs[a];
-            cd.origins[k] = PairOrigin::Kept(cd.carried[a]);
-        } else {
-            b -= 1;
-            cd.pairs[k] = added[b];
-            cd.origins[k] = filter.new_pair(added[b][0], added[b][1]);
+    cd.origins
+        .resize(cd.pairs.len() + added.len(), PairOrigin::Kept(0));
+    let (origins, carried) = (&mut cd.origins, &cd.carried);
+    merge_in_place(&mut cd.pairs, &added, |k, from| {
+        origins[k] = match from {
+            Ok(a) => PairOrigin::Kept(carried[a]),
+            Err(b) => filter.new_pair(added[b][0], added[b][1]),
         }
-    }
+    });
     cd.carried = Vec::new();
     cd.detector.stale = false;
     cd.detector.incremental += 1;
@@ -1168,16 +1161,19 @@ fn refresh_after_breaks(
     }
     joined_tets.sort_unstable();
     new_faces.sort_unstable();
-    cd.broken_faces = merge_sorted(&cd.broken_faces, &new_faces);
+    merge_in_place(&mut cd.broken_faces, &new_faces, |_, _| {});
     // The surface, and where each of its tets moves in the longer list.
     let n_before = cd.surface.len();
-    let (surface, joined, moved_to) = merge_with_positions(&cd.surface, &joined_tets);
+    let (mut moved_to, mut joined) = (vec![0u32; n_before], vec![0u32; joined_tets.len()]);
+    merge_in_place(&mut cd.surface, &joined_tets, |k, from| match from {
+        Ok(a) => moved_to[a] = k as u32,
+        Err(b) => joined[b] = k as u32,
+    });
     for p in &mut cd.pairs {
         *p = p.map(|i| moved_to[i as usize]);
     }
     cd.carried.clear();
     cd.carried.extend(0..cd.pairs.len() as u32);
-    cd.surface = surface;
     // Their nodes, and those nodes' positions at the last detection.
     let mut nodes: Vec<u32> = (joined_tets.iter())
         .flat_map(|&e| tets.nodes[e as usize])
@@ -1212,71 +1208,43 @@ fn add_surface_nodes(cd: &mut ContactDetection, nodes: &[u32]) {
     let recorded = d.surface_x.len() == cd.surface_nodes.len()
         && (cd.surface_nodes.last().into_iter().chain(nodes.last()))
             .all(|&n| (n as usize) < at.len());
-    let (sn, sx) = (&mut cd.surface_nodes, &mut d.surface_x);
-    let (mut a, mut b) = (sn.len(), nodes.len());
-    let n = a + b;
-    sn.resize(n, 0);
+    let sx = &mut d.surface_x;
     if recorded {
-        sx.resize(n, Vec3::zeros());
+        sx.resize(cd.surface_nodes.len() + nodes.len(), Vec3::zeros());
     }
-    for k in (0..n).rev() {
-        if b == 0 || (a > 0 && sn[a - 1] > nodes[b - 1]) {
-            a -= 1;
-            sn[k] = sn[a];
-            if recorded {
-                sx[k] = sx[a];
-            }
-        } else {
-            b -= 1;
-            sn[k] = nodes[b];
-            if recorded {
-                sx[k] = at[nodes[b] as usize];
-            }
+    merge_in_place(&mut cd.surface_nodes, nodes, |k, from| {
+        if recorded {
+            sx[k] = match from {
+                Ok(a) => sx[a],
+                Err(b) => at[nodes[b] as usize],
+            };
         }
-    }
+    });
     if !recorded {
         cd.record_surface_positions();
     }
 }
 
-/// Two sorted lists merged: (the merged list, the positions in it of `added`'s items, the
-/// positions of `list`'s). An item in both is taken once, as `list`'s.
-fn merge_with_positions(list: &[u32], added: &[u32]) -> (Vec<u32>, Vec<u32>, Vec<u32>) {
-    let mut merged = Vec::with_capacity(list.len() + added.len());
-    let (mut at_added, mut at_list) = (
-        Vec::with_capacity(added.len()),
-        Vec::with_capacity(list.len()),
-    );
-    let (mut a, mut b) = (0, 0);
-    while a < list.len() || b < added.len() {
-        if b == added.len() || (a < list.len() && list[a] <= added[b]) {
-            if b < added.len() && list[a] == added[b] {
-                b += 1;
-            }
-            at_list.push(merged.len() as u32);
-            merged.push(list[a]);
-            a += 1;
+/// Merges the sorted `added` into the sorted `list`, in place from the back (no list is
+/// allocated), and tells `place(k, from)` where each item went: index `k` of the merged list,
+/// from `Ok(a)` (`list[a]`) or `Err(b)` (`added[b]`), in decreasing `k`, so a side array can
+/// follow along in place. No item of `added` may be in `list`.
+fn merge_in_place<T: Ord + Copy + Default>(
+    list: &mut Vec<T>,
+    added: &[T],
+    mut place: impl FnMut(usize, Result<usize, usize>),
+) {
+    let (mut a, mut b) = (list.len(), added.len());
+    list.resize(a + b, T::default());
+    for k in (0..a + b).rev() {
+        if b == 0 || (a > 0 && list[a - 1] > added[b - 1]) {
+            a -= 1;
+            list[k] = list[a];
+            place(k, Ok(a));
         } else {
-            at_added.push(merged.len() as u32);
-            merged.push(added[b]);
-            b += 1;
+            b -= 1;
+            list[k] = added[b];
+            place(k, Err(b));
         }
     }
-    (merged, at_added, at_list)
-}
-
-/// Two sorted lists of broken faces merged (each joint is in one of them).
-fn merge_sorted(list: &[([u32; 2], u32)], added: &[([u32; 2], u32)]) -> Vec<([u32; 2], u32)> {
-    let mut merged = Vec::with_capacity(list.len() + added.len());
-    let (mut a, mut b) = (0, 0);
-    while a < list.len() || b < added.len() {
-        if b == added.len() || (a < list.len() && list[a] <= added[b]) {
-            merged.push(list[a]);
-            a += 1;
-        } else {
-            merged.push(added[b]);
-            b += 1;
-        }
-    }
-    merged
 }
