@@ -1,7 +1,10 @@
 //! Scalar and small-matrix aliases used everywhere (SI units throughout: m, kg, s, N, Pa).
 
 pub mod exact_sum;
+mod lists;
+
 pub use exact_sum::{exact_total, ExactSum, Partial};
+pub use lists::Lists;
 
 pub type Real = f64;
 pub type Vec3 = nalgebra::Vector3<Real>;

@@ -80,26 +80,13 @@ impl ElementsWorkspace {
                 if owns_nodes_in_order(b, tets) || b.layout == Layout::Rigid {
                     return None;
                 }
-                let nn = b.nodes.len();
-                let mut count = vec![0u32; nn + 1];
-                for e in b.tets.clone() {
-                    for &n in &tets.nodes[e] {
-                        count[n as usize - b.nodes.start + 1] += 1;
-                    }
-                }
-                for i in 0..nn {
-                    count[i + 1] += count[i];
-                }
-                let offsets = count.clone();
-                let mut fill = count;
-                let mut slot_ids = vec![0u32; offsets[nn] as usize];
-                for (le, e) in b.tets.clone().enumerate() {
-                    for (c, &n) in tets.nodes[e].iter().enumerate() {
-                        let i = n as usize - b.nodes.start;
-                        slot_ids[fill[i] as usize] = (4 * le + c) as u32;
-                        fill[i] += 1;
-                    }
-                }
+                let (first, nn) = (b.nodes.start, b.nodes.len());
+                let corners = b.tets.clone().enumerate().flat_map(|(le, e)| {
+                    (tets.nodes[e].iter().enumerate())
+                        .map(move |(c, &n)| ((n as usize - first) as u32, (4 * le + c) as u32))
+                });
+                let lists = crate::math::Lists::from_pairs(nn, corners);
+                let (offsets, slot_ids) = (lists.start, lists.items);
                 Some(SharedGather {
                     slots: vec![[Vec3::zeros(); 4]; b.tets.len()],
                     offsets,

@@ -22,36 +22,7 @@
 //! output shows ([`super::fragments`]: 0.. in order of each fragment's first tet) is made
 //! from scratch when asked.
 
-/// A compressed list of lists (CSR): `items[start[i]..start[i + 1]]` for list `i`.
-#[derive(Clone, Debug, Default)]
-struct Lists<T> {
-    start: Vec<u32>,
-    items: Vec<T>,
-}
-
-impl<T: Copy + Default> Lists<T> {
-    /// The lists of `n` keys from (key, item) pairs, each list in the order given.
-    fn from_pairs(n: usize, pairs: impl Iterator<Item = (u32, T)> + Clone) -> Self {
-        let mut start = vec![0u32; n + 1];
-        for (k, _) in pairs.clone() {
-            start[k as usize + 1] += 1;
-        }
-        for i in 0..n {
-            start[i + 1] += start[i];
-        }
-        let mut fill = start.clone();
-        let mut items = vec![T::default(); start[n] as usize];
-        for (k, v) in pairs {
-            items[fill[k as usize] as usize] = v;
-            fill[k as usize] += 1;
-        }
-        Lists { start, items }
-    }
-
-    fn of(&self, i: u32) -> &[T] {
-        &self.items[self.start[i as usize] as usize..self.start[i as usize + 1] as usize]
-    }
-}
+use crate::math::Lists;
 
 /// Union–find over `0..n` with path halving; the root of a set is its lowest member.
 fn find(parent: &mut [u32], mut i: u32) -> u32 {
