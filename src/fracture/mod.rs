@@ -164,22 +164,30 @@ pub fn break_joints(
         relevant(j) && !joints.broken[j] && joints.state[j].iter().all(|p| p.damage >= 1.0)
     };
     let mut released = ExactSum::default();
+    // The joints that failed this step, in joint order, from the units that counted them
+    // (not a look at every joint: on a rank of a large model that was a pass over the whole
+    // model's joint states at every step where one broke).
+    let failed_now = |joints: &mut Joints| -> Vec<usize> {
+        if newly_failed == 0 {
+            return Vec::new();
+        }
+        let units = joints.units_with_new_failures().to_vec();
+        units
+            .into_iter()
+            .flatten()
+            .filter(|&j| failed(joints, j))
+            .collect()
+    };
     match criterion {
         None => {
-            if newly_failed > 0 {
-                for j in 0..joints.len() {
-                    if failed(joints, j) {
-                        record(joints, j, x, tet_body, time, events);
-                    }
-                }
+            for j in failed_now(joints) {
+                record(joints, j, x, tet_body, time, events);
             }
         }
         Some(c) => {
-            if newly_failed > 0 {
-                for j in 0..joints.len() {
-                    if failed(joints, j) && !c.pending.contains(&j) {
-                        c.pending.push(j);
-                    }
+            for j in failed_now(joints) {
+                if !c.pending.contains(&j) {
+                    c.pending.push(j);
                 }
             }
             // Fully damaged joints break when the criterion agrees (Damaged) or at once (Always).

@@ -266,6 +266,10 @@ pub struct Joints {
     /// (crate::parallel).
     #[serde(skip)]
     pub compute: Vec<bool>,
+    /// Scratch of stage 3: the joints of the units that counted a newly failed joint this
+    /// step ([`Joints::units_with_new_failures`]).
+    #[serde(skip)]
+    failing_units: Vec<std::ops::Range<usize>>,
 }
 
 /// Loading-rate state of a joint whose law is rate-dependent ([`RateEffects`]).
@@ -334,6 +338,41 @@ impl Joints {
     /// after `prepare`.
     pub fn units(&self) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
         self.color_blocks.iter().flatten().flat_map(units_of)
+    }
+
+    /// The joints of the work units whose stage 2 counted a newly failed joint
+    /// ([`JointSums::newly_failed`] of this step's [`Joints::unit_partials`]), in joint order:
+    /// where stage 3 looks for the joints to break, instead of at every joint. A unit this
+    /// process did not compute has no count (a rank looks only at its own units, which hold
+    /// every joint at its nodes). All the joints, as one range, when the partials are not
+    /// this schedule's (stage 2 not run since the joints were prepared).
+    ///
+    /// Every joint that reaches D = 1 at every point does so in stage 2 (the laws' damage
+    /// only grows there) and is counted in its unit in that step, so a joint failed and not
+    /// yet broken is in one of these units; stage 3 breaks it in the same step (or a
+    /// criterion keeps it on its own list).
+    pub fn units_with_new_failures(&mut self) -> &[std::ops::Range<usize>] {
+        let mut ranges = std::mem::take(&mut self.failing_units);
+        ranges.clear();
+        let n_units: usize = self
+            .color_blocks
+            .iter()
+            .flatten()
+            .map(|b| b.len().div_ceil(UNIT))
+            .sum();
+        if self.unit_partials.len() == n_units && self.colored == self.len() {
+            ranges.extend(
+                self.units()
+                    .zip(&self.unit_partials)
+                    .filter(|(_, s)| s.newly_failed > 0)
+                    .map(|(u, _)| u),
+            );
+            ranges.sort_unstable_by_key(|u| u.start);
+        } else {
+            ranges.push(0..self.len());
+        }
+        self.failing_units = ranges;
+        &self.failing_units
     }
 
     /// The stage's sums: the exact sums of the units' partial sums, rounded once (the same
@@ -1383,5 +1422,137 @@ mod tests {
             }
         }
         assert!(compared > x0.len() / 2, "{compared} nodes compared");
+    }
+
+    /// Stage 3 looks for the joints to break only in the work units that counted a newly
+    /// failed joint in stage 2. Reference: a look at every joint (the rule before), which
+    /// must find the same joints in the same order (joint order: the break events' order).
+    /// A chain of 20 000 joints, 9 of them pulled open far past their softening length in
+    /// one step, in units that are not in joint order in the schedule (the chain's blocks
+    /// alternate colours), two in one unit, two either side of a unit's end, and one
+    /// already broken before; then the same with every third unit not computed, as on a
+    /// rank (it must break the failed joints of its own units only).
+    #[test]
+    fn stage_3_finds_the_failed_joints_in_the_units_that_counted_them() {
+        let n_joints = 20_000usize;
+        let pulled = [5, 6, 511, 512, 700, 4097, 9000, 15000, 19_999];
+        let already_broken = 3;
+        let build = || {
+            let mut joints = Joints::default();
+            joints.laws.push(JointLaw::Cohesive(Cohesive {
+                softening: law::Softening::Munjiza,
+                calibration: law::Calibration::Exact,
+                tensile_strength: 1e3,
+                cohesion: 2e3,
+                tan_friction: 0.5,
+                g_i: 1.0,
+                g_ii: 4.0,
+                normal_penalty: 1e9,
+                tangential_penalty: 1e9,
+                residual_friction: 0.5,
+                rate: law::RateEffects::None,
+                dilatancy: law::Dilatancy::NONE,
+            }));
+            // Joint j between node layers j and j + 1, all at z = 0 in the reference
+            // configuration (joints of zero thickness: the chain's layers are shared, so
+            // its blocks alternate colours). Layer i is lifted by 1 cm for every pulled
+            // joint below it: the pulled joints open by 1 cm (their softening length is
+            // ~2 mm), the others not at all.
+            let mut x = Vec::new();
+            for i in 0..=n_joints {
+                let lift = 0.01 * pulled.iter().filter(|&&j| j < i).count() as Real;
+                for (a, b) in [(0.0, 0.0), (0.01, 0.0), (0.0, 0.01)] {
+                    x.push((Vec3::new(a, b, 0.0), Vec3::new(a, b, lift)));
+                }
+            }
+            for j in 0..n_joints as u32 {
+                let a = 3 * j;
+                let faces = [[a, a + 1, a + 2], [a + 3, a + 4, a + 5]];
+                let p = [x[a as usize].0, x[a as usize + 1].0, x[a as usize + 2].0];
+                joints.push_joint(faces, [j, j + 1], 0, &p);
+            }
+            let nodes = Nodes {
+                x: x.iter().map(|p| p.1).collect(),
+                f: vec![Vec3::zeros(); x.len()],
+                ..Default::default()
+            };
+            joints.prepare(x.len());
+            joints.broken[already_broken] = true;
+            joints.state[already_broken]
+                .iter_mut()
+                .for_each(|p| p.damage = 1.0);
+            (joints, nodes)
+        };
+        let every_joint = |joints: &Joints, relevant: &dyn Fn(usize) -> bool| -> Vec<usize> {
+            (0..joints.len())
+                .filter(|&j| {
+                    relevant(j)
+                        && !joints.broken[j]
+                        && joints.state[j].iter().all(|p| p.damage >= 1.0)
+                })
+                .collect()
+        };
+        let tet_body = vec![0u32; n_joints + 1];
+        let broke = |joints: &mut Joints,
+                     nodes: &Nodes,
+                     newly_failed: usize,
+                     mask: Option<&crate::fracture::JointMask>| {
+            let mut events = Vec::new();
+            crate::fracture::break_joints(
+                joints,
+                &nodes.x,
+                &tet_body,
+                0.0,
+                1,
+                newly_failed,
+                None,
+                &mut events,
+                mask,
+            );
+            events.iter().map(|e| e.joint).collect::<Vec<_>>()
+        };
+
+        // One process.
+        let (mut joints, mut nodes) = build();
+        let schedule: Vec<_> = joints.units().map(|u| u.start).collect();
+        assert!(
+            schedule.windows(2).any(|w| w[1] < w[0]),
+            "the units' schedule should not be in joint order"
+        );
+        let sums = add_joint_forces(&mut joints, &mut nodes, 0.0, false);
+        assert_eq!(sums.newly_failed, pulled.len());
+        let expected = every_joint(&joints, &|_| true);
+        assert_eq!(expected, pulled);
+        assert_eq!(
+            broke(&mut joints, &nodes, sums.newly_failed, None),
+            expected
+        );
+        assert!(pulled.iter().all(|&j| joints.broken[j]));
+
+        // A rank computing two units in three: it looks at the joints of its units only.
+        let (mut joints, mut nodes) = build();
+        let units: Vec<_> = joints.units().collect();
+        joints.compute = (0..units.len()).map(|u| u % 3 != 1).collect();
+        let mut relevant = vec![false; n_joints];
+        for (u, unit) in units.iter().enumerate() {
+            if joints.compute[u] {
+                unit.clone().for_each(|j| relevant[j] = true);
+            }
+        }
+        let sums = add_joint_forces(&mut joints, &mut nodes, 0.0, false);
+        let expected = every_joint(&joints, &|j| relevant[j]);
+        assert!(
+            !expected.is_empty() && expected.len() < pulled.len(),
+            "{expected:?}"
+        );
+        let mask = crate::fracture::JointMask {
+            designated: relevant.clone(),
+            relevant,
+        };
+        assert_eq!(sums.newly_failed, expected.len());
+        assert_eq!(
+            broke(&mut joints, &nodes, sums.newly_failed, Some(&mask)),
+            expected
+        );
     }
 }
