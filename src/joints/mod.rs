@@ -1424,6 +1424,90 @@ mod tests {
         assert!(compared > x0.len() / 2, "{compared} nodes compared");
     }
 
+    /// A chain of `n_joints` joints of a soft cohesive law between node layers (joint j
+    /// between layers j and j + 1), all at z = 0 in the reference configuration (joints of
+    /// zero thickness: the chain's layers are shared, so its blocks alternate colours).
+    /// Layer i is lifted by 1 cm for every `pulled` joint below it: the pulled joints open by
+    /// 1 cm (their softening length is ~2 mm), the others not at all. Joint `already_broken`
+    /// is broken before.
+    fn pulled_chain(n_joints: usize, pulled: &[usize], already_broken: usize) -> (Joints, Nodes) {
+        let mut joints = Joints::default();
+        joints.laws.push(JointLaw::Cohesive(Cohesive {
+            softening: law::Softening::Munjiza,
+            calibration: law::Calibration::Exact,
+            tensile_strength: 1e3,
+            cohesion: 2e3,
+            tan_friction: 0.5,
+            g_i: 1.0,
+            g_ii: 4.0,
+            normal_penalty: 1e9,
+            tangential_penalty: 1e9,
+            residual_friction: 0.5,
+            rate: law::RateEffects::None,
+            dilatancy: law::Dilatancy::NONE,
+        }));
+        let mut x = Vec::new();
+        for i in 0..=n_joints {
+            let lift = 0.01 * pulled.iter().filter(|&&j| j < i).count() as Real;
+            for (a, b) in [(0.0, 0.0), (0.01, 0.0), (0.0, 0.01)] {
+                x.push((Vec3::new(a, b, 0.0), Vec3::new(a, b, lift)));
+            }
+        }
+        for j in 0..n_joints as u32 {
+            let a = 3 * j;
+            let faces = [[a, a + 1, a + 2], [a + 3, a + 4, a + 5]];
+            let p = [x[a as usize].0, x[a as usize + 1].0, x[a as usize + 2].0];
+            joints.push_joint(faces, [j, j + 1], 0, &p);
+        }
+        let nodes = Nodes {
+            x: x.iter().map(|p| p.1).collect(),
+            f: vec![Vec3::zeros(); x.len()],
+            ..Default::default()
+        };
+        joints.prepare(x.len());
+        joints.broken[already_broken] = true;
+        joints.state[already_broken]
+            .iter_mut()
+            .for_each(|p| p.damage = 1.0);
+        (joints, nodes)
+    }
+
+    /// The joints failed and not broken that a look at every joint finds (the rule before
+    /// stage 3 looked at units), in joint order.
+    fn failed_by_a_look_at_every_joint(joints: &Joints, relevant: &[bool]) -> Vec<usize> {
+        (0..joints.len())
+            .filter(|&j| {
+                relevant[j] && !joints.broken[j] && joints.state[j].iter().all(|p| p.damage >= 1.0)
+            })
+            .collect()
+    }
+
+    /// Stage 2 then stage 3 on the chain; the joints stage 3 broke, in event order.
+    fn stage_2_and_3(
+        joints: &mut Joints,
+        nodes: &mut Nodes,
+        mask: Option<&crate::fracture::JointMask>,
+    ) -> (JointSums, Vec<usize>, Vec<usize>) {
+        let sums = add_joint_forces(joints, nodes, 0.0, false);
+        let all = vec![true; joints.len()];
+        let relevant = mask.map_or(&all[..], |m| &m.relevant[..]);
+        let expected = failed_by_a_look_at_every_joint(joints, relevant);
+        let mut events = Vec::new();
+        let tet_body = vec![0u32; joints.len() + 1];
+        crate::fracture::break_joints(
+            joints,
+            &nodes.x,
+            &tet_body,
+            0.0,
+            1,
+            sums.newly_failed,
+            None,
+            &mut events,
+            mask,
+        );
+        (sums, expected, events.iter().map(|e| e.joint).collect())
+    }
+
     /// Stage 3 looks for the joints to break only in the work units that counted a newly
     /// failed joint in stage 2. Reference: a look at every joint (the rule before), which
     /// must find the same joints in the same order (joint order: the break events' order).
@@ -1436,101 +1520,22 @@ mod tests {
     fn stage_3_finds_the_failed_joints_in_the_units_that_counted_them() {
         let n_joints = 20_000usize;
         let pulled = [5, 6, 511, 512, 700, 4097, 9000, 15000, 19_999];
-        let already_broken = 3;
-        let build = || {
-            let mut joints = Joints::default();
-            joints.laws.push(JointLaw::Cohesive(Cohesive {
-                softening: law::Softening::Munjiza,
-                calibration: law::Calibration::Exact,
-                tensile_strength: 1e3,
-                cohesion: 2e3,
-                tan_friction: 0.5,
-                g_i: 1.0,
-                g_ii: 4.0,
-                normal_penalty: 1e9,
-                tangential_penalty: 1e9,
-                residual_friction: 0.5,
-                rate: law::RateEffects::None,
-                dilatancy: law::Dilatancy::NONE,
-            }));
-            // Joint j between node layers j and j + 1, all at z = 0 in the reference
-            // configuration (joints of zero thickness: the chain's layers are shared, so
-            // its blocks alternate colours). Layer i is lifted by 1 cm for every pulled
-            // joint below it: the pulled joints open by 1 cm (their softening length is
-            // ~2 mm), the others not at all.
-            let mut x = Vec::new();
-            for i in 0..=n_joints {
-                let lift = 0.01 * pulled.iter().filter(|&&j| j < i).count() as Real;
-                for (a, b) in [(0.0, 0.0), (0.01, 0.0), (0.0, 0.01)] {
-                    x.push((Vec3::new(a, b, 0.0), Vec3::new(a, b, lift)));
-                }
-            }
-            for j in 0..n_joints as u32 {
-                let a = 3 * j;
-                let faces = [[a, a + 1, a + 2], [a + 3, a + 4, a + 5]];
-                let p = [x[a as usize].0, x[a as usize + 1].0, x[a as usize + 2].0];
-                joints.push_joint(faces, [j, j + 1], 0, &p);
-            }
-            let nodes = Nodes {
-                x: x.iter().map(|p| p.1).collect(),
-                f: vec![Vec3::zeros(); x.len()],
-                ..Default::default()
-            };
-            joints.prepare(x.len());
-            joints.broken[already_broken] = true;
-            joints.state[already_broken]
-                .iter_mut()
-                .for_each(|p| p.damage = 1.0);
-            (joints, nodes)
-        };
-        let every_joint = |joints: &Joints, relevant: &dyn Fn(usize) -> bool| -> Vec<usize> {
-            (0..joints.len())
-                .filter(|&j| {
-                    relevant(j)
-                        && !joints.broken[j]
-                        && joints.state[j].iter().all(|p| p.damage >= 1.0)
-                })
-                .collect()
-        };
-        let tet_body = vec![0u32; n_joints + 1];
-        let broke = |joints: &mut Joints,
-                     nodes: &Nodes,
-                     newly_failed: usize,
-                     mask: Option<&crate::fracture::JointMask>| {
-            let mut events = Vec::new();
-            crate::fracture::break_joints(
-                joints,
-                &nodes.x,
-                &tet_body,
-                0.0,
-                1,
-                newly_failed,
-                None,
-                &mut events,
-                mask,
-            );
-            events.iter().map(|e| e.joint).collect::<Vec<_>>()
-        };
 
         // One process.
-        let (mut joints, mut nodes) = build();
+        let (mut joints, mut nodes) = pulled_chain(n_joints, &pulled, 3);
         let schedule: Vec<_> = joints.units().map(|u| u.start).collect();
         assert!(
             schedule.windows(2).any(|w| w[1] < w[0]),
             "the units' schedule should not be in joint order"
         );
-        let sums = add_joint_forces(&mut joints, &mut nodes, 0.0, false);
+        let (sums, expected, broke) = stage_2_and_3(&mut joints, &mut nodes, None);
         assert_eq!(sums.newly_failed, pulled.len());
-        let expected = every_joint(&joints, &|_| true);
         assert_eq!(expected, pulled);
-        assert_eq!(
-            broke(&mut joints, &nodes, sums.newly_failed, None),
-            expected
-        );
+        assert_eq!(broke, expected);
         assert!(pulled.iter().all(|&j| joints.broken[j]));
 
         // A rank computing two units in three: it looks at the joints of its units only.
-        let (mut joints, mut nodes) = build();
+        let (mut joints, mut nodes) = pulled_chain(n_joints, &pulled, 3);
         let units: Vec<_> = joints.units().collect();
         joints.compute = (0..units.len()).map(|u| u % 3 != 1).collect();
         let mut relevant = vec![false; n_joints];
@@ -1539,20 +1544,16 @@ mod tests {
                 unit.clone().for_each(|j| relevant[j] = true);
             }
         }
-        let sums = add_joint_forces(&mut joints, &mut nodes, 0.0, false);
-        let expected = every_joint(&joints, &|j| relevant[j]);
-        assert!(
-            !expected.is_empty() && expected.len() < pulled.len(),
-            "{expected:?}"
-        );
         let mask = crate::fracture::JointMask {
             designated: relevant.clone(),
             relevant,
         };
-        assert_eq!(sums.newly_failed, expected.len());
-        assert_eq!(
-            broke(&mut joints, &nodes, sums.newly_failed, Some(&mask)),
-            expected
+        let (sums, expected, broke) = stage_2_and_3(&mut joints, &mut nodes, Some(&mask));
+        assert!(
+            !expected.is_empty() && expected.len() < pulled.len(),
+            "{expected:?}"
         );
+        assert_eq!(sums.newly_failed, expected.len());
+        assert_eq!(broke, expected);
     }
 }
