@@ -782,21 +782,43 @@ fn add_pairs_of_broken_joints(
     // Every held surface tet whose box overlaps the joined tets' common box, against each
     // joined tet it may pair with: a joined tet against every surface tet (a pair of two
     // joined tets once, from the lower), a joined tet this rank does not compute only
-    // against those it does.
-    let joined_held: Vec<u32> = (joined.iter().copied())
+    // against those it does. The joined tets are sorted along the common box's longest
+    // axis, so a surface box is tested only against those whose extent along it can reach
+    // it (the joined tets of a step lie along cracks that can span the model: on the 55k-tet
+    // impact a surface box in the common box was tested against 12.5 joined tets, of which
+    // it overlapped far fewer).
+    let mut joined_held: Vec<u32> = (joined.iter().copied())
         .filter(|&n| held_at_t0(n))
         .collect();
     let common = (joined_held.iter())
         .map(|&n| boxes[n as usize])
         .reduce(|a, b| a.union(&b));
-    let (is_joined, test, mine, joined_held) = (&is_joined, &test, &mine, &joined_held);
+    let axis = common.map_or(0, |c| (c.hi - c.lo).imax());
+    joined_held.sort_unstable_by(|&a, &b| {
+        boxes[a as usize].lo[axis].total_cmp(&boxes[b as usize].lo[axis])
+    });
+    let joined_lo: Vec<Real> = (joined_held.iter())
+        .map(|&n| boxes[n as usize].lo[axis])
+        .collect();
+    let widest = (joined_held.iter())
+        .map(|&n| boxes[n as usize].hi[axis] - boxes[n as usize].lo[axis])
+        .fold(0.0, Real::max);
+    let (is_joined, test, mine) = (&is_joined, &test, &mine);
+    let (joined_held, joined_lo) = (&joined_held, &joined_lo);
     let mut added: Vec<[u32; 2]> = match common {
         None => Vec::new(),
         Some(common) => (0..cd.surface.len() as u32)
             .into_par_iter()
             .filter(|&i| boxes[i as usize].overlaps(&common) && held_at_t0(i))
             .flat_map_iter(|i| {
-                (joined_held.iter().copied())
+                // The joined tets whose lower end along the axis lies within [lo − widest,
+                // hi] of this box's: the only ones whose extent can overlap it (the lower
+                // bound widened by a few roundings of the subtraction).
+                let b = &boxes[i as usize];
+                let margin = 4.0 * Real::EPSILON * (b.lo[axis].abs() + widest);
+                let first = joined_lo.partition_point(|&l| l < b.lo[axis] - widest - margin);
+                let last = joined_lo.partition_point(|&l| l <= b.hi[axis]);
+                (joined_held[first..last.max(first)].iter().copied())
                     .filter(move |&n| (mine(n) || mine(i)) && (!is_joined[i as usize] || i > n))
                     .filter_map(move |n| test(n, i))
             })
