@@ -508,36 +508,42 @@ impl ContactInteraction {
         let old_slots = std::mem::take(&mut self.slots);
         let old_hist = std::mem::take(&mut self.hist);
         let n_chunks = origins.len().div_ceil(CHUNK);
-        let mut hist: Vec<Vec<PairState>> = vec![Vec::new(); n_chunks];
-        self.slots = origins
-            .iter()
-            .enumerate()
-            .map(|(i, o)| {
-                let (witness, state) = match *o {
-                    PairOrigin::Kept(k) => {
-                        let s = old_slots[k as usize];
-                        let h = (s.hist != NO_HISTORY)
-                            .then(|| old_hist[k as usize / CHUNK][s.hist as usize]);
-                        (s.witness, h)
+        // Chunk by chunk in parallel: a chunk's slots and history list depend only on its
+        // own pairs' origins (the same lists for any thread count).
+        let mut slots = vec![
+            PairSlot {
+                hist: NO_HISTORY,
+                witness: 0,
+            };
+            origins.len()
+        ];
+        let hist: Vec<Vec<PairState>> = (slots.par_chunks_mut(CHUNK))
+            .zip(origins.par_chunks(CHUNK))
+            .map(|(slots, origins)| {
+                let mut h = Vec::new();
+                for (slot, o) in slots.iter_mut().zip(origins) {
+                    let state = match *o {
+                        PairOrigin::Kept(k) => {
+                            let s = old_slots[k as usize];
+                            slot.witness = s.witness;
+                            (s.hist != NO_HISTORY)
+                                .then(|| old_hist[k as usize / CHUNK][s.hist as usize])
+                        }
+                        PairOrigin::New { neighbours, joint } => {
+                            let s = PairState::new_pair(neighbours, joint);
+                            s.needs_history().then_some(s)
+                        }
+                    };
+                    if let Some(s) = state {
+                        slot.hist = h.len() as u16;
+                        h.push(s);
                     }
-                    PairOrigin::New { neighbours, joint } => {
-                        let s = PairState::new_pair(neighbours, joint);
-                        (0, s.needs_history().then_some(s))
-                    }
-                };
-                let mut slot = PairSlot {
-                    hist: NO_HISTORY,
-                    witness,
-                };
-                if let Some(s) = state {
-                    let h = &mut hist[i / CHUNK];
-                    slot.hist = h.len() as u16;
-                    h.push(s);
                 }
-                slot
+                h.shrink_to_fit();
+                h
             })
             .collect();
-        hist.iter_mut().for_each(Vec::shrink_to_fit);
+        self.slots = slots;
         self.hist = hist;
         self.free = vec![Vec::new(); n_chunks];
         // The outputs point into the old histories.
