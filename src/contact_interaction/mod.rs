@@ -510,13 +510,7 @@ impl ContactInteraction {
         let n_chunks = origins.len().div_ceil(CHUNK);
         // Chunk by chunk in parallel: a chunk's slots and history list depend only on its
         // own pairs' origins (the same lists for any thread count).
-        let mut slots = vec![
-            PairSlot {
-                hist: NO_HISTORY,
-                witness: 0,
-            };
-            origins.len()
-        ];
+        let mut slots = vec![PairSlot::default(); origins.len()];
         let hist: Vec<Vec<PairState>> = (slots.par_chunks_mut(CHUNK))
             .zip(origins.par_chunks(CHUNK))
             .map(|(slots, origins)| {
