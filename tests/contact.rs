@@ -1108,6 +1108,11 @@ fn incremental_detection_after_fracture_equals_a_full_detection() {
         now.iter()
             .for_each(|&j| sim.joints.broken[j as usize] = true);
         let (inc0, full0) = (cd.detector.incremental, cd.detector.detections);
+        // A rank's skin test over its own surface nodes (here those not divisible by 3),
+        // asked every step: its list is kept and, after a refresh from breaks, the nodes
+        // that joined are merged into it.
+        let owned = |n: u32| !n.is_multiple_of(3);
+        fdem::contact_detection::surface_moved_here(&mut cd, &sim.nodes.x, owned);
         cd.broken_since_refresh(now);
         assert!(update_pairs(
             &mut cd,
@@ -1119,6 +1124,14 @@ fn incremental_detection_after_fracture_equals_a_full_detection() {
         ));
         incremental += cd.detector.incremental - inc0;
         full += cd.detector.detections - full0;
+        fdem::contact_detection::surface_moved_here(&mut cd, &sim.nodes.x, owned);
+        let own: Vec<u32> = (cd.surface_nodes.iter().copied())
+            .filter(|&n| owned(n))
+            .collect();
+        assert!(
+            cd.own_surface_nodes.as_ref() == Some(&own),
+            "round {round}: the rank's own surface nodes differ from a listing anew"
+        );
         // The oracle: a full detection at the positions of the last full one.
         let mut at_detection = sim.nodes.clone();
         at_detection.x = cd.detector.x_at_detection.clone();

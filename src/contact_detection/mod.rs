@@ -165,6 +165,11 @@ pub struct ContactDetection {
     /// surface or the split changed).
     #[serde(skip)]
     pub own_surface_nodes: Option<Vec<u32>>,
+    /// The nodes that joined the surface since [`ContactDetection::own_surface_nodes`] was
+    /// listed (sorted, from the refreshes after breaks): merged into it at the next skin test
+    /// instead of listing the rank's surface nodes anew.
+    #[serde(skip)]
+    surface_nodes_joined: Vec<u32>,
     /// Surface lists must be rebuilt (joints broke: [`ContactDetection::joints_broke`];
     /// model changed: [`ContactDetection::prepare`]).
     surface_stale: bool,
@@ -364,13 +369,23 @@ pub fn surface_moved_here(
         return false;
     }
     let surface_nodes = &cd.surface_nodes;
-    let own = (cd.own_surface_nodes.get_or_insert_with(|| {
-        surface_nodes
-            .par_iter()
-            .copied()
-            .filter(|&n| owned(n))
-            .collect()
-    }))
+    let joined = std::mem::take(&mut cd.surface_nodes_joined);
+    let own = match &mut cd.own_surface_nodes {
+        // After a refresh from breaks, its own among the nodes that joined (none of them
+        // listed before: they were not on the surface).
+        Some(own) => {
+            let mine: Vec<u32> = joined.into_iter().filter(|&n| owned(n)).collect();
+            merge_in_place(own, &mine, |_, _| {});
+            own
+        }
+        None => cd.own_surface_nodes.insert(
+            surface_nodes
+                .par_iter()
+                .copied()
+                .filter(|&n| owned(n))
+                .collect(),
+        ),
+    }
     .as_slice();
     // (When the rank owns every surface node the list is the surface's, in its order.)
     cd.detector.moved_beyond_skin(x, own, |_| true)
@@ -1228,7 +1243,10 @@ fn refresh_after_breaks(
     nodes.dedup();
     nodes.retain(|n| cd.surface_nodes.binary_search(n).is_err());
     add_surface_nodes(cd, &nodes);
-    cd.own_surface_nodes = None;
+    if cd.own_surface_nodes.is_some() {
+        // (For the rank's list of its own, at its next skin test.)
+        merge_in_place(&mut cd.surface_nodes_joined, &nodes, |_, _| {});
+    }
     let split = cd
         .fragments
         .split(&newly, &joints.tets, &joints.broken, &mut cd.fragment);
