@@ -622,12 +622,7 @@ fn impact_model() -> (Simulation, usize) {
         rate: fdem::joints::law::RateEffects::None,
         dilatancy: fdem::joints::law::Dilatancy::NONE,
     }));
-    let body = sim.bodies[b].clone();
-    let (tn, x0) = (sim.tets.nodes.clone(), sim.nodes.x0.clone());
-    let joints = sim
-        .joints
-        .insert_in_body(&body, &tn, &x0, law, |_| true)
-        .unwrap();
+    let joints = joint_every_face(&mut sim, b, law);
     let plate_nodes: Vec<u32> = sim.bodies[0].nodes.clone().map(|n| n as u32).collect();
     sim.loads.prescribed.push(fdem::loads::PrescribedVelocity {
         nodes: plate_nodes,
@@ -1034,12 +1029,7 @@ fn incremental_detection_after_fracture_equals_a_full_detection() {
         rate: fdem::joints::law::RateEffects::None,
         dilatancy: fdem::joints::law::Dilatancy::NONE,
     }));
-    let body = sim.bodies[b].clone();
-    let (tn, x0) = (sim.tets.nodes.clone(), sim.nodes.x0.clone());
-    let n_joints = sim
-        .joints
-        .insert_in_body(&body, &tn, &x0, law, |_| true)
-        .unwrap();
+    let n_joints = joint_every_face(&mut sim, b, law);
     // A skin of 1.5 cells: tets a cell or two apart (not neighbours) are candidates or not
     // by where their nodes are, so detections at different positions differ.
     let mut cd = ContactDetection::default();
@@ -1241,11 +1231,7 @@ fn a_joined_tet_that_moved_past_the_skin_forces_a_full_detection_on_ranks_too() 
         normal_penalty: 1e9,
         tangential_penalty: 1e9,
     });
-    let body = sim.bodies[b].clone();
-    let (tn, x0) = (sim.tets.nodes.clone(), sim.nodes.x0.clone());
-    sim.joints
-        .insert_in_body(&body, &tn, &x0, law, |_| true)
-        .unwrap();
+    joint_every_face(&mut sim, b, law);
     let mut runs = Vec::new();
     for on_ranks in [false, true] {
         let mut nodes = sim.nodes.clone();
@@ -1486,4 +1472,13 @@ fn the_time_step_line_names_the_tet_and_material_pair_of_the_contact_bound() {
     );
     assert_eq!(by.penalty, 10.0e9);
     assert!(soft.critical > 2.0 * stiff.critical, "{soft} / {stiff}");
+}
+
+/// Joints of law `law` on every internal face of body `b` (jointed); returns how many.
+fn joint_every_face(sim: &mut Simulation, b: usize, law: u32) -> usize {
+    let body = sim.bodies[b].clone();
+    let (tn, x0) = (sim.tets.nodes.clone(), sim.nodes.x0.clone());
+    sim.joints
+        .insert_in_body(&body, &tn, &x0, law, |_| true)
+        .unwrap()
 }
