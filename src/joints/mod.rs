@@ -354,13 +354,8 @@ impl Joints {
     pub fn units_with_new_failures(&mut self) -> &[std::ops::Range<usize>] {
         let mut ranges = std::mem::take(&mut self.failing_units);
         ranges.clear();
-        let n_units: usize = self
-            .color_blocks
-            .iter()
-            .flatten()
-            .map(|b| b.len().div_ceil(UNIT))
-            .sum();
-        if self.unit_partials.len() == n_units && self.colored == self.len() {
+        if self.unit_partials.len() == unit_count(&self.color_blocks) && self.colored == self.len()
+        {
             ranges.extend(
                 self.units()
                     .zip(&self.unit_partials)
@@ -663,12 +658,7 @@ impl Joints {
             }
         }
         let blocks = chosen.unwrap_or_else(|| self.colour_blocks(n_nodes, CHUNK));
-        let n_units = blocks
-            .iter()
-            .flatten()
-            .map(|b| b.len().div_ceil(UNIT))
-            .sum();
-        self.unit_partials = Vec::with_capacity(n_units);
+        self.unit_partials = Vec::with_capacity(unit_count(&blocks));
         self.color_blocks = blocks;
         self.colored = n;
     }
@@ -1007,6 +997,13 @@ fn update_rate_factors(
 }
 
 /// The work units of a block: its joints cut into runs of at most [`UNIT`].
+/// How many work units ([`UNIT`] joints at most, none across a block's end) the blocks hold.
+fn unit_count(color_blocks: &[Vec<std::ops::Range<usize>>]) -> usize {
+    (color_blocks.iter().flatten())
+        .map(|b| b.len().div_ceil(UNIT))
+        .sum()
+}
+
 fn units_of(block: &std::ops::Range<usize>) -> impl Iterator<Item = std::ops::Range<usize>> {
     let end = block.end;
     (block.start..end)
@@ -1074,11 +1071,7 @@ pub fn add_joint_forces(
     let rp = SyncPtr(rate.as_mut_ptr());
     let has_rate = !rate.is_empty();
     let audit = audit::on().then(|| audit::Recorder::begin(faces.len()));
-    let n_units = color_blocks
-        .iter()
-        .flatten()
-        .map(|b| b.len().div_ceil(UNIT))
-        .sum();
+    let n_units = unit_count(color_blocks);
     unit_partials.clear();
     unit_partials.resize(n_units, JointSums::default());
     let pp = SyncPtr(unit_partials.as_mut_ptr());
