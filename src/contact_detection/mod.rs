@@ -129,9 +129,14 @@ pub struct ContactDetection {
     pub detector: Detector,
     /// Skin given by the script [m] (None: a quarter of the mean surface element size).
     pub skin: Option<Real>,
-    /// Surface tets (a free face: outer boundary or broken joint), simulation ids.
+    /// Surface tets (a free face: outer boundary or broken joint), simulation ids, in the
+    /// order they joined the surface: a tet keeps its index (the pairs' numbering) while it
+    /// is on it. Those on it at the first refresh come in id order, each refresh's newcomers
+    /// after them in id order, so that a refresh costs the tets that joined, not the surface
+    /// (the same order for any number of threads and ranks, and after a restart).
     pub surface: Vec<u32>,
-    /// Nodes of surface tets, sorted.
+    /// Nodes of surface tets, each once: sorted at a refresh from scratch, each refresh from
+    /// breaks' newcomers appended (sorted among themselves).
     pub surface_nodes: Vec<u32>,
     /// Fragment of each tet at the last detection.
     pub fragment: Vec<u32>,
@@ -166,8 +171,9 @@ pub struct ContactDetection {
     #[serde(skip)]
     pub own_surface_nodes: Option<Vec<u32>>,
     /// The nodes that joined the surface since [`ContactDetection::own_surface_nodes`] was
-    /// listed (sorted, from the refreshes after breaks): merged into it at the next skin test
-    /// instead of listing the rank's surface nodes anew.
+    /// listed (from the refreshes after breaks, in `surface_nodes`' order): its own among them
+    /// are appended to it at the next skin test instead of listing the rank's surface nodes
+    /// anew.
     #[serde(skip)]
     surface_nodes_joined: Vec<u32>,
     /// Surface lists must be rebuilt (joints broke: [`ContactDetection::joints_broke`];
@@ -190,6 +196,19 @@ pub struct ContactDetection {
     /// refreshes (empty until the first, and after a restart).
     #[serde(skip)]
     free_faces: Vec<i32>,
+    /// Per tet, its index in `surface` (u32::MAX off it); kept with `free_faces`.
+    #[serde(skip)]
+    surface_index: Vec<u32>,
+    /// Per node, whether it is in `surface_nodes`; kept with `free_faces`.
+    #[serde(skip)]
+    on_surface: Vec<bool>,
+    /// On a rank of a decomposed model: the surface tets (indices, ascending) whose nodes'
+    /// positions at the last full detection it holds, those within reach of its own
+    /// ([`Detector::current`]), with the held tets that joined the surface since. An
+    /// incremental detection tests the joined tets against these only. None: every surface
+    /// tet (one process, or after the ranks shared every position).
+    #[serde(skip)]
+    held: Option<Vec<u32>>,
     /// Fragments, split as joints break (`fragment` holds its labels).
     #[serde(skip)]
     fragments: FragmentTracker,
@@ -231,12 +250,10 @@ impl ContactDetection {
     fn record_surface_positions(&mut self) {
         let d = &mut self.detector;
         d.surface_x.clear();
-        if let Some(&last) = self.surface_nodes.last() {
-            if (last as usize) < d.x_at_detection.len() {
-                let at = &d.x_at_detection;
-                d.surface_x
-                    .extend(self.surface_nodes.iter().map(|&n| at[n as usize]));
-            }
+        let at = &d.x_at_detection;
+        if self.surface_nodes.iter().all(|&n| (n as usize) < at.len()) {
+            d.surface_x
+                .extend(self.surface_nodes.iter().map(|&n| at[n as usize]));
         }
     }
 
@@ -249,6 +266,7 @@ impl ContactDetection {
     /// positions is made again.
     pub fn positions_at_detection_shared(&mut self) {
         self.detector.current.clear();
+        self.held = None;
         self.boxes.clear();
         self.record_surface_positions();
     }
@@ -279,6 +297,8 @@ impl ContactDetection {
             + (self.surface.capacity() + self.surface_nodes.capacity()) * 4
             + (self.fragment.capacity() + self.fragment0.capacity() + self.free_faces.capacity())
                 * 4
+            + (self.surface_index.capacity() + self.held.as_ref().map_or(0, Vec::capacity)) * 4
+            + self.on_surface.capacity()
             + self.broken_faces.capacity() * size_of::<([u32; 2], u32)>()
             + self.fragments.bytes()
             + (self.detector.x_at_detection.capacity() + self.detector.surface_x.capacity())
@@ -374,8 +394,7 @@ pub fn surface_moved_here(
         // After a refresh from breaks, its own among the nodes that joined (none of them
         // listed before: they were not on the surface).
         Some(own) => {
-            let mine: Vec<u32> = joined.into_iter().filter(|&n| owned(n)).collect();
-            merge_in_place(own, &mine, |_, _| {});
+            own.extend(joined.into_iter().filter(|&n| owned(n)));
             own
         }
         None => cd.own_surface_nodes.insert(
@@ -442,6 +461,8 @@ pub fn update_pairs(
             && cd.skin.is_none_or(|s| s == cd.detector.skin);
         let change = match cd.rebuild
             || cd.free_faces.len() != tets.len()
+            || cd.surface_index.len() != tets.len()
+            || cd.on_surface.len() != nodes.len()
             || !cd.fragments.fits(tets.len(), joints.len())
         {
             false => refresh_after_breaks(cd, tets, joints),
@@ -599,6 +620,7 @@ fn detect_all_pairs(
     let surface = &cd.surface;
     let mine = |i: u32| computes.is_none_or(|c| c[surface[i as usize] as usize]);
     std::mem::swap(&mut cd.pairs, &mut cd.old_pairs);
+    let mut held_now = None;
     match &current {
         None => nbs_pairs_of(
             &cd.boxes,
@@ -624,8 +646,10 @@ fn detect_all_pairs(
             for p in &mut cd.pairs {
                 *p = p.map(|i| near[i as usize]);
             }
+            held_now = Some(near);
         }
     }
+    cd.held = held_now;
     cd.detector.workspace.release_pair_buffers();
     cd.local = computes.is_some();
     cd.detector.current = current.unwrap_or_default();
@@ -688,8 +712,8 @@ struct Topology {
 struct SurfaceChange {
     /// Surface tets before.
     n_before: usize,
-    /// The surface indices of the tets that joined it, ascending.
-    joined: Vec<u32>,
+    /// The surface indices of the tets that joined it: the surface's end.
+    joined: std::ops::Range<u32>,
     /// The newly broken joints' tet pairs (lower id first), sorted, with the joint id.
     new_faces: Vec<([u32; 2], u32)>,
 }
@@ -704,25 +728,19 @@ fn surface_change(cd: &ContactDetection, before: &Topology) -> Option<SurfaceCha
     {
         return None;
     }
-    // Both lists are sorted by tet id.
-    let mut joined = Vec::new();
-    let mut k = 0;
-    for (i, &e) in cd.surface.iter().enumerate() {
-        while k < before.surface.len() && before.surface[k] < e {
-            k += 1;
-        }
-        if k == before.surface.len() || before.surface[k] != e {
-            joined.push(i as u32);
-        }
+    // The tets that stayed keep their order, the newcomers follow (`refresh_surface`):
+    // unless a tet left, the list before is the start of the list after.
+    let n_before = before.surface.len();
+    if cd.surface[..n_before] != before.surface[..] {
+        return None;
     }
-    // (Otherwise a tet left the surface.)
     let new_faces = (cd.broken_faces.iter())
         .filter(|f| before.broken.binary_search_by_key(&f.0, |b| b.0).is_err())
         .copied()
         .collect();
-    (cd.surface.len() - joined.len() == before.surface.len()).then_some(SurfaceChange {
-        n_before: before.surface.len(),
-        joined,
+    Some(SurfaceChange {
+        n_before,
+        joined: n_before as u32..cd.surface.len() as u32,
         new_faces,
     })
 }
@@ -750,14 +768,20 @@ fn add_pairs_of_broken_joints(
     mut ranks: Option<&mut (dyn PairExchange + '_)>,
 ) -> bool {
     if surface_moved(cd, &nodes.x, ranks.as_deref_mut())
-        || joined_moved(cd, &nodes.x, tets, &change.joined, ranks.as_deref_mut())
+        || joined_moved(
+            cd,
+            &nodes.x,
+            tets,
+            change.joined.clone(),
+            ranks.as_deref_mut(),
+        )
     {
         return false;
     }
     let tn = &tets.nodes;
     let half = 0.5 * cd.detector.skin;
-    let joined = &change.joined[..];
-    boxes_after_joining(cd, joined, change.n_before, tn, half);
+    let joined = change.joined.clone();
+    boxes_after_joining(cd, change.n_before, tn, half);
     let x = &cd.detector.x_at_detection;
     let continuous: Vec<bool> = bodies.iter().map(|b| b.layout != Layout::Jointed).collect();
     let filter = CandidateFilter {
@@ -779,8 +803,7 @@ fn add_pairs_of_broken_joints(
         (a != b && boxes[a as usize].overlaps(&boxes[b as usize]) && filter.keep(a, b))
             .then_some([a, b])
     };
-    let mut is_joined = vec![false; cd.surface.len()];
-    joined.iter().for_each(|&i| is_joined[i as usize] = true);
+    let is_joined = |i: u32| joined.contains(&i);
     // On a decomposed model, only the pairs with a tet this rank computes.
     let computes = ranks.as_ref().map(|r| r.computes());
     let surface = &cd.surface;
@@ -797,32 +820,35 @@ fn add_pairs_of_broken_joints(
     // Every held surface tet whose box overlaps the joined tets' common box, against each
     // joined tet it may pair with (of those whose extent can reach it, `JoinedTets`): a
     // joined tet against every surface tet (a pair of two joined tets once, from the lower),
-    // a joined tet this rank does not compute only against those it does.
-    let index = JoinedTets::new(boxes, joined.iter().copied().filter(|&n| held_at_t0(n)));
+    // a joined tet this rank does not compute only against those it does. On a rank, the
+    // held tets are listed (`ContactDetection::held`): the scan is over its part.
+    let held_joined: Vec<u32> = joined.clone().filter(|&n| held_at_t0(n)).collect();
+    let index = JoinedTets::new(boxes, held_joined.iter().copied());
     let (is_joined, test, mine, index) = (&is_joined, &test, &mine, &index);
-    let mut added: Vec<[u32; 2]> = match index.common {
-        None => Vec::new(),
-        Some(common) => (0..cd.surface.len() as u32)
+    let pairs_of = |i: u32| {
+        (index.reaching(&boxes[i as usize]).iter().copied())
+            .filter(move |&n| (mine(n) || mine(i)) && (!is_joined(i) || i > n))
+            .filter_map(move |n| test(n, i))
+    };
+    let mut added: Vec<[u32; 2]> = match (index.common, &cd.held) {
+        (None, _) => Vec::new(),
+        (Some(common), None) => (0..cd.surface.len() as u32)
             .into_par_iter()
-            .filter(|&i| boxes[i as usize].overlaps(&common) && held_at_t0(i))
-            .flat_map_iter(|i| {
-                (index.reaching(&boxes[i as usize]).iter().copied())
-                    .filter(move |&n| (mine(n) || mine(i)) && (!is_joined[i as usize] || i > n))
-                    .filter_map(move |n| test(n, i))
-            })
+            .filter(|&i| boxes[i as usize].overlaps(&common))
+            .flat_map_iter(pairs_of)
+            .collect(),
+        (Some(common), Some(held)) => (held.par_iter().chain(&held_joined).copied())
+            .filter(|&i| boxes[i as usize].overlaps(&common))
+            .flat_map_iter(pairs_of)
             .collect(),
     };
     // The two sides of each newly broken joint, both on the surface before.
-    let index_of = |e: u32| cd.surface.binary_search(&e).ok().map(|i| i as u32);
+    let index_of = |e: u32| Some(cd.surface_index[e as usize]).filter(|&i| i != u32::MAX);
     for (pair, _) in &change.new_faces {
         let (Some(i), Some(j)) = (index_of(pair[0]), index_of(pair[1])) else {
             continue;
         };
-        if !is_joined[i as usize]
-            && !is_joined[j as usize]
-            && (mine(i) || mine(j))
-            && held_at_t0(i)
-            && held_at_t0(j)
+        if !is_joined(i) && !is_joined(j) && (mine(i) || mine(j)) && held_at_t0(i) && held_at_t0(j)
         {
             added.extend(test(i, j));
         }
@@ -844,6 +870,9 @@ fn add_pairs_of_broken_joints(
         }
     });
     cd.carried = Vec::new();
+    if let Some(held) = &mut cd.held {
+        held.extend_from_slice(&held_joined);
+    }
     cd.detector.stale = false;
     cd.detector.incremental += 1;
     true
@@ -910,7 +939,7 @@ fn joined_moved(
     cd: &ContactDetection,
     x: &[Vec3],
     tets: &Tets,
-    joined: &[u32],
+    joined: std::ops::Range<u32>,
     ranks: Option<&mut (dyn PairExchange + '_)>,
 ) -> bool {
     let Some(r) = ranks.filter(|r| r.skin_test_answered().is_some()) else {
@@ -921,7 +950,7 @@ fn joined_moved(
         &cd.detector.x_at_detection,
         (0.5 * cd.detector.skin).powi(2),
     );
-    let mine = (joined.iter()).any(|&i| {
+    let mine = joined.into_iter().any(|i| {
         tets.nodes[cd.surface[i as usize] as usize]
             .iter()
             .any(|&n| {
@@ -931,39 +960,21 @@ fn joined_moved(
     r.largest(if mine { 1.0 } else { 0.0 }) > 0.0
 }
 
-/// The inflated boxes at the positions of the last detection, t₀, of the surface after
-/// `joined` (its indices, ascending) joined it: the tets that stayed keep the last detection's
-/// boxes (the same positions, skin and function), so only the joined tets' are computed.
-/// In place, from the back: the kept boxes move up past the joined tets' slots. (All anew
-/// when the boxes are not the last detection's surface's.)
-fn boxes_after_joining(
-    cd: &mut ContactDetection,
-    joined: &[u32],
-    n_before: usize,
-    tn: &[[u32; 4]],
-    half: Real,
-) {
+/// The inflated boxes at the positions of the last detection, t₀, of the surface after the
+/// tets from `n_before` on joined it (at its end): the tets that stayed keep the last
+/// detection's boxes (the same positions, skin and function), so only the joined tets' are
+/// computed. (All anew when the boxes are not the last detection's surface's.)
+fn boxes_after_joining(cd: &mut ContactDetection, n_before: usize, tn: &[[u32; 4]], half: Real) {
     let x = &cd.detector.x_at_detection;
     if cd.boxes.len() != n_before {
         surface_boxes(&mut cd.boxes, &cd.surface, tn, x, half);
         return;
     }
-    let filler = cd.boxes.first().copied().unwrap_or(Aabb {
-        lo: Vec3::zeros(),
-        hi: Vec3::zeros(),
-    });
-    cd.boxes.resize(cd.surface.len(), filler);
-    let mut next_kept = n_before;
-    let mut next_joined = joined.iter().rev().peekable();
-    for i in (0..cd.surface.len()).rev() {
-        cd.boxes[i] = if next_joined.next_if_eq(&&(i as u32)).is_some() {
-            let e = cd.surface[i] as usize;
-            Aabb::of_points(&tn[e].map(|n| x[n as usize])).inflate(half)
-        } else {
-            next_kept -= 1;
-            cd.boxes[next_kept]
-        };
-    }
+    let joined = &cd.surface[n_before..];
+    (cd.boxes).extend(
+        (joined.iter())
+            .map(|&e| Aabb::of_points(&tn[e as usize].map(|n| x[n as usize])).inflate(half)),
+    );
 }
 
 /// Which box pairs become candidates (see the module doc), over surface indices.
@@ -1133,9 +1144,14 @@ fn refresh_surface(
         }
     }
     broken.sort_unstable_by_key(|x| x.0);
-    let surface: Vec<u32> = (0..tets.len() as u32)
-        .filter(|&e| free[e as usize] > 0)
+    // The tets that stay on the surface keep their order, the newcomers follow in id order
+    // (the order refreshes from breaks give: see `ContactDetection::surface`).
+    let mut listed = vec![false; tets.len()];
+    let mut surface: Vec<u32> = (cd.surface.iter().copied())
+        .filter(|&e| (e as usize) < tets.len() && free[e as usize] > 0)
+        .inspect(|&e| listed[e as usize] = true)
         .collect();
+    surface.extend((0..tets.len() as u32).filter(|&e| free[e as usize] > 0 && !listed[e as usize]));
     cd.carried.clear();
     if surface != cd.surface {
         let mut new_index = vec![u32::MAX; tets.len()];
@@ -1168,8 +1184,17 @@ fn refresh_surface(
         .collect();
     sn.sort_unstable();
     sn.dedup();
+    cd.on_surface.clear();
+    cd.on_surface.resize(nodes.len(), false);
+    sn.iter().for_each(|&n| cd.on_surface[n as usize] = true);
     cd.surface_nodes = sn;
+    cd.surface_index.clear();
+    cd.surface_index.resize(tets.len(), u32::MAX);
+    for (i, &e) in cd.surface.iter().enumerate() {
+        cd.surface_index[e as usize] = i as u32;
+    }
     cd.own_surface_nodes = None;
+    cd.surface_nodes_joined.clear();
     cd.record_surface_positions();
     cd.fragments = FragmentTracker::build(&tets.nodes, &joints.tets, &joints.broken, nodes.len());
     cd.fragment = cd.fragments.labels();
@@ -1223,29 +1248,27 @@ fn refresh_after_breaks(
     joined_tets.sort_unstable();
     new_faces.sort_unstable();
     merge_in_place(&mut cd.broken_faces, &new_faces, |_, _| {});
-    // The surface, and where each of its tets moves in the longer list.
+    // The joined tets go to the surface's end: the others, and so the pairs, keep their
+    // indices.
     let n_before = cd.surface.len();
-    let (mut moved_to, mut joined) = (vec![0u32; n_before], vec![0u32; joined_tets.len()]);
-    merge_in_place(&mut cd.surface, &joined_tets, |k, from| match from {
-        Ok(a) => moved_to[a] = k as u32,
-        Err(b) => joined[b] = k as u32,
-    });
-    for p in &mut cd.pairs {
-        *p = p.map(|i| moved_to[i as usize]);
+    let joined = n_before as u32..(n_before + joined_tets.len()) as u32;
+    for (&e, i) in joined_tets.iter().zip(joined.clone()) {
+        cd.surface_index[e as usize] = i;
     }
+    cd.surface.extend_from_slice(&joined_tets);
     cd.carried.clear();
     cd.carried.extend(0..cd.pairs.len() as u32);
-    // Their nodes, and those nodes' positions at the last detection.
+    // Their nodes new to the surface, and those nodes' positions at the last detection.
     let mut nodes: Vec<u32> = (joined_tets.iter())
         .flat_map(|&e| tets.nodes[e as usize])
+        .filter(|&n| !cd.on_surface[n as usize])
         .collect();
     nodes.sort_unstable();
     nodes.dedup();
-    nodes.retain(|n| cd.surface_nodes.binary_search(n).is_err());
     add_surface_nodes(cd, &nodes);
     if cd.own_surface_nodes.is_some() {
         // (For the rank's list of its own, at its next skin test.)
-        merge_in_place(&mut cd.surface_nodes_joined, &nodes, |_, _| {});
+        cd.surface_nodes_joined.extend_from_slice(&nodes);
     }
     let split = cd
         .fragments
@@ -1262,29 +1285,19 @@ fn refresh_after_breaks(
     })
 }
 
-/// `nodes` (sorted, none on the surface yet) join the surface nodes: merged in place from
-/// the back, with their positions at the last detection when those are recorded (the
-/// lists [`ContactDetection::record_surface_positions`] makes, without reading every
-/// surface node's position again).
+/// `nodes` (none on the surface yet) join the surface nodes at their end, with their
+/// positions at the last detection when those are recorded (the lists
+/// [`ContactDetection::record_surface_positions`] makes, without reading every surface
+/// node's position again).
 fn add_surface_nodes(cd: &mut ContactDetection, nodes: &[u32]) {
+    nodes.iter().for_each(|&n| cd.on_surface[n as usize] = true);
+    cd.surface_nodes.extend_from_slice(nodes);
     let d = &mut cd.detector;
     let at = &d.x_at_detection;
-    let recorded = d.surface_x.len() == cd.surface_nodes.len()
-        && (cd.surface_nodes.last().into_iter().chain(nodes.last()))
-            .all(|&n| (n as usize) < at.len());
-    let sx = &mut d.surface_x;
-    if recorded {
-        sx.resize(cd.surface_nodes.len() + nodes.len(), Vec3::zeros());
-    }
-    merge_in_place(&mut cd.surface_nodes, nodes, |k, from| {
-        if recorded {
-            sx[k] = match from {
-                Ok(a) => sx[a],
-                Err(b) => at[nodes[b] as usize],
-            };
-        }
-    });
-    if !recorded {
+    let n_before = cd.surface_nodes.len() - nodes.len();
+    if d.surface_x.len() == n_before && nodes.iter().all(|&n| (n as usize) < at.len()) {
+        d.surface_x.extend(nodes.iter().map(|&n| at[n as usize]));
+    } else {
         cd.record_surface_positions();
     }
 }
