@@ -788,7 +788,15 @@ pub fn joint_kinematics(
     faces: &[[u32; 3]; 2],
     x: &[Vec3],
 ) -> (Vec3, Real, [(Real, Real, Vec3); 3]) {
-    let (n, area, dn, st) = joint_jumps(faces, x);
+    point_slips(joint_jumps(faces, x))
+}
+
+/// [`joint_kinematics`] from the joint's jumps ([`joint_jumps`]): each point's slip
+/// normalised.
+#[inline(always)]
+fn point_slips(
+    (n, area, dn, st): (Vec3, Real, [Real; 3], [Vec3; 3]),
+) -> (Vec3, Real, [(Real, Real, Vec3); 3]) {
     let pts = std::array::from_fn(|i| {
         let ds = st[i].norm();
         let dir = if ds > 0.0 {
@@ -1143,8 +1151,13 @@ pub fn add_joint_forces(
             // not collapsed (else the general path checks whether its faces parted). Taken on
             // sampled steps too (with the energies), so that the motion does not depend on
             // how often energies are sampled; not while auditing (it records every point).
-            if let (JointLaw::Cohesive(c), true) = (lw, audit.is_none()) {
-                let (n, area, dn, tj) = joint_jumps(&faces[j], x);
+            // (A damaged joint goes to the general path without computing its jumps twice;
+            // one that declines the fast path hands them over.)
+            let mut jumps = None;
+            if let (JointLaw::Cohesive(c), true, true) =
+                (lw, audit.is_none(), !st.iter().any(|p| p.damage > 0.0))
+            {
+                let (n, area, dn, tj) = *jumps.insert(joint_jumps(&faces[j], x));
                 let mut psi = [0.0; 3];
                 let fast = if area >= 0.25 * area0[j] {
                     c.intact_tractions(cs, inv_h, &n, &dn, &tj, st, want_energy.then_some(&mut psi))
@@ -1166,7 +1179,7 @@ pub fn add_joint_forces(
                     continue;
                 }
             }
-            let (n, area, pts) = joint_kinematics(&faces[j], x);
+            let (n, area, pts) = point_slips(jumps.unwrap_or_else(|| joint_jumps(&faces[j], x)));
             let was_failed = st.iter().all(|p| p.damage >= 1.0);
             // Only cohesive laws use the anchors (plastic slip, friction anchors): other laws
             // neither read nor write them.
