@@ -143,8 +143,14 @@ pub struct ContactDetection {
     /// Fragment of each tet when contact started: only tets that were once connected can
     /// carry an overlap contact did not make.
     pub fragment0: Vec<u32>,
-    /// Tet pairs (lower id first) across a broken joint, sorted, with the joint id.
-    pub broken_faces: Vec<([u32; 2], u32)>,
+    /// Per joint: broken, and taken in by a surface refresh (its two tets may be a contact
+    /// pair across it). A flag per joint, not a sorted list of the broken ones, so that a
+    /// refresh after breaks costs the joints that broke, not every joint broken so far.
+    pub broken_seen: Vec<bool>,
+    /// Per tet, its joints: `joints_of_tet.1[joints_of_tet.0[e]..joints_of_tet.0[e + 1]]`
+    /// (made at a refresh from scratch, for the joint between two tets).
+    #[serde(skip)]
+    joints_of_tet: (Vec<u32>, Vec<u32>),
     /// Candidate pairs (indices into `surface`, lower first), sorted. On a rank of a
     /// decomposed model, only the pairs it computes (`local`), between the script's reads of
     /// the whole model's state.
@@ -299,7 +305,8 @@ impl ContactDetection {
                 * 4
             + (self.surface_index.capacity() + self.held.as_ref().map_or(0, Vec::capacity)) * 4
             + self.on_surface.capacity()
-            + self.broken_faces.capacity() * size_of::<([u32; 2], u32)>()
+            + self.broken_seen.capacity()
+            + (self.joints_of_tet.0.capacity() + self.joints_of_tet.1.capacity()) * 4
             + self.fragments.bytes()
             + (self.detector.x_at_detection.capacity() + self.detector.surface_x.capacity())
                 * size_of::<Vec3>()
@@ -455,29 +462,40 @@ pub fn update_pairs(
     joints: &Joints,
     mut ranks: Option<&mut (dyn PairExchange + '_)>,
 ) -> bool {
-    if cd.surface_stale {
+    // (The lists kept between refreshes fit the model only after a refresh from scratch.)
+    let from_scratch = cd.rebuild
+        || cd.free_faces.len() != tets.len()
+        || cd.surface_index.len() != tets.len()
+        || cd.on_surface.len() != nodes.len()
+        || cd.broken_seen.len() != joints.len()
+        || cd.joints_of_tet.0.len() != tets.len() + 1
+        || !cd.fragments.fits(tets.len(), joints.len());
+    if cd.surface_stale || from_scratch {
         let detected_before = !cd.detector.stale
             && cd.detector.x_at_detection.len() == nodes.x.len()
             && cd.skin.is_none_or(|s| s == cd.detector.skin);
-        let change = match cd.rebuild
-            || cd.free_faces.len() != tets.len()
-            || cd.surface_index.len() != tets.len()
-            || cd.on_surface.len() != nodes.len()
-            || !cd.fragments.fits(tets.len(), joints.len())
-        {
+        let change = match from_scratch {
             false => refresh_after_breaks(cd, tets, joints),
             true => {
                 let before = Topology {
                     surface: cd.surface.clone(),
                     fragment: cd.fragment.clone(),
-                    broken: cd.broken_faces.clone(),
+                    broken: cd.broken_seen.clone(),
                 };
                 refresh_surface(cd, nodes, tets, bodies, joints);
-                surface_change(cd, &before)
+                surface_change(cd, joints, &before)
             }
         };
         if let Some(change) = change.filter(|_| detected_before) {
-            if add_pairs_of_broken_joints(cd, nodes, tets, bodies, &change, ranks.as_deref_mut()) {
+            if add_pairs_of_broken_joints(
+                cd,
+                nodes,
+                tets,
+                bodies,
+                joints,
+                &change,
+                ranks.as_deref_mut(),
+            ) {
                 return true;
             }
         }
@@ -496,7 +514,7 @@ pub fn update_pairs(
         Some(r) => make_reach_current(cd, nodes, tets, r),
         None => None,
     };
-    detect_all_pairs(cd, nodes, tets, bodies, ranks, current);
+    detect_all_pairs(cd, nodes, tets, bodies, joints, ranks, current);
     true
 }
 
@@ -571,6 +589,7 @@ fn detect_all_pairs(
     nodes: &Nodes,
     tets: &Tets,
     bodies: &[Body],
+    joints: &Joints,
     ranks: Option<&mut (dyn PairExchange + '_)>,
     current: Option<Vec<bool>>,
 ) {
@@ -607,7 +626,11 @@ fn detect_all_pairs(
         surface: &cd.surface,
         fragment: &cd.fragment,
         fragment0: &cd.fragment0,
-        broken: &cd.broken_faces,
+        broken: BrokenJoints {
+            seen: &cd.broken_seen,
+            of_tet: &cd.joints_of_tet,
+            tets: &joints.tets,
+        },
         tet_nodes: tn,
         tet_body: &tets.body,
         continuous: &continuous,
@@ -704,7 +727,7 @@ fn surface_boxes(boxes: &mut Vec<Aabb>, surface: &[u32], tn: &[[u32; 4]], x: &[V
 struct Topology {
     surface: Vec<u32>,
     fragment: Vec<u32>,
-    broken: Vec<([u32; 2], u32)>,
+    broken: Vec<bool>,
 }
 
 /// What a surface refresh changed, when an incremental detection can take it in: the tets
@@ -721,7 +744,11 @@ struct SurfaceChange {
 /// What a refresh from scratch changed against `before`: None (a full detection) when a
 /// fragment split (pairs across the whole separating crack become candidates), a tet left
 /// the surface, or too many joined.
-fn surface_change(cd: &ContactDetection, before: &Topology) -> Option<SurfaceChange> {
+fn surface_change(
+    cd: &ContactDetection,
+    joints: &Joints,
+    before: &Topology,
+) -> Option<SurfaceChange> {
     if cd.surface.len() < before.surface.len()
         || cd.surface.len() - before.surface.len() > INCREMENTAL_LIMIT
         || !crate::fracture::same_partition(&cd.fragment, &before.fragment)
@@ -734,9 +761,15 @@ fn surface_change(cd: &ContactDetection, before: &Topology) -> Option<SurfaceCha
     if cd.surface[..n_before] != before.surface[..] {
         return None;
     }
-    let new_faces = (cd.broken_faces.iter())
-        .filter(|f| before.broken.binary_search_by_key(&f.0, |b| b.0).is_err())
-        .copied()
+    if before.broken.len() != cd.broken_seen.len() {
+        return None;
+    }
+    let new_faces = (0..cd.broken_seen.len())
+        .filter(|&j| cd.broken_seen[j] && !before.broken[j])
+        .map(|j| {
+            let [a, b] = joints.tets[j];
+            ([a.min(b), a.max(b)], j as u32)
+        })
         .collect();
     Some(SurfaceChange {
         n_before,
@@ -764,6 +797,7 @@ fn add_pairs_of_broken_joints(
     nodes: &Nodes,
     tets: &Tets,
     bodies: &[Body],
+    joints: &Joints,
     change: &SurfaceChange,
     mut ranks: Option<&mut (dyn PairExchange + '_)>,
 ) -> bool {
@@ -788,7 +822,11 @@ fn add_pairs_of_broken_joints(
         surface: &cd.surface,
         fragment: &cd.fragment,
         fragment0: &cd.fragment0,
-        broken: &cd.broken_faces,
+        broken: BrokenJoints {
+            seen: &cd.broken_seen,
+            of_tet: &cd.joints_of_tet,
+            tets: &joints.tets,
+        },
         tet_nodes: tn,
         tet_body: &tets.body,
         continuous: &continuous,
@@ -977,12 +1015,20 @@ fn boxes_after_joining(cd: &mut ContactDetection, n_before: usize, tn: &[[u32; 4
     );
 }
 
+/// The joints broken and taken in by the last surface refresh, and each tet's joints.
+#[derive(Clone, Copy)]
+struct BrokenJoints<'a> {
+    seen: &'a [bool],
+    of_tet: &'a (Vec<u32>, Vec<u32>),
+    tets: &'a [[u32; 2]],
+}
+
 /// Which box pairs become candidates (see the module doc), over surface indices.
 struct CandidateFilter<'a> {
     surface: &'a [u32],
     fragment: &'a [u32],
     fragment0: &'a [u32],
-    broken: &'a [([u32; 2], u32)],
+    broken: BrokenJoints<'a>,
     tet_nodes: &'a [[u32; 4]],
     tet_body: &'a [u32],
     continuous: &'a [bool],
@@ -1065,10 +1111,9 @@ impl CandidateFilter<'_> {
     }
 
     fn broken_joint(&self, a: u32, b: u32) -> Option<u32> {
-        self.broken
-            .binary_search_by_key(&[a.min(b), a.max(b)], |x| x.0)
-            .ok()
-            .map(|i| self.broken[i].1)
+        let BrokenJoints { seen, of_tet, tets } = self.broken;
+        let of_a = &of_tet.1[of_tet.0[a as usize] as usize..of_tet.0[a as usize + 1] as usize];
+        (of_a.iter().copied()).find(|&j| seen[j as usize] && tets[j as usize].contains(&b))
     }
 
     /// Surface elements `i` and `j` (overlapping boxes) are a candidate pair: near, and of
@@ -1133,17 +1178,13 @@ fn refresh_surface(
             }
         }
     }
-    let mut broken = Vec::new();
     for j in 0..joints.len() {
         let [a, b] = joints.tets[j];
-        if joints.broken[j] {
-            broken.push(([a.min(b), a.max(b)], j as u32));
-        } else {
+        if !joints.broken[j] {
             free[a as usize] -= 1;
             free[b as usize] -= 1;
         }
     }
-    broken.sort_unstable_by_key(|x| x.0);
     // The tets that stay on the surface keep their order, the newcomers follow in id order
     // (the order refreshes from breaks give: see `ContactDetection::surface`).
     let mut listed = vec![false; tets.len()];
@@ -1201,7 +1242,8 @@ fn refresh_surface(
     if cd.fragment0.len() != tets.len() {
         cd.fragment0 = cd.fragment.clone();
     }
-    cd.broken_faces = broken;
+    cd.broken_seen = joints.broken.clone();
+    cd.joints_of_tet = joints_of_tets(&joints.tets, tets.len());
     cd.free_faces = free;
     cd.newly_broken.clear();
     cd.rebuild = false;
@@ -1226,13 +1268,7 @@ fn refresh_after_breaks(
     newly.sort_unstable();
     newly.dedup();
     // (Only joints that are broken, once: a joint given again is in the list already.)
-    let known = |j: u32| {
-        let [a, b] = joints.tets[j as usize];
-        (cd.broken_faces)
-            .binary_search_by_key(&[a.min(b), a.max(b)], |f| f.0)
-            .is_ok()
-    };
-    newly.retain(|&j| joints.broken[j as usize] && !known(j));
+    newly.retain(|&j| joints.broken[j as usize] && !cd.broken_seen[j as usize]);
     let (mut joined_tets, mut new_faces) = (Vec::new(), Vec::with_capacity(newly.len()));
     for &j in &newly {
         let [a, b] = joints.tets[j as usize];
@@ -1244,10 +1280,10 @@ fn refresh_after_breaks(
             }
         }
         new_faces.push(([a.min(b), a.max(b)], j));
+        cd.broken_seen[j as usize] = true;
     }
     joined_tets.sort_unstable();
     new_faces.sort_unstable();
-    merge_in_place(&mut cd.broken_faces, &new_faces, |_, _| {});
     // The joined tets go to the surface's end: the others, and so the pairs, keep their
     // indices.
     let n_before = cd.surface.len();
@@ -1300,6 +1336,27 @@ fn add_surface_nodes(cd: &mut ContactDetection, nodes: &[u32]) {
     } else {
         cd.record_surface_positions();
     }
+}
+
+/// Each tet's joints, in joint order (CSR: offsets per tet, then the joint ids).
+fn joints_of_tets(joint_tets: &[[u32; 2]], n_tets: usize) -> (Vec<u32>, Vec<u32>) {
+    let mut start = vec![0u32; n_tets + 1];
+    joint_tets
+        .iter()
+        .flatten()
+        .for_each(|&e| start[e as usize + 1] += 1);
+    for e in 0..n_tets {
+        start[e + 1] += start[e];
+    }
+    let mut next = start.clone();
+    let mut ids = vec![0u32; 2 * joint_tets.len()];
+    for (j, pair) in joint_tets.iter().enumerate() {
+        for &e in pair {
+            ids[next[e as usize] as usize] = j as u32;
+            next[e as usize] += 1;
+        }
+    }
+    (start, ids)
 }
 
 /// Merges the sorted `added` into the sorted `list`, in place from the back (no list is

@@ -1452,17 +1452,27 @@ impl Parallel {
                 p.tet_min_rank[ea].min(p.tet_min_rank[eb]) == rank
             })
             .collect();
-        let mut needed = vec![false; surface.len()];
-        for &[a, b] in pairs {
-            needed[a as usize] = true;
-            needed[b as usize] = true;
+        // The surface tets of the pairs, ascending: one bit per surface tet, so that the
+        // walk over the whole surface reads S/64 words (its part of the pairs, O(pairs),
+        // is the work).
+        let mut needed = vec![0u64; surface.len().div_ceil(64)];
+        for &i in pairs.iter().flatten() {
+            needed[i as usize / 64] |= 1 << (i % 64);
         }
+        let listed = (needed.iter().enumerate()).flat_map(|(w, &bits)| {
+            let mut rest = bits;
+            std::iter::from_fn(move || {
+                (rest != 0).then(|| {
+                    let b = rest.trailing_zeros();
+                    rest &= rest - 1;
+                    (w * 64) as u32 + b
+                })
+            })
+        });
         crate::contact_interaction::PairMask {
             decomposed: true,
             designated,
-            surface: (0..needed.len() as u32)
-                .filter(|&i| needed[i as usize])
-                .collect(),
+            surface: listed.collect(),
         }
     }
 
