@@ -50,8 +50,10 @@ pub struct Detector {
     #[serde(skip)]
     pub workspace: NbsWorkspace,
     /// `x_at_detection` of the surface nodes, in the order of
-    /// [`ContactDetection::surface_nodes`] (rebuilt when either changes; empty after a
-    /// restart until then, when the skin test reads `x_at_detection`).
+    /// [`ContactDetection::surface_nodes`], for one process's skin test (made at each full
+    /// detection, extended as nodes join the surface; empty on a rank of a decomposed model
+    /// and after a restart until the next full detection: the skin test then reads
+    /// `x_at_detection`).
     #[serde(skip)]
     surface_x: Vec<Vec3>,
     /// On a rank of a decomposed model: per node, whether its position was current on this
@@ -599,28 +601,7 @@ fn detect_all_pairs(
         cd.detector.skin = s;
     }
     let half = 0.5 * cd.detector.skin;
-    // On a decomposed model, the surface tets whose nodes are current here: every partner
-    // of this rank's tets is among them; the others get a box that overlaps nothing.
-    let held =
-        |e: u32| (current.as_ref()).is_none_or(|c| tn[e as usize].iter().all(|&n| c[n as usize]));
-    cd.boxes.clear();
-    cd.boxes.par_extend(cd.surface.par_iter().map(|&e| {
-        if held(e) {
-            Aabb::of_points(&tn[e as usize].map(|n| x[n as usize])).inflate(half)
-        } else {
-            Aabb::of_points(&[Vec3::repeat(Real::NAN)])
-        }
-    }));
-    // Each element meets dozens of overlapping boxes: its face planes once, not per pair
-    // (freed after the search, like NBS's pair buffers).
-    let planes: Vec<FacePlanes> = cd
-        .surface
-        .par_iter()
-        .map(|&e| match held(e) {
-            true => FacePlanes::of(&tn[e as usize].map(|n| x[n as usize])),
-            false => FacePlanes::default(),
-        })
-        .collect();
+    let (near, planes) = held_boxes_and_planes(cd, tn, x, half, current.as_deref());
     let continuous: Vec<bool> = bodies.iter().map(|b| b.layout != Layout::Jointed).collect();
     let filter = CandidateFilter {
         surface: &cd.surface,
@@ -643,8 +624,7 @@ fn detect_all_pairs(
     let surface = &cd.surface;
     let mine = |i: u32| computes.is_none_or(|c| c[surface[i as usize] as usize]);
     std::mem::swap(&mut cd.pairs, &mut cd.old_pairs);
-    let mut held_now = None;
-    match &current {
+    match &near {
         None => nbs_pairs_of(
             &cd.boxes,
             &mut cd.detector.workspace,
@@ -652,38 +632,119 @@ fn detect_all_pairs(
             &mine,
             &mut cd.pairs,
         ),
-        Some(_) => {
-            // Only the surface tets whose nodes are current here (every partner of this
-            // rank's tets is among them); indices in order, so the pairs stay sorted.
-            let near: Vec<u32> = (0..surface.len() as u32)
-                .filter(|&i| held(surface[i as usize]))
-                .collect();
+        Some(near) => {
+            // Only the surface tets whose nodes are current here; indices in order, so the
+            // pairs stay sorted.
             let boxes: Vec<Aabb> = near.iter().map(|&i| cd.boxes[i as usize]).collect();
             nbs_pairs_of(
                 &boxes,
                 &mut cd.detector.workspace,
-                &|i, j| filter.keep(near[i as usize], near[j as usize]),
-                &|i| mine(near[i as usize]),
+                &|a, b| filter.keep_with(near[a as usize], near[b as usize], [a, b]),
+                &|a| mine(near[a as usize]),
                 &mut cd.pairs,
             );
             for p in &mut cd.pairs {
                 *p = p.map(|i| near[i as usize]);
             }
-            held_now = Some(near);
         }
     }
-    cd.held = held_now;
+    cd.held = near;
     cd.detector.workspace.release_pair_buffers();
     cd.local = computes.is_some();
-    cd.detector.current = current.unwrap_or_default();
     cd.origins = origins_in(&cd.pairs, &cd.old_pairs, &cd.carried, &filter);
     cd.old_pairs = Vec::new();
     cd.carried = Vec::new();
-    cd.detector.x_at_detection.clear();
-    cd.detector.x_at_detection.extend_from_slice(x);
-    cd.record_surface_positions();
+    record_positions(cd, x, current);
     cd.detector.stale = false;
     cd.detector.detections += 1;
+}
+
+/// A full detection's boxes (into `cd.boxes`) and face planes at the positions `x`. On a
+/// decomposed model (`current`: per node, whether it is current on this rank) it also returns
+/// the surface tets whose nodes are current here (`near`, in index order): every partner of
+/// this rank's tets is among them. Only they get their box and face planes, the planes
+/// indexed as `near` (the others a box that overlaps nothing), so a rank's detection
+/// computes its part of the surface, not the whole.
+fn held_boxes_and_planes(
+    cd: &mut ContactDetection,
+    tn: &[[u32; 4]],
+    x: &[Vec3],
+    half: Real,
+    current: Option<&[bool]>,
+) -> (Option<Vec<u32>>, Vec<FacePlanes>) {
+    let near: Option<Vec<u32>> = current.map(|c| {
+        let surface = &cd.surface;
+        (0..surface.len() as u32)
+            .into_par_iter()
+            .filter(|&i| {
+                tn[surface[i as usize] as usize]
+                    .iter()
+                    .all(|&n| c[n as usize])
+            })
+            .collect()
+    });
+    let corners = |i: &u32| tn[cd.surface[*i as usize] as usize].map(|n| x[n as usize]);
+    // Each element meets dozens of overlapping boxes: its face planes once, not per pair
+    // (freed after the search, like NBS's pair buffers); indexed as `near` on a rank.
+    let planes = match &near {
+        None => {
+            surface_boxes(&mut cd.boxes, &cd.surface, tn, x, half);
+            let all = 0..cd.surface.len() as u32;
+            all.into_par_iter()
+                .map(|i| FacePlanes::of(&corners(&i)))
+                .collect()
+        }
+        Some(near) => {
+            let fresh: Vec<Aabb> = (near.par_iter())
+                .map(|i| Aabb::of_points(&corners(i)).inflate(half))
+                .collect();
+            cd.boxes.clear();
+            (cd.boxes).resize(
+                cd.surface.len(),
+                Aabb::of_points(&[Vec3::repeat(Real::NAN)]),
+            );
+            near.iter()
+                .zip(fresh)
+                .for_each(|(&i, b)| cd.boxes[i as usize] = b);
+            near.par_iter()
+                .map(|i| FacePlanes::of(&corners(i)))
+                .collect()
+        }
+    };
+    (near, planes)
+}
+
+/// The positions at a full detection (`current`: on a decomposed model, per node, whether it
+/// is current on this rank; the detector keeps it).
+fn record_positions(cd: &mut ContactDetection, x: &[Vec3], current: Option<Vec<bool>>) {
+    // The positions at detection: on a rank only those current on it (the others are not
+    // known here; the skin test and an incremental detection read only these, and the
+    // ranks share them when the whole model is read), so the record is its part too.
+    let at = &mut cd.detector.x_at_detection;
+    match &current {
+        None => {
+            at.clear();
+            at.extend_from_slice(x);
+        }
+        Some(c) => {
+            at.resize(x.len(), Vec3::repeat(Real::NAN));
+            (at.par_iter_mut().zip(x).zip(c))
+                .filter(|(_, &c)| c)
+                .for_each(|((a, x), _)| *a = *x);
+        }
+    }
+    match current {
+        // (The skin test's copy in surface order is for one process: a rank tests its own
+        // surface nodes, from `x_at_detection`.)
+        None => {
+            cd.record_surface_positions();
+            cd.detector.current.clear();
+        }
+        Some(c) => {
+            cd.detector.surface_x.clear();
+            cd.detector.current = c;
+        }
+    }
 }
 
 /// Where each pair of the new list `pairs` comes from: kept from the old list `old` (its
@@ -801,20 +862,14 @@ fn add_pairs_of_broken_joints(
     change: &SurfaceChange,
     mut ranks: Option<&mut (dyn PairExchange + '_)>,
 ) -> bool {
+    let joined = change.joined.clone();
     if surface_moved(cd, &nodes.x, ranks.as_deref_mut())
-        || joined_moved(
-            cd,
-            &nodes.x,
-            tets,
-            change.joined.clone(),
-            ranks.as_deref_mut(),
-        )
+        || joined_moved(cd, &nodes.x, tets, joined.clone(), ranks.as_deref_mut())
     {
         return false;
     }
     let tn = &tets.nodes;
     let half = 0.5 * cd.detector.skin;
-    let joined = change.joined.clone();
     boxes_after_joining(cd, change.n_before, tn, half);
     let x = &cd.detector.x_at_detection;
     let continuous: Vec<bool> = bodies.iter().map(|b| b.layout != Layout::Jointed).collect();
@@ -1122,9 +1177,15 @@ impl CandidateFilter<'_> {
     /// come first: they are cheaper than [`CandidateFilter::near`] and reject most box
     /// overlaps of an intact body (its neighbours').
     fn keep(&self, i: u32, j: u32) -> bool {
+        self.keep_with(i, j, [i, j])
+    }
+
+    /// [`CandidateFilter::keep`] with the two elements' face planes at `slots` of `planes`
+    /// (on a rank, the planes of the surface tets it holds only).
+    fn keep_with(&self, i: u32, j: u32, slots: [u32; 2]) -> bool {
         let (a, b) = (self.surface[i as usize], self.surface[j as usize]);
         let near = || match self.planes {
-            Some(planes) => self.near_by_planes(planes, i, j),
+            Some(planes) => self.near_by_planes(planes, slots[0], slots[1]),
             None => self.near(a, b),
         };
         if self.fragment[a as usize] != self.fragment[b as usize] {
@@ -1322,7 +1383,7 @@ fn refresh_after_breaks(
 }
 
 /// `nodes` (none on the surface yet) join the surface nodes at their end, with their
-/// positions at the last detection when those are recorded (the lists
+/// positions at the last detection when those are kept (the lists
 /// [`ContactDetection::record_surface_positions`] makes, without reading every surface
 /// node's position again).
 fn add_surface_nodes(cd: &mut ContactDetection, nodes: &[u32]) {
@@ -1333,9 +1394,11 @@ fn add_surface_nodes(cd: &mut ContactDetection, nodes: &[u32]) {
     let n_before = cd.surface_nodes.len() - nodes.len();
     if d.surface_x.len() == n_before && nodes.iter().all(|&n| (n as usize) < at.len()) {
         d.surface_x.extend(nodes.iter().map(|&n| at[n as usize]));
-    } else {
+    } else if !d.surface_x.is_empty() {
         cd.record_surface_positions();
     }
+    // (Left empty when it was: on a rank, or after a restart, the skin test reads
+    // `x_at_detection`.)
 }
 
 /// Each tet's joints, in joint order (CSR: offsets per tet, then the joint ids).
