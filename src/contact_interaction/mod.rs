@@ -102,6 +102,16 @@ impl Default for PairSlot {
     }
 }
 
+/// A rank's designated pairs as the ranks share them ([`ContactInteraction::designated_states`]):
+/// every pair's [`pair_key`] and witness, ascending, and apart the histories of those that
+/// have one, with their place in `keys`. Apart, so that the pairs without a history (most
+/// candidates) cost 9 bytes, not a whole [`PairState`], in every rank's copy of the list.
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
+pub struct DesignatedStates {
+    pub keys: Vec<(u64, u8)>,
+    pub histories: Vec<(u32, PairState)>,
+}
+
 /// History of one candidate pair that touches or is not yet armed (the others have the
 /// default history, which is not stored).
 #[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq)]
@@ -1247,17 +1257,20 @@ impl ContactInteraction {
     }
 
     /// On a decomposed model, the witness and history of every pair designated to this
-    /// rank, as it holds them: (the pair's [`pair_key`], witness, history if stored), from
-    /// stage 4's list `pairs`.
-    pub fn designated_states(&self, pairs: &[[u32; 2]]) -> Vec<(u64, u8, Option<PairState>)> {
-        (0..self.slots.len())
-            .filter(|&k| self.mask.designated.get(k).copied().unwrap_or(true))
-            .map(|k| {
-                let s = self.slots[k];
-                let h = (s.hist != NO_HISTORY).then(|| self.hist[k / CHUNK][s.hist as usize]);
-                (pair_key(pairs[k]), s.witness, h)
-            })
-            .collect()
+    /// rank, as it holds them, from stage 4's list `pairs` ([`DesignatedStates`]).
+    pub fn designated_states(&self, pairs: &[[u32; 2]]) -> DesignatedStates {
+        let mut out = DesignatedStates::default();
+        let designated = |k: &usize| self.mask.designated.get(*k).copied().unwrap_or(true);
+        for k in (0..self.slots.len()).filter(designated) {
+            let s = self.slots[k];
+            if s.hist != NO_HISTORY {
+                let place = out.keys.len() as u32;
+                out.histories
+                    .push((place, self.hist[k / CHUNK][s.hist as usize]));
+            }
+            out.keys.push((pair_key(pairs[k]), s.witness));
+        }
+        out
     }
 
     /// Replace every pair's witness and history (`states`: one per candidate pair of a list

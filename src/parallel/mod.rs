@@ -1092,15 +1092,38 @@ impl Parallel {
         T: serde::Serialize + serde::de::DeserializeOwned,
     {
         let bytes = postcard::to_allocvec(mine).unwrap_or_else(|e| panic!("{what} serialize: {e}"));
+        let mut all = Vec::new();
+        self.gather_bytes_each(bytes, what, |items: Vec<T>| all.extend(items));
+        all
+    }
+
+    /// [`Parallel::gather_items`] handing each rank's items to `take` in rank order, one
+    /// rank's at a time, instead of putting every rank's together: what a rank holds at once
+    /// is the received bytes and one rank's items (the whole model's joint histories are a
+    /// few hundred bytes a joint). `mine` goes once serialized.
+    pub fn gather_each<T>(&mut self, mine: Vec<T>, what: &str, take: impl FnMut(Vec<T>))
+    where
+        T: serde::Serialize + serde::de::DeserializeOwned,
+    {
+        let bytes =
+            postcard::to_allocvec(&mine).unwrap_or_else(|e| panic!("{what} serialize: {e}"));
+        drop(mine);
+        self.gather_bytes_each(bytes, what, take);
+    }
+
+    fn gather_bytes_each<T>(&mut self, bytes: Vec<u8>, what: &str, mut take: impl FnMut(Vec<T>))
+    where
+        T: serde::de::DeserializeOwned,
+    {
         let received = self.comm.allgather_bytes(&bytes);
         self.bytes += received.iter().map(|b| b.len() as u64).sum::<u64>() - bytes.len() as u64;
-        received
-            .iter()
-            .flat_map(|b| {
+        drop(bytes);
+        for b in &received {
+            take(
                 postcard::from_bytes::<Vec<T>>(b)
-                    .unwrap_or_else(|e| panic!("{what} deserialize: {e}"))
-            })
-            .collect()
+                    .unwrap_or_else(|e| panic!("{what} deserialize: {e}")),
+            );
+        }
     }
 
     /// The ranks' load imbalance since the last call (or the start): the slowest rank's
@@ -1555,19 +1578,36 @@ impl Parallel {
         cd: &mut crate::contact_detection::ContactDetection,
         ci: &mut crate::contact_interaction::ContactInteraction,
     ) {
-        use crate::contact_interaction::PairState;
+        use crate::contact_interaction::DesignatedStates;
+        use rayon::prelude::*;
         let t = std::time::Instant::now();
-        let mine = ci.designated_states(&cd.pairs);
+        let mine = vec![ci.designated_states(&cd.pairs)];
         let before = self.bytes;
-        let mut all: Vec<(u64, u8, Option<PairState>)> = self.gather_items(&mine, "pair histories");
+        let mut ranks: Vec<DesignatedStates> = Vec::new();
+        self.gather_each(mine, "pair histories", |of_rank| ranks.extend(of_rank));
         self.whole_bytes += self.bytes - before;
-        all.sort_by_key(|s| s.0);
-        cd.pairs = all
+        // Every rank's keys ascend and no pair is designated to two ranks: the whole list is
+        // their merge by key, each pair's history found by its rank's cursor.
+        let mut order: Vec<(u64, u32, u32)> = (ranks.iter().enumerate())
+            .flat_map(|(r, d)| {
+                (d.keys.iter().enumerate()).map(move |(i, k)| (k.0, r as u32, i as u32))
+            })
+            .collect();
+        order.par_sort_unstable_by_key(|o| o.0);
+        cd.pairs = order
             .iter()
-            .map(|s| [(s.0 >> 32) as u32, s.0 as u32])
+            .map(|o| [(o.0 >> 32) as u32, o.0 as u32])
             .collect();
         cd.local = false;
-        ci.set_states(all.len(), all.into_iter().map(|(_, w, s)| (w, s)));
+        let mut cursor = vec![0usize; ranks.len()];
+        let states = order.iter().map(|&(_, r, i)| {
+            let d = &ranks[r as usize];
+            let c = &mut cursor[r as usize];
+            let history = d.histories.get(*c).filter(|h| h.0 == i).map(|h| h.1);
+            *c += history.is_some() as usize;
+            (d.keys[i as usize].1, history)
+        });
+        ci.set_states(order.len(), states);
         self.seconds += t.elapsed().as_secs_f64();
     }
 }
@@ -1608,25 +1648,26 @@ impl Parallel {
             })
             .collect();
         let before = self.bytes;
-        let all = self.gather_items(&mine, "joint histories");
+        self.gather_each(mine, "joint histories", |of_rank: Vec<JointHistory>| {
+            for h in of_rank {
+                let j = h.joint as usize;
+                joints.state[j] = h.state;
+                joints.anchor[j] = h.anchor;
+                joints.slid[j] = h.slid;
+                joints.offset[j] = h.offset;
+                joints.last_energy[j] = h.last_energy;
+                if let Some(k) = joints.keeps_faces.get_mut(j) {
+                    *k = h.keeps_faces;
+                }
+                if let Some(k) = joints.handed_over.get_mut(j) {
+                    *k = h.handed_over;
+                }
+                if let (Some(r), Some(hr)) = (joints.rate.get_mut(j), h.rate) {
+                    *r = hr;
+                }
+            }
+        });
         self.whole_bytes += self.bytes - before;
-        for h in all {
-            let j = h.joint as usize;
-            joints.state[j] = h.state;
-            joints.anchor[j] = h.anchor;
-            joints.slid[j] = h.slid;
-            joints.offset[j] = h.offset;
-            joints.last_energy[j] = h.last_energy;
-            if let Some(k) = joints.keeps_faces.get_mut(j) {
-                *k = h.keeps_faces;
-            }
-            if let Some(k) = joints.handed_over.get_mut(j) {
-                *k = h.handed_over;
-            }
-            if let (Some(r), Some(hr)) = (joints.rate.get_mut(j), h.rate) {
-                *r = hr;
-            }
-        }
         self.seconds += t.elapsed().as_secs_f64();
     }
 }
