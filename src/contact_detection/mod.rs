@@ -794,9 +794,8 @@ struct Topology {
 /// What a surface refresh changed, when an incremental detection can take it in: the tets
 /// that joined the surface and the faces of the joints that broke.
 struct SurfaceChange {
-    /// Surface tets before.
-    n_before: usize,
-    /// The surface indices of the tets that joined it: the surface's end.
+    /// The surface indices of the tets that joined it: the surface's end (it started at
+    /// `joined.start` tets).
     joined: std::ops::Range<u32>,
     /// The newly broken joints' tet pairs (lower id first), sorted, with the joint id.
     new_faces: Vec<([u32; 2], u32)>,
@@ -833,7 +832,6 @@ fn surface_change(
         })
         .collect();
     Some(SurfaceChange {
-        n_before,
         joined: n_before as u32..cd.surface.len() as u32,
         new_faces,
     })
@@ -870,7 +868,7 @@ fn add_pairs_of_broken_joints(
     }
     let tn = &tets.nodes;
     let half = 0.5 * cd.detector.skin;
-    boxes_after_joining(cd, change.n_before, tn, half);
+    boxes_after_joining(cd, joined.start as usize, tn, half);
     let x = &cd.detector.x_at_detection;
     let continuous: Vec<bool> = bodies.iter().map(|b| b.layout != Layout::Jointed).collect();
     let filter = CandidateFilter {
@@ -1375,11 +1373,7 @@ fn refresh_after_breaks(
     cd.refreshes_from_breaks += 1;
     cd.surface_stale = false;
     cd.detector.stale = true;
-    (split == 0 && joined.len() <= INCREMENTAL_LIMIT).then_some(SurfaceChange {
-        n_before,
-        joined,
-        new_faces,
-    })
+    (split == 0 && joined.len() <= INCREMENTAL_LIMIT).then_some(SurfaceChange { joined, new_faces })
 }
 
 /// `nodes` (none on the surface yet) join the surface nodes at their end, with their
