@@ -406,6 +406,115 @@ fn a_bar_thrown_on_a_slab_breaks_identically_on_any_rank_count() {
     assert!(handed > 0, "broken joints must be handed over to contact");
 }
 
+/// A whole frame reads what rank 0 gathers (`Simulation::gather_frame_to_root`): the
+/// nodes' positions and velocities, each joint's largest damage and the touching pairs'
+/// outputs (contact force per node, pressure per tet). On 2 and 3 ranks, at steps 200, 400
+/// and 600 of the thrown bar (joints damaged and broken, pairs touching and sliding), rank
+/// 0's reads and nodes equal the one-process frame's bit for bit, the other ranks receive
+/// nothing for it (they send their part), and the run goes on to the one-process state:
+/// gathering to rank 0 leaves every rank's stepping state as it was. Reference: the
+/// one-process run; tolerance none (the contact forces are summed in pair order on both).
+#[test]
+fn a_frame_gathers_to_rank_0_only_what_it_shows() {
+    use fdem::pipeline::FrameReads;
+    type Frame = (Vec<Vec3>, Vec<Vec3>, Vec<Real>, Vec<Vec3>, Vec<Real>);
+    let frame_of = |sim: &Simulation, r: &FrameReads| -> Frame {
+        (
+            sim.nodes.x.clone(),
+            sim.nodes.v.clone(),
+            r.joint_damage.clone(),
+            r.contact_force.clone(),
+            r.contact_pressure.clone(),
+        )
+    };
+    let at = [200, 400, 600];
+    let (reference, end) = {
+        let mut sim = bar_thrown_on_a_slab();
+        let mut frames = Vec::new();
+        for step in 1..=600 {
+            sim.step().unwrap();
+            if at.contains(&step) {
+                let reads = sim
+                    .gather_frame_to_root()
+                    .expect("one process reads its own");
+                frames.push(frame_of(&sim, &reads));
+            }
+        }
+        (frames, outcome(&sim))
+    };
+    let (_, _, damage, force, pressure) = &reference[2];
+    assert!(damage.iter().any(|&d| d > 0.0), "joints must be damaged");
+    assert!(force.iter().any(|f| f.norm() > 0.0), "pairs must touch");
+    assert!(pressure.iter().any(|&p| p > 0.0), "pairs must press");
+    for ranks in 2..=3 {
+        check_halo();
+        let runs = ThreadComm::run(ranks, |comm| {
+            let mut sim = bar_thrown_on_a_slab();
+            sim.decompose(comm);
+            let mut frames = Vec::new();
+            let mut received = Vec::new();
+            for step in 1..=600 {
+                sim.step().unwrap();
+                if at.contains(&step) {
+                    let before = sim.exchanged().bytes;
+                    let reads = sim.gather_frame_to_root();
+                    received.push(sim.exchanged().bytes - before);
+                    frames.push(reads.map(|r| frame_of(&sim, &r)));
+                }
+            }
+            sim.synchronize();
+            (sim.rank_and_size().0, frames, received, outcome(&sim))
+        });
+        for (rank, frames, received, o) in runs {
+            let place = format!("rank {rank} of {ranks}");
+            for (k, frame) in frames.into_iter().enumerate() {
+                match frame {
+                    Some(f) => {
+                        assert_eq!(rank, 0, "{place}: only rank 0 reads a frame");
+                        assert!(
+                            f.0 == reference[k].0,
+                            "{place}, frame {k}: positions differ"
+                        );
+                        assert!(
+                            f.1 == reference[k].1,
+                            "{place}, frame {k}: velocities differ"
+                        );
+                        assert!(
+                            f.2 == reference[k].2,
+                            "{place}, frame {k}: joint damage differs"
+                        );
+                        assert!(
+                            f.3 == reference[k].3,
+                            "{place}, frame {k}: contact forces differ"
+                        );
+                        assert!(
+                            f.4 == reference[k].4,
+                            "{place}, frame {k}: pressures differ"
+                        );
+                        assert!(
+                            received[k] > 0,
+                            "{place}: rank 0 receives the others' parts"
+                        );
+                    }
+                    None => {
+                        assert_ne!(rank, 0, "{place}: rank 0 reads every frame");
+                        assert_eq!(received[k], 0, "{place}, frame {k}: receives nothing");
+                    }
+                }
+            }
+            assert!(
+                o.x == end.x && o.v == end.v,
+                "{place}: the run went elsewhere"
+            );
+            assert!(o.pairs == end.pairs, "{place}: contact histories differ");
+            assert!(
+                o.damage == end.damage,
+                "{place}: joint damage differs at the end"
+            );
+        }
+    }
+}
+
 /// Before a full detection a rank receives only the nodes within reach of its own (the
 /// pairs of its tets cannot reach further: 2·e_max + skin), not every node: on 3 ranks
 /// the thrown bar's ranks hold fewer positions than the model's at their last detections,

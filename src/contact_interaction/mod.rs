@@ -391,7 +391,7 @@ pub struct DeepestOverlap {
 
 /// Output of one touching pair (kept in its history).
 #[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, Default, PartialEq)]
-struct PairOut {
+pub struct PairOut {
     /// Simulation ids of the contactor and the target.
     tets: [u32; 2],
     /// Their nodes (contactor's 4, then the target's) and the forces on them [N].
@@ -628,15 +628,7 @@ impl ContactInteraction {
     /// Contact force on each of `n_nodes` nodes in the last step [N] (zero where none), summed
     /// in pair order. Built on demand (output, queries): stage 5 only adds to `nodes.f`.
     pub fn node_forces(&self, n_nodes: usize) -> Vec<Vec3> {
-        let mut f = vec![Vec3::zeros(); n_nodes];
-        for po in self.outputs() {
-            for (k, &n) in po.nodes.iter().enumerate() {
-                if let Some(x) = f.get_mut(n as usize) {
-                    *x += po.f[k];
-                }
-            }
-        }
-        f
+        node_forces_of(self.outputs(), n_nodes)
     }
 
     /// Total contact force in the last step on the nodes `range` (a body's nodes) [N]: an
@@ -710,15 +702,29 @@ impl ContactInteraction {
     /// Largest mean contact pressure on each of `n_tets` tets in the last step [Pa] (zero
     /// where none).
     pub fn tet_pressures(&self, n_tets: usize) -> Vec<Real> {
-        let mut p: Vec<Real> = vec![0.0; n_tets];
-        for po in self.outputs() {
-            for &e in &po.tets {
-                if let Some(x) = p.get_mut(e as usize) {
-                    *x = Real::max(*x, po.pressure);
+        tet_pressures_of(self.outputs(), n_tets)
+    }
+
+    /// The outputs of the last step's touching pairs designated to this rank (all of them
+    /// on one process), each with its pair's key ([`pair_key`] of `pairs`, stage 4's list),
+    /// in pair order: what rank 0 needs of this rank's pairs for a whole frame, put
+    /// together there by key ([`node_forces_of`], [`tet_pressures_of`]).
+    pub fn designated_outputs(&self, pairs: &[[u32; 2]]) -> Vec<(u64, PairOut)> {
+        let designated = |k: usize| self.mask.designated.get(k).copied().unwrap_or(true);
+        let mut mine = Vec::new();
+        for (c, (out, hist)) in self.chunk_out.iter().zip(&self.hist).enumerate() {
+            let mut touching = vec![false; hist.len()];
+            for &i in out {
+                touching[(i & !NEW_FLAG) as usize] = true;
+            }
+            for k in self.chunk_pairs(c).filter(|&k| designated(k)) {
+                let slot = self.slots[k];
+                if slot.hist != NO_HISTORY && touching[slot.hist as usize] {
+                    mine.push((pair_key(pairs[k]), hist[slot.hist as usize].out));
                 }
             }
         }
-        p
+        mine
     }
 
     /// The history of candidate pair `k` (the default one when none is stored).
@@ -1031,6 +1037,37 @@ pub fn add_contact_forces(
         return ContactSums::default();
     }
     scatter_in_pair_order(ci, nodes, &tally, time)
+}
+
+/// Contact force on each of `n_nodes` nodes [N] from the touching pairs' `outputs`, summed
+/// in the order given (pair order, for the same bits as one process).
+pub fn node_forces_of<'a>(outputs: impl Iterator<Item = &'a PairOut>, n_nodes: usize) -> Vec<Vec3> {
+    let mut f = vec![Vec3::zeros(); n_nodes];
+    for po in outputs {
+        for (k, &n) in po.nodes.iter().enumerate() {
+            if let Some(x) = f.get_mut(n as usize) {
+                *x += po.f[k];
+            }
+        }
+    }
+    f
+}
+
+/// Largest mean contact pressure on each of `n_tets` tets [Pa] over the touching pairs'
+/// `outputs` (zero where none).
+pub fn tet_pressures_of<'a>(
+    outputs: impl Iterator<Item = &'a PairOut>,
+    n_tets: usize,
+) -> Vec<Real> {
+    let mut p: Vec<Real> = vec![0.0; n_tets];
+    for po in outputs {
+        for &e in &po.tets {
+            if let Some(x) = p.get_mut(e as usize) {
+                *x = Real::max(*x, po.pressure);
+            }
+        }
+    }
+    p
 }
 
 /// Add a force's components to exact sums.

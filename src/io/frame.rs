@@ -4,7 +4,7 @@ use super::vtu::{encode_pvtu, encode_vtu_with, DataArray, Encoding, Field, VtuFr
 
 use crate::material::StressMeasure;
 use crate::math::von_mises;
-use crate::pipeline::Simulation;
+use crate::pipeline::{FrameReads, Simulation};
 use rayon::prelude::*;
 
 /// Encode the current state as `.vtu` bytes: points at the current positions; point data
@@ -12,13 +12,16 @@ use rayon::prelude::*;
 /// components, Pa), `von_mises` [Pa], `principal_stress` (σ1 ≥ σ2 ≥ σ3, Pa), `body`, `material`, and `stress_pk1`/`stress_pk2` when
 /// `extra` asks for it. With joints: cell data `damage` and `fragment`; with contact: point
 /// data `contact_force` [N] and cell data `contact_pressure` [Pa] (the largest mean pressure
-/// |F_n|/A over the element's touching pairs) of the last step.
+/// |F_n|/A over the element's touching pairs) of the last step. Joint damage and contact
+/// come from `reads` ([`FrameReads::of`] the simulation, or what a decomposed model's rank
+/// 0 gathered: `Simulation::gather_frame_to_root`).
 pub fn encode_frame(
     sim: &Simulation,
+    reads: &FrameReads,
     extra: StressMeasure,
     encoding: Encoding,
 ) -> Result<Vec<u8>, String> {
-    let data = FrameData::of(sim, extra);
+    let data = FrameData::of(sim, reads, extra);
     let extra_name = format!("stress_{}", extra.name());
     let frame = VtuFrame {
         points: &data.points,
@@ -38,12 +41,13 @@ pub fn encode_frame(
 /// `.vtu` bytes and, built from its layout, the `.pvtu` that names `sources` as the pieces.
 pub fn encode_frame_piece(
     sim: &Simulation,
+    reads: &FrameReads,
     extra: StressMeasure,
     encoding: Encoding,
     keep: impl Fn(usize) -> bool,
     sources: &[String],
 ) -> Result<(Vec<u8>, Vec<u8>), String> {
-    let data = FrameData::of(sim, extra);
+    let data = FrameData::of(sim, reads, extra);
     let tets: Vec<u32> = (0..sim.tets.len())
         .filter(|&e| keep(e))
         .map(|e| e as u32)
@@ -128,8 +132,8 @@ struct FrameData {
 }
 
 impl FrameData {
-    /// Compute every array of the frame from the current state of `sim`.
-    fn of(sim: &Simulation, extra: StressMeasure) -> Self {
+    /// Compute every array of the frame from the current state of `sim` and `reads`.
+    fn of(sim: &Simulation, reads: &FrameReads, extra: StressMeasure) -> Self {
         let n = &sim.nodes;
         let points: Vec<[f64; 3]> = n.x.iter().map(|p| [p.x, p.y, p.z]).collect();
         let displacement: Vec<[f64; 3]> =
@@ -147,13 +151,14 @@ impl FrameData {
         let body: Vec<i32> = sim.tets.body.iter().map(|&b| b as i32).collect();
         let material: Vec<i32> = sim.tets.material.iter().map(|&m| m as i32).collect();
         let extra_stress = (extra != StressMeasure::Cauchy).then(|| stresses(sim, extra));
-        let (damage, fragment) = joint_fields(sim);
+        let (damage, fragment) = joint_fields(sim, &reads.joint_damage);
         let contact_on = sim.contact.is_enabled();
         let (contact_pressure, contact_force) = if contact_on {
-            let force = sim.contact.node_forces(sim.nodes.len());
             (
-                sim.contact.tet_pressures(sim.tets.len()),
-                force.iter().map(|f| [f.x, f.y, f.z]).collect(),
+                reads.contact_pressure.clone(),
+                (reads.contact_force.iter())
+                    .map(|f| [f.x, f.y, f.z])
+                    .collect(),
             )
         } else {
             (Vec::new(), Vec::new())
@@ -311,16 +316,12 @@ fn principal_stresses(cauchy: &[[f64; 9]]) -> Vec<[f64; 3]> {
 }
 
 /// Per tet: the largest damage of its joints and its fragment id (both empty without joints).
-fn joint_fields(sim: &Simulation) -> (Vec<f64>, Vec<i32>) {
+fn joint_fields(sim: &Simulation, joint_damage: &[f64]) -> (Vec<f64>, Vec<i32>) {
     if sim.joints.is_empty() {
         return (Vec::new(), Vec::new());
     }
     let mut d = vec![0.0f64; sim.tets.len()];
-    for (j, tets) in sim.joints.tets.iter().enumerate() {
-        let dj = sim.joints.state[j]
-            .iter()
-            .map(|p| p.damage)
-            .fold(0.0, f64::max);
+    for (tets, &dj) in sim.joints.tets.iter().zip(joint_damage) {
         for &t in tets {
             d[t as usize] = d[t as usize].max(dj);
         }

@@ -390,6 +390,11 @@ impl Joints {
         (0..self.len()).filter(|&j| self.is_damaged(j)).count()
     }
 
+    /// The largest damage D of joint `j` over its points.
+    pub fn largest_damage(&self, j: usize) -> Real {
+        self.state[j].iter().map(|p| p.damage).fold(0.0, Real::max)
+    }
+
     /// Joint `j` has damage D > 0 at one of its points or more.
     pub fn is_damaged(&self, j: usize) -> bool {
         self.state[j].iter().any(|p| p.damage > 0.0)

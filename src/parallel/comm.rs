@@ -2,8 +2,9 @@
 //! [`ThreadComm`] (ranks as threads of one process, for tests and for checking a
 //! decomposition without MPI) and, with the `mpi` feature, MPI.
 //!
-//! Every operation is called by every rank, in the same order: three collectives (results
-//! the same bits on every rank) and one neighbour exchange, where each rank sends to and
+//! Every operation is called by every rank, in the same order: collectives (results the
+//! same bits on every rank, or every rank's on rank 0 for the gather to it) and one
+//! neighbour exchange, where each rank sends to and
 //! receives from the ranks it names, with message sizes both sides computed alike.
 
 use std::ops::Range;
@@ -24,6 +25,16 @@ pub trait Comm: Send + Sync {
     fn max_f64(&self, data: &mut [f64]);
     /// Every rank's bytes, indexed by rank.
     fn allgather_bytes(&self, mine: &[u8]) -> Vec<Vec<u8>>;
+    /// Every rank's bytes, indexed by rank, on rank 0 only (empty on the others): for what
+    /// only rank 0 reads (whole frames). The default gathers to every rank and drops them.
+    fn gather_bytes_to_root(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+        let all = self.allgather_bytes(mine);
+        if self.rank() == 0 {
+            all
+        } else {
+            Vec::new()
+        }
+    }
     /// Fill `data[ranges[r]]` on every rank from rank r's copy (`ranges` is the same on every
     /// rank; ranges are disjoint).
     fn allgather_ranges_f64(&self, data: &mut [f64], ranges: &[Range<usize>]);
@@ -344,6 +355,42 @@ impl Comm for MpiComm {
         {
             let mut part = PartitionMut::new(&mut all[..], &counts[..], &displs[..]);
             self.world.all_gather_varcount_into(send, &mut part);
+        }
+        (0..n)
+            .map(|r| all[displs[r] as usize..(displs[r] + counts[r]) as usize].to_vec())
+            .collect()
+    }
+    fn gather_bytes_to_root(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+        use mpi::datatype::PartitionMut;
+        use mpi::traits::{Communicator, Root};
+        let n = self.size();
+        let root = self.world.process_at_rank(0);
+        let count = mine.len() as mpi::Count;
+        if self.rank() != 0 {
+            root.gather_into(&count);
+            let pad = [0u8; 1];
+            root.gather_varcount_into(if mine.is_empty() { &pad[..0] } else { mine });
+            return Vec::new();
+        }
+        let mut counts = vec![0 as mpi::Count; n];
+        root.gather_into_root(&count, &mut counts[..]);
+        let displs: Vec<mpi::Count> = counts
+            .iter()
+            .scan(0, |acc, &c| {
+                let d = *acc;
+                *acc += c;
+                Some(d)
+            })
+            .collect();
+        let total = counts.iter().sum::<mpi::Count>() as usize;
+        // (As in allgather_bytes: nothing empty is sent from a dangling pointer, and the
+        // receive buffer has at least one byte.)
+        let pad = [0u8; 1];
+        let send = if mine.is_empty() { &pad[..0] } else { mine };
+        let mut all = vec![0u8; total.max(1)];
+        {
+            let mut part = PartitionMut::new(&mut all[..], &counts[..], &displs[..]);
+            root.gather_varcount_into_root(send, &mut part);
         }
         (0..n)
             .map(|r| all[displs[r] as usize..(displs[r] + counts[r]) as usize].to_vec())

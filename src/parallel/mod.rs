@@ -12,7 +12,8 @@
 //! a neighbour exchange ([`Halo`]); the rest of the model
 //! (all nodes' x, v, reactions; every joint's history) is shared only when the script reads
 //! it ([`Parallel::share_nodes`], [`Parallel::share_joint_histories`], called through
-//! `Simulation::synchronize`).
+//! `Simulation::synchronize`), and to rank 0 alone for a whole frame
+//! (`Simulation::gather_frame_to_root`).
 //!
 //! **Why the bits are the same.** A node's force is a sum of contributions in an order that
 //! does not depend on threads: within each stage the stage fixes it (per body and tet order
@@ -47,9 +48,12 @@
 //! rank owning a node of the pair), summed over the ranks; the few pairs that hand a joint
 //! over, start touching or see their friction law fail send a record, keyed by the pair's
 //! two surface tets and merged in that order ([`Parallel::close_contact_and_integration`]).
-//! The whole list with every pair's history is shared for output, checkpoints and contact
-//! queries ([`Parallel::share_contact_histories`]); the next step's stage 4 keeps each
-//! rank's own pairs again.
+//! The whole list with every pair's history is shared for checkpoints, frames in pieces and
+//! a new split ([`Parallel::share_contact_histories`]); the next step's stage 4 keeps each
+//! rank's own pairs again. A whole frame gathers to rank 0 alone what it shows: the nodes'
+//! x and v, the damaged joints' damage and the touching pairs' outputs
+//! ([`Parallel::gather_nodes_to_root`], [`Parallel::gather_joint_damage_to_root`],
+//! [`Parallel::gather_pair_outputs_to_root`]); the other ranks' state is left as it was.
 //!
 //! **Rebars and rigid bodies.** Every rank computes every bar, hinge and bond point (few
 //! beside the host's tets), in the one-rank order, so their nodes and their host tets' are
@@ -1093,7 +1097,7 @@ impl Parallel {
     {
         let bytes = postcard::to_allocvec(mine).unwrap_or_else(|e| panic!("{what} serialize: {e}"));
         let mut all = Vec::new();
-        self.gather_bytes_each(bytes, what, |items: Vec<T>| all.extend(items));
+        self.gather_bytes_each(bytes, what, false, |items: Vec<T>| all.extend(items));
         all
     }
 
@@ -1108,15 +1112,37 @@ impl Parallel {
         let bytes =
             postcard::to_allocvec(&mine).unwrap_or_else(|e| panic!("{what} serialize: {e}"));
         drop(mine);
-        self.gather_bytes_each(bytes, what, take);
+        self.gather_bytes_each(bytes, what, false, take);
     }
 
-    fn gather_bytes_each<T>(&mut self, bytes: Vec<u8>, what: &str, mut take: impl FnMut(Vec<T>))
+    /// [`Parallel::gather_each`] to rank 0 only: `take` sees every rank's items there and is
+    /// not called on the other ranks (for what only rank 0 reads: whole frames).
+    pub fn gather_each_to_root<T>(&mut self, mine: Vec<T>, what: &str, take: impl FnMut(Vec<T>))
     where
+        T: serde::Serialize + serde::de::DeserializeOwned,
+    {
+        let bytes =
+            postcard::to_allocvec(&mine).unwrap_or_else(|e| panic!("{what} serialize: {e}"));
+        drop(mine);
+        self.gather_bytes_each(bytes, what, true, take);
+    }
+
+    fn gather_bytes_each<T>(
+        &mut self,
+        bytes: Vec<u8>,
+        what: &str,
+        to_root: bool,
+        mut take: impl FnMut(Vec<T>),
+    ) where
         T: serde::de::DeserializeOwned,
     {
-        let received = self.comm.allgather_bytes(&bytes);
-        self.bytes += received.iter().map(|b| b.len() as u64).sum::<u64>() - bytes.len() as u64;
+        let received = if to_root {
+            self.comm.gather_bytes_to_root(&bytes)
+        } else {
+            self.comm.allgather_bytes(&bytes)
+        };
+        let total: u64 = received.iter().map(|b| b.len() as u64).sum();
+        self.bytes += total.saturating_sub(bytes.len() as u64);
         drop(bytes);
         for b in &received {
             take(
@@ -1247,6 +1273,33 @@ impl Parallel {
             }
         }
         self.bytes += (8 * (at[self.comm.size()] - segments[me].len())) as u64;
+        self.seconds += t.elapsed().as_secs_f64();
+    }
+
+    /// Every rank's nodes' positions and velocities to rank 0 only (a collective): what a
+    /// whole frame reads of the nodes. The other ranks' copies are left as they are, and
+    /// no rank counts its nodes as shared (`nodes_shared_at`), so a later read of the whole
+    /// model by every rank shares them again.
+    pub fn gather_nodes_to_root(&mut self, nodes: &mut crate::state::Nodes) {
+        let t = std::time::Instant::now();
+        let me = self.comm.rank();
+        let own: Vec<f64> = (self.partition.nodes_of(me).flatten())
+            .flat_map(|n| {
+                let (x, v) = (nodes.x[n], nodes.v[n]);
+                [x.x, x.y, x.z, v.x, v.y, v.z]
+            })
+            .collect();
+        let before = self.bytes;
+        let mut received: Vec<Vec<f64>> = Vec::new();
+        self.gather_each_to_root(own, "node states", |of_rank| received.push(of_rank));
+        for (r, values) in received.iter().enumerate().filter(|(r, _)| *r != me) {
+            let nodes_of_r = self.partition.nodes_of(r).flatten();
+            for (n, s) in nodes_of_r.zip(values.chunks_exact(6)) {
+                nodes.x[n] = Vec3::new(s[0], s[1], s[2]);
+                nodes.v[n] = Vec3::new(s[3], s[4], s[5]);
+            }
+        }
+        self.whole_bytes += self.bytes - before;
         self.seconds += t.elapsed().as_secs_f64();
     }
 
@@ -1609,6 +1662,58 @@ impl Parallel {
         });
         ci.set_states(order.len(), states);
         self.seconds += t.elapsed().as_secs_f64();
+    }
+}
+
+impl Parallel {
+    /// Each joint's largest damage (over its points), on rank 0 only (None on the others),
+    /// from the ranks the damaged joints are designated to: what a whole frame reads of the
+    /// joints. A collective; 12 bytes a damaged joint, where sharing the histories sends
+    /// every joint's whole history to every rank.
+    pub fn gather_joint_damage_to_root(&mut self, joints: &Joints) -> Option<Vec<Real>> {
+        let t = std::time::Instant::now();
+        let mine: Vec<(u32, Real)> = (0..joints.len())
+            .filter(|&j| self.joints.designated[j] && joints.is_damaged(j))
+            .map(|j| (j as u32, joints.largest_damage(j)))
+            .collect();
+        let before = self.bytes;
+        let mut damage = (self.comm.rank() == 0).then(|| vec![0.0; joints.len()]);
+        self.gather_each_to_root(mine, "joint damage", |of_rank: Vec<(u32, Real)>| {
+            if let Some(d) = &mut damage {
+                for (j, dj) in of_rank {
+                    d[j as usize] = dj;
+                }
+            }
+        });
+        self.whole_bytes += self.bytes - before;
+        self.seconds += t.elapsed().as_secs_f64();
+        damage
+    }
+
+    /// The touching pairs' outputs of the last step, on rank 0 only (None on the others), in
+    /// pair order, from each rank's designated pairs (`mine`,
+    /// [`crate::contact_interaction::ContactInteraction::designated_outputs`]; no pair is
+    /// designated to two ranks): what a whole frame reads of contact. A collective.
+    pub fn gather_pair_outputs_to_root(
+        &mut self,
+        mine: Vec<(u64, crate::contact_interaction::PairOut)>,
+    ) -> Option<Vec<crate::contact_interaction::PairOut>> {
+        let t = std::time::Instant::now();
+        let before = self.bytes;
+        let mut all = (self.comm.rank() == 0).then(Vec::new);
+        self.gather_each_to_root(mine, "pair outputs", |of_rank| {
+            if let Some(a) = &mut all {
+                a.extend(of_rank);
+            }
+        });
+        let outputs = all.map(|mut a| {
+            // Each rank's keys ascend: the merge by key is pair order.
+            a.sort_unstable_by_key(|o| o.0);
+            a.into_iter().map(|o| o.1).collect()
+        });
+        self.whole_bytes += self.bytes - before;
+        self.seconds += t.elapsed().as_secs_f64();
+        outputs
     }
 }
 

@@ -458,15 +458,64 @@ impl Simulation {
     /// On a decomposed model, bring this rank's copy of the whole state up to date (each rank
     /// keeps current only what it computes): [`Simulation::synchronize_nodes`] and
     /// [`Simulation::synchronize_joints`]. Collectives: every rank calls them at the same point
-    /// of the script (the script layer does: before output, checkpoints and when a run
-    /// returns; the nodes in the queries that read them, only theirs for a node or element
-    /// set; the joints before queries of their state). While stepping, ranks share only
-    /// break events and the nodes other ranks read (`Parallel::halo`).
+    /// of the script (the script layer does: before checkpoints and frames in pieces; the
+    /// nodes alone when a run returns, and in the queries that read them, only theirs for a
+    /// node or element set; a whole frame gathers what it shows to rank 0 alone,
+    /// [`Simulation::gather_frame_to_root`]). While stepping, ranks share only break events
+    /// and the nodes other ranks read (`Parallel::halo`).
     pub fn synchronize(&mut self) {
         self.synchronize_nodes();
         self.synchronize_joints();
         self.synchronize_contact();
         self.synchronize_detection();
+    }
+
+    /// What a whole frame reads beyond the mesh, for rank 0 to write it: on a decomposed
+    /// model rank 0 gathers the nodes' positions and velocities from their owners, the
+    /// damaged joints' damage and the touching pairs' outputs from the ranks they are
+    /// designated to (a collective; None on the other ranks, whose copies are left as they
+    /// are, and no rank counts anything as shared). Before 2026-12-07 every rank received
+    /// the whole model's nodes and every joint's and pair's history for each frame. On one
+    /// process (or when every rank holds the whole model), from the state itself.
+    pub fn gather_frame_to_root(&mut self) -> Option<FrameReads> {
+        let step = self.step;
+        let Some(par) = self.parallel.as_mut().filter(|p| p.partition.is_split()) else {
+            return Some(FrameReads::of(self));
+        };
+        if par.nodes_shared_at != Some(step) {
+            par.gather_nodes_to_root(&mut self.nodes);
+        }
+        let joint_damage = if par.joints_shared_at == Some(step) || self.joints.is_empty() {
+            None
+        } else {
+            par.gather_joint_damage_to_root(&self.joints)
+        };
+        let masked =
+            self.contact.is_enabled() && self.contact.mask.is_for(self.contact.slots.len());
+        let outputs = if par.contact_shared_at == Some(step) || !masked {
+            None
+        } else {
+            let mine = self
+                .contact
+                .designated_outputs(&self.contact_detection.pairs);
+            par.gather_pair_outputs_to_root(mine)
+        };
+        if par.rank() != 0 {
+            return None;
+        }
+        let joint_damage = joint_damage.unwrap_or_else(|| FrameReads::joint_damage(self));
+        let (contact_force, contact_pressure) = match outputs {
+            Some(o) => (
+                contact_interaction::node_forces_of(o.iter(), self.nodes.len()),
+                contact_interaction::tet_pressures_of(o.iter(), self.tets.len()),
+            ),
+            None => FrameReads::contact(self),
+        };
+        Some(FrameReads {
+            joint_damage,
+            contact_force,
+            contact_pressure,
+        })
     }
 
     /// On a decomposed model, every node's position at the last full contact detection from
@@ -1004,10 +1053,8 @@ impl Simulation {
             return Ok(());
         }
         // (A decomposed model edited between steps: from every node's current state, and
-        // the whole pair list, which the new split shares out again.)
-        self.synchronize_nodes();
-        self.synchronize_contact();
-        self.synchronize_detection();
+        // every joint's and pair's history, which the new split shares out again.)
+        self.synchronize();
         if self.tets.is_empty() {
             return Err(SimError::Invalid(
                 "the model has no bodies: add one with sim.add_body(..)".into(),
@@ -1754,6 +1801,45 @@ fn timed<R>(timers: &mut StageTimers, stage: Stage, f: impl FnOnce() -> R) -> R 
     let r = f();
     timers.seconds[stage as usize] += t.elapsed().as_secs_f64();
     r
+}
+
+/// What a frame of the model reads besides the nodes and the mesh: each joint's largest
+/// damage (empty without joints), and with contact the contact force on each node and the
+/// largest mean contact pressure on each tet in the last step ([`crate::io::frame`]).
+#[derive(Clone, Debug, Default)]
+pub struct FrameReads {
+    pub joint_damage: Vec<Real>,
+    pub contact_force: Vec<Vec3>,
+    pub contact_pressure: Vec<Real>,
+}
+
+impl FrameReads {
+    /// From this process's copy of the state (one process, or a decomposed model's after
+    /// [`Simulation::synchronize`]).
+    pub fn of(sim: &Simulation) -> Self {
+        let (contact_force, contact_pressure) = Self::contact(sim);
+        FrameReads {
+            joint_damage: Self::joint_damage(sim),
+            contact_force,
+            contact_pressure,
+        }
+    }
+
+    fn joint_damage(sim: &Simulation) -> Vec<Real> {
+        (0..sim.joints.len())
+            .map(|j| sim.joints.largest_damage(j))
+            .collect()
+    }
+
+    fn contact(sim: &Simulation) -> (Vec<Vec3>, Vec<Real>) {
+        if !sim.contact.is_enabled() {
+            return (Vec::new(), Vec::new());
+        }
+        (
+            sim.contact.node_forces(sim.nodes.len()),
+            sim.contact.tet_pressures(sim.tets.len()),
+        )
+    }
 }
 
 /// What [`Simulation::repartition`] did.

@@ -139,6 +139,11 @@ pub fn write(
     st.vtk.flush()?;
     st.cracks_vtk.flush()?;
     st.bars_vtk.flush()?;
+    let path = st.out_dir.join(FILE_NAME);
+    // Rank 0 writes the file: the other ranks do not encode the whole model only to drop it.
+    if !crate::parallel::is_root() {
+        return Ok(path);
+    }
     let monitors = st
         .monitors
         .iter()
@@ -184,7 +189,6 @@ pub fn write(
         fingerprint: Fingerprint::of(&st.sim),
         script_state,
     };
-    let path = st.out_dir.join(FILE_NAME);
     checkpoint::write(&path, &head, &st.sim)?;
     Ok(path)
 }

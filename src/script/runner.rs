@@ -564,8 +564,11 @@ fn stop_requested(
 
 /// The end-of-run check for inverted elements, as a script error.
 fn check_configuration(s: &SimHandle) -> RhaiResult<()> {
-    // The run ends: what the script reads next is the whole model's state.
-    synchronize(s);
+    // The run ends: every node current on every rank, for the check and for what the
+    // script does between runs. Joint and pair histories are shared only when something
+    // reads them (a frame gathers what it shows to rank 0; checkpoints, queries and a new
+    // split share what they need); before 2026-12-07 every run's end shared them all.
+    s.0.borrow_mut().sim.synchronize_nodes();
     s.0.borrow()
         .sim
         .check_configuration()
@@ -775,7 +778,6 @@ fn finish_run_output(s: &SimHandle) -> Result<(), String> {
 
 /// `sim.write_vtk()`: encode a frame now and queue it for the background writer.
 pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
-    synchronize(s);
     let mut st = s.0.borrow_mut();
     st.sim.prepare().map_err(|e| format!("write_vtk(): {e}"))?;
     // `fdem check` writes nothing; a restart replaying up to its checkpoint has these frames
@@ -783,10 +785,18 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
     if st.dry || st.restore_pending {
         return Ok(());
     }
-    // Rank 0 writes whole frames, cracks and bars; with pieces every rank writes its piece.
-    if !st.vtk_pieces && !crate::parallel::is_root() {
-        return Ok(());
-    }
+    // Rank 0 writes whole frames, cracks and bars, from what it gathers (the other ranks
+    // send their part and are done); with pieces every rank writes its piece, from the
+    // whole model shared to every rank.
+    let reads = if st.vtk_pieces {
+        st.sim.synchronize();
+        crate::pipeline::FrameReads::of(&st.sim)
+    } else {
+        match st.sim.gather_frame_to_root() {
+            Some(reads) => reads,
+            None => return Ok(()),
+        }
+    };
     // No frame shows inverted elements: the last step's motion is checked before it is
     // written (stage 1 of the next step would find them, but a frame may come first).
     if st.sim.step > 0 {
@@ -796,9 +806,9 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
     }
     let t = st.sim.time;
     if st.vtk_pieces {
-        write_vtk_piece(&mut st)?;
+        write_vtk_piece(&mut st, &reads)?;
     } else {
-        let bytes = encode_frame(&st.sim, st.stress_output, st.vtk_encoding)
+        let bytes = encode_frame(&st.sim, &reads, st.stress_output, st.vtk_encoding)
             .map_err(|e| format!("write_vtk(): {e}"))?;
         st.vtk
             .push(t, bytes)
@@ -829,13 +839,14 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
 /// This rank's piece of a frame written in pieces (`vtk_pieces: "per_rank"`): the tets whose
 /// first node it owns (every tet on one process), and on rank 0 the `.pvtu` naming every
 /// rank's piece. The crack and bar series stay whole, from rank 0.
-fn write_vtk_piece(st: &mut SimState) -> RhaiResult<()> {
+fn write_vtk_piece(st: &mut SimState, reads: &crate::pipeline::FrameReads) -> RhaiResult<()> {
     let (rank, size) = st.sim.rank_and_size();
     let sources = st.vtk.piece_names(size);
     let sim = &st.sim;
     let owner = |e: usize| sim.node_owner(sim.tets.nodes[e][0] as usize);
     let (piece, pvtu) = crate::io::frame::encode_frame_piece(
         sim,
+        reads,
         st.stress_output,
         st.vtk_encoding,
         |e| owner(e) == rank,
