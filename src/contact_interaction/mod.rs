@@ -402,6 +402,39 @@ pub struct PairOut {
     pressure: Real,
 }
 
+impl PairOut {
+    /// Numbers in one message of f64 ([`PairOut::write`]).
+    pub const LEN: usize = 38;
+
+    /// The nodes the pair's forces act on: the contactor's four, then the target's.
+    pub fn nodes(&self) -> &[u32; 8] {
+        &self.nodes
+    }
+
+    /// Append the output to `out` as [`PairOut::LEN`] numbers (ids are exact in f64).
+    pub fn write(&self, out: &mut Vec<f64>) {
+        out.extend(self.tets.iter().chain(&self.nodes).map(|&i| i as f64));
+        for f in &self.f {
+            out.extend_from_slice(f.as_slice());
+        }
+        out.extend_from_slice(self.point.as_slice());
+        out.push(self.pressure);
+    }
+
+    /// The output [`PairOut::write`] wrote as `v`.
+    pub fn read(v: &[f64]) -> Self {
+        let id = |k: usize| v[k] as u32;
+        let vec = |k: usize| Vec3::new(v[k], v[k + 1], v[k + 2]);
+        PairOut {
+            tets: [id(0), id(1)],
+            nodes: std::array::from_fn(|k| id(2 + k)),
+            f: std::array::from_fn(|k| vec(10 + 3 * k)),
+            point: vec(34),
+            pressure: v[37],
+        }
+    }
+}
+
 /// Marks a pair that started touching in this step (top bit of its output entry).
 const NEW_FLAG: u32 = 1 << 31;
 

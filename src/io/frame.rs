@@ -21,7 +21,14 @@ pub fn encode_frame(
     extra: StressMeasure,
     encoding: Encoding,
 ) -> Result<Vec<u8>, String> {
-    let data = FrameData::of(sim, reads, extra);
+    let all = |n: usize| (0..n as u32).collect::<Vec<u32>>();
+    let data = FrameData::of(
+        sim,
+        reads,
+        extra,
+        &all(sim.tets.len()),
+        &all(sim.nodes.len()),
+    );
     let extra_name = format!("stress_{}", extra.name());
     let frame = VtuFrame {
         points: &data.points,
@@ -47,7 +54,6 @@ pub fn encode_frame_piece(
     keep: impl Fn(usize) -> bool,
     sources: &[String],
 ) -> Result<(Vec<u8>, Vec<u8>), String> {
-    let data = FrameData::of(sim, reads, extra);
     let tets: Vec<u32> = (0..sim.tets.len())
         .filter(|&e| keep(e))
         .map(|e| e as u32)
@@ -65,7 +71,7 @@ pub fn encode_frame_piece(
             nodes.push(n as u32);
         }
     }
-    let piece = data.subset(&tets, &nodes);
+    let piece = FrameData::of(sim, reads, extra, &tets, &nodes);
     let cells: Vec<[u32; 4]> = tets
         .iter()
         .map(|&e| sim.tets.nodes[e as usize].map(|n| local[n as usize]))
@@ -132,37 +138,50 @@ struct FrameData {
 }
 
 impl FrameData {
-    /// Compute every array of the frame from the current state of `sim` and `reads`.
-    fn of(sim: &Simulation, reads: &FrameReads, extra: StressMeasure) -> Self {
+    /// Compute the arrays of the tets `tets` and the nodes `nodes` (both by global id, in
+    /// file order) from the current state of `sim` and `reads`. Only those are computed: a
+    /// piece of a frame costs its own tets.
+    fn of(
+        sim: &Simulation,
+        reads: &FrameReads,
+        extra: StressMeasure,
+        tets: &[u32],
+        nodes: &[u32],
+    ) -> Self {
+        fn pick<T: Copy>(v: &[T], ids: &[u32]) -> Vec<T> {
+            if v.is_empty() {
+                return Vec::new();
+            }
+            ids.iter().map(|&i| v[i as usize]).collect()
+        }
         let n = &sim.nodes;
-        let points: Vec<[f64; 3]> = n.x.iter().map(|p| [p.x, p.y, p.z]).collect();
-        let displacement: Vec<[f64; 3]> =
-            n.x.iter()
-                .zip(&n.x0)
-                .map(|(x, x0)| [x.x - x0.x, x.y - x0.y, x.z - x0.z])
-                .collect();
-        let velocity: Vec<[f64; 3]> = n.v.iter().map(|v| [v.x, v.y, v.z]).collect();
-        let cauchy = stresses(sim, StressMeasure::Cauchy);
+        let points: Vec<[f64; 3]> = nodes.iter().map(|&i| n.x[i as usize].into()).collect();
+        let displacement: Vec<[f64; 3]> = nodes
+            .iter()
+            .map(|&i| (n.x[i as usize] - n.x0[i as usize]).into())
+            .collect();
+        let velocity: Vec<[f64; 3]> = nodes.iter().map(|&i| n.v[i as usize].into()).collect();
+        let cauchy = stresses(sim, tets, StressMeasure::Cauchy);
         let principal = principal_stresses(&cauchy);
         let von_mises: Vec<f64> = cauchy
             .iter()
             .map(|s| von_mises(&crate::math::Mat3::from_row_slice(s)))
             .collect();
-        let body: Vec<i32> = sim.tets.body.iter().map(|&b| b as i32).collect();
-        let material: Vec<i32> = sim.tets.material.iter().map(|&m| m as i32).collect();
-        let extra_stress = (extra != StressMeasure::Cauchy).then(|| stresses(sim, extra));
+        let body: Vec<i32> = tets
+            .iter()
+            .map(|&e| sim.tets.body[e as usize] as i32)
+            .collect();
+        let material: Vec<i32> = tets
+            .iter()
+            .map(|&e| sim.tets.material[e as usize] as i32)
+            .collect();
+        let extra_stress = (extra != StressMeasure::Cauchy).then(|| stresses(sim, tets, extra));
         let (damage, fragment) = joint_fields(sim, &reads.joint_damage);
         let contact_on = sim.contact.is_enabled();
-        let (contact_pressure, contact_force) = if contact_on {
-            (
-                reads.contact_pressure.clone(),
-                (reads.contact_force.iter())
-                    .map(|f| [f.x, f.y, f.z])
-                    .collect(),
-            )
-        } else {
-            (Vec::new(), Vec::new())
-        };
+        let contact_force: Vec<[f64; 3]> = pick(&reads.contact_force, nodes)
+            .into_iter()
+            .map(Into::into)
+            .collect();
         FrameData {
             points,
             displacement,
@@ -174,38 +193,19 @@ impl FrameData {
             material,
             extra_stress,
             joints_on: !damage.is_empty(),
-            damage,
-            fragment,
+            damage: pick(&damage, tets),
+            fragment: pick(&fragment, tets),
             contact_on,
-            contact_pressure,
-            contact_force,
-        }
-    }
-
-    /// The arrays of the tets `tets` and the nodes `nodes` only (both by global id).
-    fn subset(&self, tets: &[u32], nodes: &[u32]) -> Self {
-        fn pick<T: Copy>(v: &[T], ids: &[u32]) -> Vec<T> {
-            if v.is_empty() {
-                return Vec::new();
-            }
-            ids.iter().map(|&i| v[i as usize]).collect()
-        }
-        FrameData {
-            points: pick(&self.points, nodes),
-            displacement: pick(&self.displacement, nodes),
-            velocity: pick(&self.velocity, nodes),
-            cauchy: pick(&self.cauchy, tets),
-            principal: pick(&self.principal, tets),
-            von_mises: pick(&self.von_mises, tets),
-            body: pick(&self.body, tets),
-            material: pick(&self.material, tets),
-            extra_stress: self.extra_stress.as_ref().map(|s| pick(s, tets)),
-            damage: pick(&self.damage, tets),
-            fragment: pick(&self.fragment, tets),
-            joints_on: self.joints_on,
-            contact_on: self.contact_on,
-            contact_pressure: pick(&self.contact_pressure, tets),
-            contact_force: pick(&self.contact_force, nodes),
+            contact_pressure: if contact_on {
+                pick(&reads.contact_pressure, tets)
+            } else {
+                Vec::new()
+            },
+            contact_force: if contact_on {
+                contact_force
+            } else {
+                Vec::new()
+            },
         }
     }
 
@@ -280,12 +280,11 @@ impl FrameData {
     }
 }
 
-/// Stress per tetrahedron in the given measure, 9 components row-major [Pa].
-fn stresses(sim: &Simulation, measure: StressMeasure) -> Vec<[f64; 9]> {
-    (0..sim.tets.len())
-        .into_par_iter()
-        .map(|e| {
-            let s = sim.stress(e, measure);
+/// Stress of the tetrahedra `tets` in the given measure, 9 components row-major [Pa].
+fn stresses(sim: &Simulation, tets: &[u32], measure: StressMeasure) -> Vec<[f64; 9]> {
+    tets.par_iter()
+        .map(|&e| {
+            let s = sim.stress(e as usize, measure);
             [
                 s[(0, 0)],
                 s[(0, 1)],

@@ -1303,6 +1303,27 @@ impl Parallel {
         self.seconds += t.elapsed().as_secs_f64();
     }
 
+    /// The positions of the nodes `which` (the same list on every rank) from their owners to
+    /// rank 0 only (a collective): what a crack frame reads when the model's frames are
+    /// written in pieces. Nothing counts as shared.
+    pub fn gather_listed_nodes_to_root(&mut self, nodes: &mut crate::state::Nodes, which: &[u32]) {
+        let t = std::time::Instant::now();
+        let me = self.comm.rank();
+        let p = &self.partition;
+        let mine: Vec<(u32, [f64; 3])> = (which.iter())
+            .filter(|&&n| p.owner(n as usize) == me)
+            .map(|&n| (n, nodes.x[n as usize].into()))
+            .collect();
+        let before = self.bytes;
+        self.gather_each_to_root(mine, "listed nodes", |of_rank: Vec<(u32, [f64; 3])>| {
+            for (n, x) in of_rank {
+                nodes.x[n as usize] = x.into();
+            }
+        });
+        self.whole_bytes += self.bytes - before;
+        self.seconds += t.elapsed().as_secs_f64();
+    }
+
     /// Every rank's nodes' positions, velocities and reactions to every rank: the whole
     /// model current on every rank (before the script reads it, before output).
     pub fn share_nodes(&mut self, nodes: &mut crate::state::Nodes) {
@@ -1408,21 +1429,7 @@ impl Parallel {
                 buf.extend_from_slice(nodes.v[n].as_slice());
             }
         }
-        let counts: Vec<u64> = sends.iter().map(|b| b.len() as u64).collect();
-        let incoming = self.comm.alltoall_counts(&counts);
-        let mut recv_bufs: Vec<Vec<f64>> =
-            incoming.iter().map(|&c| vec![0.0; c as usize]).collect();
-        {
-            let send_list: Vec<(usize, &[f64])> = (sends.iter().enumerate())
-                .filter(|(q, b)| *q != me && !b.is_empty())
-                .map(|(q, b)| (q, b.as_slice()))
-                .collect();
-            let mut recv_list: Vec<(usize, &mut [f64])> = (recv_bufs.iter_mut().enumerate())
-                .filter(|(r, b)| *r != me && !b.is_empty())
-                .map(|(r, b)| (r, b.as_mut_slice()))
-                .collect();
-            self.comm.exchange_f64(&send_list, &mut recv_list);
-        }
+        let recv_bufs = self.send_counted(&sends);
         let mut current = vec![false; nodes.len()];
         for &n in &own {
             current[n] = true;
@@ -1442,6 +1449,29 @@ impl Parallel {
         self.near_bytes += received + overhead;
         self.seconds += t.elapsed().as_secs_f64();
         current
+    }
+
+    /// Send `sends[q]` to each rank q (nothing to this rank or where empty) and receive what
+    /// each rank sends this one, indexed by rank: the counts first (one number per pair of
+    /// ranks, since only the sender knows them), then a neighbour exchange. A collective;
+    /// the caller counts the bytes.
+    fn send_counted(&mut self, sends: &[Vec<f64>]) -> Vec<Vec<f64>> {
+        let me = self.comm.rank();
+        let counts: Vec<u64> = sends.iter().map(|b| b.len() as u64).collect();
+        let incoming = self.comm.alltoall_counts(&counts);
+        let mut recv_bufs: Vec<Vec<f64>> = (incoming.iter().enumerate())
+            .map(|(r, &c)| vec![0.0; if r == me { 0 } else { c as usize }])
+            .collect();
+        let send_list: Vec<(usize, &[f64])> = (sends.iter().enumerate())
+            .filter(|(q, b)| *q != me && !b.is_empty())
+            .map(|(q, b)| (q, b.as_slice()))
+            .collect();
+        let mut recv_list: Vec<(usize, &mut [f64])> = (recv_bufs.iter_mut().enumerate())
+            .filter(|(r, b)| *r != me && !b.is_empty())
+            .map(|(r, b)| (r, b.as_mut_slice()))
+            .collect();
+        self.comm.exchange_f64(&send_list, &mut recv_list);
+        recv_bufs
     }
 
     /// Every node's position at the last full contact detection (`x_at`) from its owner, on
@@ -1714,6 +1744,131 @@ impl Parallel {
         self.whole_bytes += self.bytes - before;
         self.seconds += t.elapsed().as_secs_f64();
         outputs
+    }
+}
+
+/// Which ranks' pieces of a frame written in pieces use each node: a piece is the tets whose
+/// first node a rank owns ([`Parallel::piece_of_tet`]); a node of a continuous body may be
+/// in several.
+pub struct PieceRanks {
+    first: Vec<u32>,
+    /// (node, rank) for the nodes in more than one piece, besides `first`; sorted.
+    more: Vec<(u32, u32)>,
+}
+
+impl PieceRanks {
+    /// The ranks whose pieces use node `n`.
+    fn of(&self, n: u32) -> impl Iterator<Item = u32> + '_ {
+        let from = self.more.partition_point(|m| m.0 < n);
+        let more = self.more[from..].iter().take_while(move |m| m.0 == n);
+        (self.first.get(n as usize).copied())
+            .filter(|&r| r != u32::MAX)
+            .into_iter()
+            .chain(more.map(|m| m.1))
+    }
+}
+
+impl Parallel {
+    /// The rank whose piece of a frame written in pieces holds tet `e` (of `tets`): the owner
+    /// of its first node. That rank computes every pair of the tet and the element unit
+    /// holding it, so the tet's nodes, stress and pairs are current on it.
+    pub fn piece_of_tet(&self, tets: &Tets, e: usize) -> usize {
+        self.partition.owner(tets.nodes[e][0] as usize)
+    }
+
+    /// [`PieceRanks`] of the model's tets.
+    pub fn piece_ranks(&self, tets: &Tets, n_nodes: usize) -> PieceRanks {
+        let mut first = vec![u32::MAX; n_nodes];
+        let mut more = Vec::new();
+        for e in 0..tets.len() {
+            let q = self.piece_of_tet(tets, e) as u32;
+            for n in tets.nodes[e] {
+                let f = &mut first[n as usize];
+                if *f == u32::MAX {
+                    *f = q;
+                } else if *f != q {
+                    more.push((n, q));
+                }
+            }
+        }
+        more.sort_unstable();
+        more.dedup();
+        PieceRanks { first, more }
+    }
+
+    /// For this rank's piece of a frame written in pieces: each joint's largest damage, right
+    /// for every joint of a tet in the piece (zero for the others), from the ranks the
+    /// damaged joints are designated to. A collective: each rank sends (joint, damage) of
+    /// its designated damaged joints to the ranks whose pieces hold one of their two tets, a
+    /// neighbour exchange (the joints across pieces), not a gather of every joint.
+    pub fn joint_damage_for_piece(&mut self, joints: &Joints, tets: &Tets) -> Vec<Real> {
+        let t = std::time::Instant::now();
+        let me = self.comm.rank();
+        let mut damage = vec![0.0; joints.len()];
+        let mut sends: Vec<Vec<f64>> = vec![Vec::new(); self.comm.size()];
+        for j in (0..joints.len()).filter(|&j| self.joints.designated[j] && joints.is_damaged(j)) {
+            let d = joints.largest_damage(j);
+            damage[j] = d;
+            let [a, b] = joints.tets[j].map(|e| self.piece_of_tet(tets, e as usize));
+            if a != me {
+                sends[a].extend([j as f64, d]);
+            }
+            if b != me && b != a {
+                sends[b].extend([j as f64, d]);
+            }
+        }
+        let received = self.send_counted(&sends);
+        for v in received.iter().flat_map(|b| b.chunks_exact(2)) {
+            damage[v[0] as usize] = v[1];
+        }
+        self.bytes += 8 * received.iter().map(|b| b.len() as u64).sum::<u64>();
+        self.seconds += t.elapsed().as_secs_f64();
+        damage
+    }
+
+    /// For this rank's piece of a frame written in pieces: the touching pairs' outputs of
+    /// the last step with a node in the piece, in pair order (with some of this rank's own
+    /// beside them). `mine` are this rank's designated touching pairs' outputs with their
+    /// keys ([`crate::contact_interaction::ContactInteraction::designated_outputs`]); each
+    /// goes to the other ranks whose pieces use one of its nodes (`ranks`), a neighbour
+    /// exchange. A node's contact force summed over them in pair order is the one-process
+    /// sum.
+    pub fn pair_outputs_for_piece(
+        &mut self,
+        mine: Vec<(u64, crate::contact_interaction::PairOut)>,
+        ranks: &PieceRanks,
+    ) -> Vec<crate::contact_interaction::PairOut> {
+        use crate::contact_interaction::PairOut;
+        let t = std::time::Instant::now();
+        let me = self.comm.rank() as u32;
+        let mut sends: Vec<Vec<f64>> = vec![Vec::new(); self.comm.size()];
+        let mut to: Vec<u32> = Vec::new();
+        for (key, out) in &mine {
+            to.clear();
+            to.extend(out.nodes().iter().flat_map(|&n| ranks.of(n)));
+            to.sort_unstable();
+            to.dedup();
+            for &q in to.iter().filter(|&&q| q != me) {
+                let buf = &mut sends[q as usize];
+                buf.extend([(key >> 32) as f64, (key & 0xffff_ffff) as f64]);
+                out.write(buf);
+            }
+        }
+        let received = self.send_counted(&sends);
+        let mut all = mine;
+        for v in received
+            .iter()
+            .flat_map(|b| b.chunks_exact(2 + PairOut::LEN))
+        {
+            let key = ((v[0] as u64) << 32) | v[1] as u64;
+            all.push((key, PairOut::read(&v[2..])));
+        }
+        // No pair is designated to two ranks: the keys are distinct, and their order is
+        // pair order.
+        all.sort_unstable_by_key(|o| o.0);
+        self.bytes += 8 * received.iter().map(|b| b.len() as u64).sum::<u64>();
+        self.seconds += t.elapsed().as_secs_f64();
+        all.into_iter().map(|o| o.1).collect()
     }
 }
 

@@ -518,6 +518,68 @@ impl Simulation {
         })
     }
 
+    /// What this rank's piece of a frame written in pieces reads ([`FrameReads`], right for
+    /// the tets whose first node this rank owns, [`crate::parallel::Parallel::piece_of_tet`],
+    /// and their nodes). The rank computes those tets, so their nodes are current here; the
+    /// damage of their joints and the outputs of the touching pairs at their nodes come
+    /// from the ranks those are designated to, a neighbour exchange (a collective). Before
+    /// 2026-12-07 every rank received the whole model's state for its piece. On one
+    /// process, from the state itself.
+    pub fn piece_frame_reads(&mut self) -> FrameReads {
+        let step = self.step;
+        let Some(par) = self.parallel.as_ref().filter(|p| p.partition.is_split()) else {
+            return FrameReads::of(self);
+        };
+        let joints_whole = par.joints_shared_at == Some(step) || self.joints.is_empty();
+        let masked =
+            self.contact.is_enabled() && self.contact.mask.is_for(self.contact.slots.len());
+        let contact_whole = par.contact_shared_at == Some(step) || !masked;
+        let par = self.parallel.as_mut().expect("decomposed");
+        let joint_damage = if joints_whole {
+            FrameReads::joint_damage(self)
+        } else {
+            par.joint_damage_for_piece(&self.joints, &self.tets)
+        };
+        let par = self.parallel.as_mut().expect("decomposed");
+        let (contact_force, contact_pressure) = if contact_whole {
+            FrameReads::contact(self)
+        } else {
+            let ranks = par.piece_ranks(&self.tets, self.nodes.len());
+            let mine = self
+                .contact
+                .designated_outputs(&self.contact_detection.pairs);
+            let outputs = par.pair_outputs_for_piece(mine, &ranks);
+            (
+                contact_interaction::node_forces_of(outputs.iter(), self.nodes.len()),
+                contact_interaction::tet_pressures_of(outputs.iter(), self.tets.len()),
+            )
+        };
+        FrameReads {
+            joint_damage,
+            contact_force,
+            contact_pressure,
+        }
+    }
+
+    /// On a decomposed model whose frames are written in pieces: the positions of the
+    /// broken joints' faces (what the crack frame, written whole by rank 0, reads) to rank 0
+    /// (a collective; nothing when every node is current this step or on one process).
+    pub fn gather_crack_nodes_to_root(&mut self) {
+        let step = self.step;
+        let Some(par) = self.parallel.as_mut() else {
+            return;
+        };
+        if par.nodes_shared_at == Some(step) || !par.partition.is_split() {
+            return;
+        }
+        let mut which: Vec<u32> = (self.break_events.iter())
+            .flat_map(|e| self.joints.faces[e.joint][0])
+            .collect();
+        which.sort_unstable();
+        which.dedup();
+        par.gather_listed_nodes_to_root(&mut self.nodes, &which);
+    }
+
     /// On a decomposed model, every node's position at the last full contact detection from
     /// its owner (a rank records only those within reach of its own nodes): what a
     /// checkpoint and a new split need (a collective, once per detection).
@@ -1776,6 +1838,28 @@ impl Simulation {
 
     /// Check the current configuration for inverted elements (stage 1 checks only on energy
     /// samples); called at the end of every run so that no run ends silently broken.
+    /// [`Simulation::check_configuration`] on a decomposed model whose nodes are current only
+    /// where each rank computes: each rank checks the tets of its piece (the tets whose
+    /// first node it owns, every tet on one rank) and the counts are added (a collective).
+    /// When some tet is inverted, every rank shares the whole state and reports it as one
+    /// process would.
+    pub fn check_configuration_by_pieces(&mut self) -> Result<(), SimError> {
+        let Some(par) = self.parallel.as_ref().filter(|p| p.partition.is_split()) else {
+            return self.check_configuration();
+        };
+        let me = par.rank();
+        let mine = (0..self.tets.len())
+            .into_par_iter()
+            .filter(|&e| par.piece_of_tet(&self.tets, e) == me && self.tet_is_inverted(e))
+            .count();
+        let par = self.parallel.as_mut().expect("decomposed");
+        if par.sum_in_rank_order(mine as Real) == 0.0 {
+            return Ok(());
+        }
+        self.synchronize();
+        self.check_configuration()
+    }
+
     pub fn check_configuration(&self) -> Result<(), SimError> {
         let inverted = (0..self.tets.len())
             .into_par_iter()

@@ -786,11 +786,10 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
         return Ok(());
     }
     // Rank 0 writes whole frames, cracks and bars, from what it gathers (the other ranks
-    // send their part and are done); with pieces every rank writes its piece, from the
-    // whole model shared to every rank.
+    // send their part and are done); with pieces every rank writes its piece, from its own
+    // state and what its neighbours send of the joints and pairs at its piece.
     let reads = if st.vtk_pieces {
-        st.sim.synchronize();
-        crate::pipeline::FrameReads::of(&st.sim)
+        st.sim.piece_frame_reads()
     } else {
         match st.sim.gather_frame_to_root() {
             Some(reads) => reads,
@@ -799,14 +798,22 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
     };
     // No frame shows inverted elements: the last step's motion is checked before it is
     // written (stage 1 of the next step would find them, but a frame may come first).
+    // (Frames in pieces: each rank checks its piece, the only tets current on it.)
     if st.sim.step > 0 {
-        st.sim
-            .check_configuration()
-            .map_err(|e| format!("write_vtk(): {e}"))?;
+        let checked = if st.vtk_pieces {
+            st.sim.check_configuration_by_pieces()
+        } else {
+            st.sim.check_configuration()
+        };
+        checked.map_err(|e| format!("write_vtk(): {e}"))?;
     }
     let t = st.sim.time;
     if st.vtk_pieces {
         write_vtk_piece(&mut st, &reads)?;
+        // The crack frame is whole, from rank 0: the broken faces' nodes go there.
+        if !st.sim.break_events.is_empty() {
+            st.sim.gather_crack_nodes_to_root();
+        }
     } else {
         let bytes = encode_frame(&st.sim, &reads, st.stress_output, st.vtk_encoding)
             .map_err(|e| format!("write_vtk(): {e}"))?;
