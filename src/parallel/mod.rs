@@ -48,12 +48,14 @@
 //! rank owning a node of the pair), summed over the ranks; the few pairs that hand a joint
 //! over, start touching or see their friction law fail send a record, keyed by the pair's
 //! two surface tets and merged in that order ([`Parallel::close_contact_and_integration`]).
-//! The whole list with every pair's history is shared for checkpoints, frames in pieces and
-//! a new split ([`Parallel::share_contact_histories`]); the next step's stage 4 keeps each
-//! rank's own pairs again. A whole frame gathers to rank 0 alone what it shows: the nodes'
-//! x and v, the damaged joints' damage and the touching pairs' outputs
+//! The whole list with every pair's history is shared for checkpoints and a new split
+//! ([`Parallel::share_contact_histories`]); the next step's stage 4 keeps each rank's own
+//! pairs again. A whole frame gathers to rank 0 alone what it shows: the nodes' x and v,
+//! the damaged joints' damage and the touching pairs' outputs
 //! ([`Parallel::gather_nodes_to_root`], [`Parallel::gather_joint_damage_to_root`],
-//! [`Parallel::gather_pair_outputs_to_root`]); the other ranks' state is left as it was.
+//! [`Parallel::gather_pair_outputs_to_root`]); the other ranks' state is left as it was. A
+//! frame in pieces exchanges only the joints and pairs across pieces
+//! ([`Parallel::joint_damage_for_piece`], [`Parallel::pair_outputs_for_piece`]).
 //!
 //! **Rebars and rigid bodies.** Every rank computes every bar, hinge and bond point (few
 //! beside the host's tets), in the one-rank order, so their nodes and their host tets' are

@@ -458,10 +458,11 @@ impl Simulation {
     /// On a decomposed model, bring this rank's copy of the whole state up to date (each rank
     /// keeps current only what it computes): [`Simulation::synchronize_nodes`] and
     /// [`Simulation::synchronize_joints`]. Collectives: every rank calls them at the same point
-    /// of the script (the script layer does: before checkpoints and frames in pieces; the
-    /// nodes alone when a run returns, and in the queries that read them, only theirs for a
-    /// node or element set; a whole frame gathers what it shows to rank 0 alone,
-    /// [`Simulation::gather_frame_to_root`]). While stepping, ranks share only break events
+    /// of the script (the script layer does: before checkpoints; the nodes alone when a run
+    /// returns, and in the queries that read them, only theirs for a node or element set; a
+    /// whole frame gathers what it shows to rank 0 alone,
+    /// [`Simulation::gather_frame_to_root`], a frame in pieces exchanges what crosses
+    /// pieces, [`Simulation::piece_frame_reads`]). While stepping, ranks share only break events
     /// and the nodes other ranks read (`Parallel::halo`).
     pub fn synchronize(&mut self) {
         self.synchronize_nodes();
