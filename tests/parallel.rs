@@ -612,6 +612,60 @@ fn a_piece_of_a_frame_is_made_from_its_rank_and_its_neighbours() {
     }
 }
 
+/// A checkpoint gathers the whole model to rank 0 alone
+/// (`Simulation::with_whole_state_on_root`): on 2 and 3 ranks of the thrown bar, what rank 0
+/// serializes is byte for byte what it serializes after every rank shared the whole state
+/// (`Simulation::synchronize`, what checkpoints did before), the other ranks receive
+/// nothing for it, and a run checkpointed so goes on to the one-process state (rank 0 puts
+/// its own contact lists back). Reference: the shared state, and the one-process run;
+/// tolerance none.
+#[test]
+fn a_checkpoint_gathers_the_whole_model_to_rank_0_alone() {
+    let end = {
+        let mut sim = bar_thrown_on_a_slab();
+        for _ in 0..600 {
+            sim.step().unwrap();
+        }
+        outcome(&sim)
+    };
+    for ranks in 2..=3 {
+        check_halo();
+        let runs = ThreadComm::run(ranks, |comm| {
+            let mut sim = bar_thrown_on_a_slab();
+            sim.decompose(comm);
+            let mut compared = 0;
+            for step in 1..=600 {
+                sim.step().unwrap();
+                if step == 250 || step == 450 {
+                    let before = sim.exchanged().bytes;
+                    let gathered =
+                        sim.with_whole_state_on_root(|s| postcard::to_allocvec(s).unwrap());
+                    let received = sim.exchanged().bytes - before;
+                    let (rank, _) = sim.rank_and_size();
+                    assert_eq!(gathered.is_some(), rank == 0, "rank {rank}");
+                    if rank != 0 {
+                        assert_eq!(received, 0, "rank {rank} receives nothing");
+                    }
+                    if step == 450 {
+                        sim.synchronize();
+                        let shared = postcard::to_allocvec(&sim).unwrap();
+                        if let Some(g) = gathered {
+                            assert!(g == shared, "rank 0's checkpoint differs at step {step}");
+                            compared += 1;
+                        }
+                    }
+                }
+            }
+            sim.synchronize();
+            (compared, outcome(&sim))
+        });
+        assert_eq!(runs.iter().map(|r| r.0).sum::<usize>(), 1);
+        for (rank, (_, o)) in runs.iter().enumerate() {
+            assert!(o == &end, "rank {rank} of {ranks}: the run went elsewhere");
+        }
+    }
+}
+
 /// Before a full detection a rank receives only the nodes within reach of its own (the
 /// pairs of its tets cannot reach further: 2·e_max + skin), not every node: on 3 ranks
 /// the thrown bar's ranks hold fewer positions than the model's at their last detections,

@@ -48,8 +48,8 @@
 //! rank owning a node of the pair), summed over the ranks; the few pairs that hand a joint
 //! over, start touching or see their friction law fail send a record, keyed by the pair's
 //! two surface tets and merged in that order ([`Parallel::close_contact_and_integration`]).
-//! The whole list with every pair's history is shared for checkpoints and a new split
-//! ([`Parallel::share_contact_histories`]); the next step's stage 4 keeps each rank's own
+//! The whole list with every pair's history is shared for a new split
+//! ([`Parallel::share_contact_histories`]) and gathered to rank 0 for a checkpoint; the next step's stage 4 keeps each rank's own
 //! pairs again. A whole frame gathers to rank 0 alone what it shows: the nodes' x and v,
 //! the damaged joints' damage and the touching pairs' outputs
 //! ([`Parallel::gather_nodes_to_root`], [`Parallel::gather_joint_damage_to_root`],
@@ -1278,27 +1278,33 @@ impl Parallel {
         self.seconds += t.elapsed().as_secs_f64();
     }
 
-    /// Every rank's nodes' positions and velocities to rank 0 only (a collective): what a
-    /// whole frame reads of the nodes. The other ranks' copies are left as they are, and
+    /// Every rank's nodes' positions and velocities (and reactions, with `reactions`) to rank
+    /// 0 only (a collective): what a whole frame (a checkpoint) reads of the nodes. The other ranks' copies are left as they are, and
     /// no rank counts its nodes as shared (`nodes_shared_at`), so a later read of the whole
     /// model by every rank shares them again.
-    pub fn gather_nodes_to_root(&mut self, nodes: &mut crate::state::Nodes) {
+    pub fn gather_nodes_to_root(&mut self, nodes: &mut crate::state::Nodes, reactions: bool) {
         let t = std::time::Instant::now();
         let me = self.comm.rank();
-        let own: Vec<f64> = (self.partition.nodes_of(me).flatten())
-            .flat_map(|n| {
-                let (x, v) = (nodes.x[n], nodes.v[n]);
-                [x.x, x.y, x.z, v.x, v.y, v.z]
-            })
-            .collect();
+        let per_node = if reactions { 9 } else { 6 };
+        let mut own: Vec<f64> = Vec::new();
+        for n in self.partition.nodes_of(me).flatten() {
+            own.extend_from_slice(nodes.x[n].as_slice());
+            own.extend_from_slice(nodes.v[n].as_slice());
+            if reactions {
+                own.extend_from_slice(nodes.reaction[n].as_slice());
+            }
+        }
         let before = self.bytes;
         let mut received: Vec<Vec<f64>> = Vec::new();
         self.gather_each_to_root(own, "node states", |of_rank| received.push(of_rank));
         for (r, values) in received.iter().enumerate().filter(|(r, _)| *r != me) {
             let nodes_of_r = self.partition.nodes_of(r).flatten();
-            for (n, s) in nodes_of_r.zip(values.chunks_exact(6)) {
+            for (n, s) in nodes_of_r.zip(values.chunks_exact(per_node)) {
                 nodes.x[n] = Vec3::new(s[0], s[1], s[2]);
                 nodes.v[n] = Vec3::new(s[3], s[4], s[5]);
+                if reactions {
+                    nodes.reaction[n] = Vec3::new(s[6], s[7], s[8]);
+                }
             }
         }
         self.whole_bytes += self.bytes - before;
@@ -1476,10 +1482,30 @@ impl Parallel {
         recv_bufs
     }
 
+    /// [`Parallel::share_positions_at_detection`] to rank 0 alone (a checkpoint).
+    pub fn gather_positions_at_detection_to_root(&mut self, x_at: &mut [Vec3]) {
+        let t = std::time::Instant::now();
+        let me = self.comm.rank();
+        let own: Vec<Vec3> = (self.partition.nodes_of(me).flatten())
+            .map(|n| x_at[n])
+            .collect();
+        let before = self.bytes;
+        let mut received: Vec<Vec<Vec3>> = Vec::new();
+        self.gather_each_to_root(own, "positions at detection", |of_rank| {
+            received.push(of_rank)
+        });
+        for (r, values) in received.iter().enumerate().filter(|(r, _)| *r != me) {
+            for (n, &x) in self.partition.nodes_of(r).flatten().zip(values) {
+                x_at[n] = x;
+            }
+        }
+        self.whole_bytes += self.bytes - before;
+        self.seconds += t.elapsed().as_secs_f64();
+    }
+
     /// Every node's position at the last full contact detection (`x_at`) from its owner, on
     /// every rank (a collective): a rank records only the positions it had current then
-    /// ([`Parallel::share_nodes_near`]), and output, checkpoints and a new split need them
-    /// all.
+    /// ([`Parallel::share_nodes_near`]), and a new split needs them all.
     pub fn share_positions_at_detection(&mut self, x_at: &mut Vec<Vec3>) {
         let t = std::time::Instant::now();
         let received = self.gather_owned(&mut [x_at]);
@@ -1663,14 +1689,41 @@ impl Parallel {
         cd: &mut crate::contact_detection::ContactDetection,
         ci: &mut crate::contact_interaction::ContactInteraction,
     ) {
+        self.contact_histories_to(cd, ci, false);
+    }
+
+    /// [`Parallel::share_contact_histories`] to rank 0 alone (a checkpoint; the other ranks'
+    /// lists stay as they are); a collective.
+    pub fn gather_contact_histories_to_root(
+        &mut self,
+        cd: &mut crate::contact_detection::ContactDetection,
+        ci: &mut crate::contact_interaction::ContactInteraction,
+    ) {
+        self.contact_histories_to(cd, ci, true);
+    }
+
+    fn contact_histories_to(
+        &mut self,
+        cd: &mut crate::contact_detection::ContactDetection,
+        ci: &mut crate::contact_interaction::ContactInteraction,
+        root: bool,
+    ) {
         use crate::contact_interaction::DesignatedStates;
         use rayon::prelude::*;
         let t = std::time::Instant::now();
         let mine = vec![ci.designated_states(&cd.pairs)];
         let before = self.bytes;
         let mut ranks: Vec<DesignatedStates> = Vec::new();
-        self.gather_each(mine, "pair histories", |of_rank| ranks.extend(of_rank));
+        if root {
+            self.gather_each_to_root(mine, "pair histories", |of_rank| ranks.extend(of_rank));
+        } else {
+            self.gather_each(mine, "pair histories", |of_rank| ranks.extend(of_rank));
+        }
         self.whole_bytes += self.bytes - before;
+        if root && self.comm.rank() != 0 {
+            self.seconds += t.elapsed().as_secs_f64();
+            return;
+        }
         // Every rank's keys ascend and no pair is designated to two ranks: the whole list is
         // their merge by key, each pair's history found by its rank's cursor.
         let mut order: Vec<(u64, u32, u32)> = (ranks.iter().enumerate())
@@ -1893,6 +1946,15 @@ impl Parallel {
     /// joints it computes current while stepping). Before output, checkpoints and the
     /// script's queries; a collective.
     pub fn share_joint_histories(&mut self, joints: &mut Joints) {
+        self.joint_histories_to(joints, false);
+    }
+
+    /// [`Parallel::share_joint_histories`] to rank 0 alone (a checkpoint); a collective.
+    pub fn gather_joint_histories_to_root(&mut self, joints: &mut Joints) {
+        self.joint_histories_to(joints, true);
+    }
+
+    fn joint_histories_to(&mut self, joints: &mut Joints, root: bool) {
         let t = std::time::Instant::now();
         let get = |v: &Vec<bool>, j: usize| v.get(j).copied().unwrap_or(false);
         let mine: Vec<JointHistory> = (0..joints.len())
@@ -1910,7 +1972,7 @@ impl Parallel {
             })
             .collect();
         let before = self.bytes;
-        self.gather_each(mine, "joint histories", |of_rank: Vec<JointHistory>| {
+        let take = |of_rank: Vec<JointHistory>| {
             for h in of_rank {
                 let j = h.joint as usize;
                 joints.state[j] = h.state;
@@ -1928,7 +1990,12 @@ impl Parallel {
                     *r = hr;
                 }
             }
-        });
+        };
+        if root {
+            self.gather_each_to_root(mine, "joint histories", take);
+        } else {
+            self.gather_each(mine, "joint histories", take);
+        }
         self.whole_bytes += self.bytes - before;
         self.seconds += t.elapsed().as_secs_f64();
     }

@@ -458,11 +458,12 @@ impl Simulation {
     /// On a decomposed model, bring this rank's copy of the whole state up to date (each rank
     /// keeps current only what it computes): [`Simulation::synchronize_nodes`] and
     /// [`Simulation::synchronize_joints`]. Collectives: every rank calls them at the same point
-    /// of the script (the script layer does: before checkpoints; the nodes alone when a run
+    /// of the script (a new split does; the script layer the nodes alone when a run
     /// returns, and in the queries that read them, only theirs for a node or element set; a
     /// whole frame gathers what it shows to rank 0 alone,
     /// [`Simulation::gather_frame_to_root`], a frame in pieces exchanges what crosses
-    /// pieces, [`Simulation::piece_frame_reads`]). While stepping, ranks share only break events
+    /// pieces, [`Simulation::piece_frame_reads`], and a checkpoint gathers the whole state to
+    /// rank 0 alone, [`Simulation::with_whole_state_on_root`]). While stepping, ranks share only break events
     /// and the nodes other ranks read (`Parallel::halo`).
     pub fn synchronize(&mut self) {
         self.synchronize_nodes();
@@ -484,7 +485,7 @@ impl Simulation {
             return Some(FrameReads::of(self));
         };
         if par.nodes_shared_at != Some(step) {
-            par.gather_nodes_to_root(&mut self.nodes);
+            par.gather_nodes_to_root(&mut self.nodes, false);
         }
         let joint_damage = if par.joints_shared_at == Some(step) || self.joints.is_empty() {
             None
@@ -579,6 +580,56 @@ impl Simulation {
         which.sort_unstable();
         which.dedup();
         par.gather_listed_nodes_to_root(&mut self.nodes, &which);
+    }
+
+    /// Call `write` with the whole model's state on rank 0 (what a checkpoint serializes);
+    /// Some(its result) there, None on the other ranks. On a decomposed model rank 0 gathers
+    /// every node's position, velocity and reaction, every joint's and pair's history and
+    /// every position at the last detection (a collective); the other ranks send their part
+    /// and are left as they were. Rank 0's own contact lists are put back after `write`, so
+    /// every rank steps on from the state it had: before 2026-12-07 every rank received the
+    /// whole model for a checkpoint. On one process, `write(self)`.
+    pub fn with_whole_state_on_root<R>(
+        &mut self,
+        write: impl FnOnce(&Simulation) -> R,
+    ) -> Option<R> {
+        let step = self.step;
+        let Some(par) = self.parallel.as_mut().filter(|p| p.partition.is_split()) else {
+            return Some(write(self));
+        };
+        let root = par.rank() == 0;
+        if par.nodes_shared_at != Some(step) {
+            par.gather_nodes_to_root(&mut self.nodes, true);
+        }
+        if par.joints_shared_at != Some(step) {
+            par.gather_joint_histories_to_root(&mut self.joints);
+        }
+        let masked =
+            self.contact.is_enabled() && self.contact.mask.is_for(self.contact.slots.len());
+        let contact = par.contact_shared_at != Some(step) && masked;
+        let detection = !self.contact_detection.detector.current.is_empty();
+        // (Rank 0's lists as they are, to be put back: only the checkpoint sees the whole.)
+        let kept = (root && (contact || detection))
+            .then(|| (self.contact_detection.clone(), self.contact.clone()));
+        let cd = &mut self.contact_detection;
+        if contact {
+            par.gather_contact_histories_to_root(cd, &mut self.contact);
+        }
+        if detection {
+            par.gather_positions_at_detection_to_root(&mut cd.detector.x_at_detection);
+            if root {
+                cd.positions_at_detection_shared();
+            }
+        }
+        if !root {
+            return None;
+        }
+        let written = write(self);
+        if let Some((cd, ci)) = kept {
+            self.contact_detection = cd;
+            self.contact = ci;
+        }
+        Some(written)
     }
 
     /// On a decomposed model, every node's position at the last full contact detection from

@@ -140,10 +140,6 @@ pub fn write(
     st.cracks_vtk.flush()?;
     st.bars_vtk.flush()?;
     let path = st.out_dir.join(FILE_NAME);
-    // Rank 0 writes the file: the other ranks do not encode the whole model only to drop it.
-    if !crate::parallel::is_root() {
-        return Ok(path);
-    }
     let monitors = st
         .monitors
         .iter()
@@ -170,26 +166,32 @@ pub fn write(
         ],
         rest_results: st.rest_results.clone(),
     };
-    let head = Head {
-        fdem_version: env!("CARGO_PKG_VERSION").to_string(),
-        build: checkpoint::BUILD_ID.to_string(),
-        simulation: st.name.clone(),
-        script: ctx
-            .script_path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default(),
-        overrides: ctx.options.overrides.clone(),
-        point: RunPoint {
-            runs_completed: st.runs,
-            run_start,
-        },
-        time: st.sim.time,
-        step: st.sim.step,
-        fingerprint: Fingerprint::of(&st.sim),
-        script_state,
-    };
-    checkpoint::write(&path, &head, &st.sim)?;
+    let (simulation, runs_completed) = (st.name.clone(), st.runs);
+    // Rank 0 encodes and writes the whole model, which it gathers (a collective); the other
+    // ranks send their part and go on from the state they had.
+    let written = st.sim.with_whole_state_on_root(|sim| {
+        let head = Head {
+            fdem_version: env!("CARGO_PKG_VERSION").to_string(),
+            build: checkpoint::BUILD_ID.to_string(),
+            simulation,
+            script: ctx
+                .script_path
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            overrides: ctx.options.overrides.clone(),
+            point: RunPoint {
+                runs_completed,
+                run_start,
+            },
+            time: sim.time,
+            step: sim.step,
+            fingerprint: Fingerprint::of(sim),
+            script_state,
+        };
+        checkpoint::write(&path, &head, sim)
+    });
+    written.transpose()?;
     Ok(path)
 }
 

@@ -155,7 +155,6 @@ pub fn checkpoint(ctx: &ScriptContext, s: &SimHandle) -> RhaiResult<()> {
 
 /// Write the checkpoint of `s` now (at the end of a step, or between runs).
 fn write_checkpoint(ctx: &ScriptContext, s: &SimHandle, func: &str) -> RhaiResult<()> {
-    synchronize(s);
     let mut st = s.0.borrow_mut();
     let start = st.run_start;
     checkpoint::write(ctx, &mut st, start).map_err(|e| format!("{func}: {e}"))?;
@@ -575,12 +574,6 @@ fn check_configuration(s: &SimHandle) -> RhaiResult<()> {
         .map_err(|e| sim_error(&e))
 }
 
-/// On a model decomposed over ranks, bring this rank's copy of the state up to date before
-/// the script reads it (a collective, reached by every rank at the same point).
-fn synchronize(s: &SimHandle) {
-    s.0.borrow_mut().sim.synchronize();
-}
-
 fn sim_error(e: &SimError) -> Box<rhai::EvalAltResult> {
     format!("run(): {e}").into()
 }
@@ -723,9 +716,8 @@ fn interrupted(ctx: &ScriptContext, s: &SimHandle, sig: i32) -> Box<rhai::EvalAl
 
 /// The checkpoint of an interrupted run, and how to continue from it (or why not).
 fn interrupt_checkpoint(ctx: &ScriptContext, s: &SimHandle) -> String {
-    // (Every rank of a decomposed model stops at the same step: the whole state first, as
-    // for any checkpoint.)
-    synchronize(s);
+    // (Every rank of a decomposed model stops at the same step; the checkpoint gathers the
+    // whole state to rank 0, as for any checkpoint.)
     let mut st = s.0.borrow_mut();
     if st.dry || st.restore_pending {
         return "no checkpoint was written".into();
