@@ -666,6 +666,87 @@ fn a_checkpoint_gathers_the_whole_model_to_rank_0_alone() {
     }
 }
 
+/// The model edited between steps, as a script may between runs: after 300 steps of the
+/// thrown bar a second jointed block is added above the slab and its joints inserted, and
+/// the run goes on 300 steps. The new split shares every node's, joint's and pair's state
+/// first (the joints the ranks computed included: a script's run no longer shares them at
+/// its end), and the new joints, the same on every rank, are no rank's yet. On 2 and 3
+/// ranks the run ends in the one-process state. Reference: the one-process run; tolerance
+/// none.
+#[test]
+fn a_model_edited_between_steps_goes_on_as_one_process() {
+    let edit = |sim: &mut Simulation| {
+        let m = 0;
+        let b = sim
+            .add_body(
+                "block",
+                &box_mesh(
+                    Vec3::new(0.3, -0.05, 0.2),
+                    Vec3::new(0.5, 0.05, 0.3),
+                    [4, 2, 2],
+                ),
+                m,
+                Layout::Jointed,
+            )
+            .unwrap();
+        let law = cohesive(1e10, 1e6, 20.0, fdem::joints::law::Dilatancy::NONE);
+        let id = sim.joints.add_law(JointLaw::Cohesive(law));
+        let (body, tets, x0) = (
+            sim.bodies[b].clone(),
+            sim.tets.nodes.clone(),
+            sim.nodes.x0.clone(),
+        );
+        sim.joints
+            .insert_in_body(&body, &tets, &x0, id, |_| true)
+            .unwrap();
+        for n in sim.bodies[b].nodes.clone() {
+            sim.nodes.v[n] = Vec3::new(0.0, 0.0, -3.0);
+        }
+        sim.invalidate();
+    };
+    let end = {
+        let mut sim = bar_thrown_on_a_slab();
+        for step in 1..=600 {
+            sim.step().unwrap();
+            if step == 300 {
+                edit(&mut sim);
+            }
+        }
+        outcome(&sim)
+    };
+    assert!(
+        end.events.len() > 20,
+        "joints must break ({})",
+        end.events.len()
+    );
+    for ranks in 2..=3 {
+        check_halo();
+        let runs = ThreadComm::run(ranks, |comm| {
+            let mut sim = bar_thrown_on_a_slab();
+            sim.decompose(comm);
+            for step in 1..=600 {
+                sim.step().unwrap();
+                if step == 300 {
+                    edit(&mut sim);
+                }
+            }
+            sim.synchronize();
+            outcome(&sim)
+        });
+        for (rank, o) in runs.iter().enumerate() {
+            assert!(
+                o.x == end.x && o.v == end.v,
+                "rank {rank} of {ranks}: nodes differ"
+            );
+            assert!(
+                o.damage == end.damage,
+                "rank {rank} of {ranks}: joint damage differs"
+            );
+            assert!(o == &end, "rank {rank} of {ranks}: the run went elsewhere");
+        }
+    }
+}
+
 /// Before a full detection a rank receives only the nodes within reach of its own (the
 /// pairs of its tets cannot reach further: 2·e_max + skin), not every node: on 3 ranks
 /// the thrown bar's ranks hold fewer positions than the model's at their last detections,

@@ -142,6 +142,14 @@ pub struct JointMask {
     pub designated: Vec<bool>,
 }
 
+impl JointMask {
+    /// Joint `j` is designated to this rank: false for a joint added since the split (the
+    /// model edited between steps: it is the same on every rank until the next split).
+    pub fn designates(&self, j: usize) -> bool {
+        self.designated.get(j).copied().unwrap_or(false)
+    }
+}
+
 /// Stage 3: break the joints whose points all reached D = 1 (subject to a user criterion, if
 /// any) and record the events. Returns the energy released by joints a criterion broke before
 /// they were fully damaged [J] (their stored energy, counted as fracture dissipation), as an

@@ -1758,7 +1758,7 @@ impl Parallel {
     pub fn gather_joint_damage_to_root(&mut self, joints: &Joints) -> Option<Vec<Real>> {
         let t = std::time::Instant::now();
         let mine: Vec<(u32, Real)> = (0..joints.len())
-            .filter(|&j| self.joints.designated[j] && joints.is_damaged(j))
+            .filter(|&j| self.joints.designates(j) && joints.is_damaged(j))
             .map(|j| (j as u32, joints.largest_damage(j)))
             .collect();
         let before = self.bytes;
@@ -1861,7 +1861,7 @@ impl Parallel {
         let me = self.comm.rank();
         let mut damage = vec![0.0; joints.len()];
         let mut sends: Vec<Vec<f64>> = vec![Vec::new(); self.comm.size()];
-        for j in (0..joints.len()).filter(|&j| self.joints.designated[j] && joints.is_damaged(j)) {
+        for j in (0..joints.len()).filter(|&j| self.joints.designates(j) && joints.is_damaged(j)) {
             let d = joints.largest_damage(j);
             damage[j] = d;
             let [a, b] = joints.tets[j].map(|e| self.piece_of_tet(tets, e as usize));
@@ -1958,7 +1958,7 @@ impl Parallel {
         let t = std::time::Instant::now();
         let get = |v: &Vec<bool>, j: usize| v.get(j).copied().unwrap_or(false);
         let mine: Vec<JointHistory> = (0..joints.len())
-            .filter(|&j| self.joints.designated[j])
+            .filter(|&j| self.joints.designates(j))
             .map(|j| JointHistory {
                 joint: j as u32,
                 state: joints.state[j],

@@ -677,7 +677,7 @@ impl Simulation {
         match &mut self.parallel {
             Some(par) if par.partition.is_split() && par.joints_shared_at != Some(step) => {
                 let mine = (0..self.joints.len())
-                    .filter(|&j| par.joints.designated[j] && self.joints.is_damaged(j))
+                    .filter(|&j| par.joints.designates(j) && self.joints.is_damaged(j))
                     .count();
                 par.sum_in_rank_order(mine as Real) as usize
             }
