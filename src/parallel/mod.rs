@@ -550,10 +550,11 @@ pub struct Parallel {
     /// Of [`Parallel::bytes`], those received before full contact detections: the nodes
     /// within reach of each rank's own ([`Parallel::share_nodes_near`]).
     pub near_bytes: u64,
-    /// Of [`Parallel::bytes`], those received when the whole model's state was shared
-    /// (every node for output or a whole-model query; every
-    /// joint's and pair's history and every node's position at the last detection for
-    /// output, checkpoints and the end of a run): not every step.
+    /// Of [`Parallel::bytes`], those received for output and whole-model reads: every node
+    /// for a whole-model query, the end of a run or a new split; every joint's and pair's
+    /// history and every node's position at the last detection for a new split; what rank 0
+    /// gathers for a whole frame or a checkpoint; what a frame in pieces exchanges. Not
+    /// every step.
     pub whole_bytes: u64,
     /// The steps at which all nodes, and all joint histories, were last shared.
     pub nodes_shared_at: Option<u64>,
@@ -1333,7 +1334,8 @@ impl Parallel {
     }
 
     /// Every rank's nodes' positions, velocities and reactions to every rank: the whole
-    /// model current on every rank (before the script reads it, before output).
+    /// model current on every rank (before the script reads it, at the end of a run, before
+    /// a new split).
     pub fn share_nodes(&mut self, nodes: &mut crate::state::Nodes) {
         let t = std::time::Instant::now();
         let received = self.gather_owned(&mut [&mut nodes.x, &mut nodes.v, &mut nodes.reaction]);
@@ -1680,8 +1682,8 @@ impl Parallel {
     }
 
     /// Give every rank the whole candidate list, with every pair's history from its
-    /// designated rank (a rank holds and keeps current only the pairs it computes). Before
-    /// output, checkpoints and the script's contact queries; a collective. The next step's
+    /// designated rank (a rank holds and keeps current only the pairs it computes). Before a
+    /// new split; a collective. The next step's
     /// stage 4 keeps this rank's pairs again
     /// ([`crate::contact_detection::keep_this_ranks_pairs`]).
     pub fn share_contact_histories(
@@ -1753,8 +1755,8 @@ impl Parallel {
 impl Parallel {
     /// Each joint's largest damage (over its points), on rank 0 only (None on the others),
     /// from the ranks the damaged joints are designated to: what a whole frame reads of the
-    /// joints. A collective; 12 bytes a damaged joint, where sharing the histories sends
-    /// every joint's whole history to every rank.
+    /// joints. A collective; 9–13 bytes a damaged joint (postcard's variable-length ids),
+    /// where sharing the histories sends every joint's whole history to every rank.
     pub fn gather_joint_damage_to_root(&mut self, joints: &Joints) -> Option<Vec<Real>> {
         let t = std::time::Instant::now();
         let mine: Vec<(u32, Real)> = (0..joints.len())
@@ -1852,7 +1854,8 @@ impl Parallel {
     }
 
     /// For this rank's piece of a frame written in pieces: each joint's largest damage, right
-    /// for every joint of a tet in the piece (zero for the others), from the ranks the
+    /// for every joint of a tet in the piece and every joint designated to this rank (zero
+    /// for the others), from the ranks the
     /// damaged joints are designated to. A collective: each rank sends (joint, damage) of
     /// its designated damaged joints to the ranks whose pieces hold one of their two tets, a
     /// neighbour exchange (the joints across pieces), not a gather of every joint.
@@ -1876,7 +1879,9 @@ impl Parallel {
         for v in received.iter().flat_map(|b| b.chunks_exact(2)) {
             damage[v[0] as usize] = v[1];
         }
-        self.bytes += 8 * received.iter().map(|b| b.len() as u64).sum::<u64>();
+        let bytes = 8 * received.iter().map(|b| b.len() as u64).sum::<u64>();
+        self.bytes += bytes;
+        self.whole_bytes += bytes;
         self.seconds += t.elapsed().as_secs_f64();
         damage
     }
@@ -1921,7 +1926,9 @@ impl Parallel {
         // No pair is designated to two ranks: the keys are distinct, and their order is
         // pair order.
         all.sort_unstable_by_key(|o| o.0);
-        self.bytes += 8 * received.iter().map(|b| b.len() as u64).sum::<u64>();
+        let bytes = 8 * received.iter().map(|b| b.len() as u64).sum::<u64>();
+        self.bytes += bytes;
+        self.whole_bytes += bytes;
         self.seconds += t.elapsed().as_secs_f64();
         all.into_iter().map(|o| o.1).collect()
     }
@@ -1943,8 +1950,7 @@ struct JointHistory {
 
 impl Parallel {
     /// Give every rank every joint's history from its designated rank (a rank keeps only the
-    /// joints it computes current while stepping). Before output, checkpoints and the
-    /// script's queries; a collective.
+    /// joints it computes current while stepping). Before a new split; a collective.
     pub fn share_joint_histories(&mut self, joints: &mut Joints) {
         self.joint_histories_to(joints, false);
     }

@@ -563,10 +563,11 @@ impl Simulation {
         }
     }
 
-    /// On a decomposed model whose frames are written in pieces: the positions of the
-    /// broken joints' faces (what the crack frame, written whole by rank 0, reads) to rank 0
-    /// (a collective; nothing when every node is current this step or on one process).
-    pub fn gather_crack_nodes_to_root(&mut self) {
+    /// On a decomposed model whose frames are written in pieces: the positions the crack and
+    /// bar frames (written whole by rank 0) read, to rank 0: the broken joints' faces, and
+    /// every node from the first rebar's on (a collective; nothing when every node is
+    /// current this step or on one process).
+    pub fn gather_whole_series_nodes_to_root(&mut self) {
         let step = self.step;
         let Some(par) = self.parallel.as_mut() else {
             return;
@@ -574,8 +575,15 @@ impl Simulation {
         if par.nodes_shared_at == Some(step) || !par.partition.is_split() {
             return;
         }
+        if self.break_events.is_empty() && self.bars.is_empty() {
+            return;
+        }
+        let bar_points = (self.rebars.first().map(|r| r.nodes.start))
+            .filter(|_| !self.bars.is_empty())
+            .map_or(0..0, |first| first as u32..self.nodes.len() as u32);
         let mut which: Vec<u32> = (self.break_events.iter())
             .flat_map(|e| self.joints.faces[e.joint][0])
+            .chain(bar_points)
             .collect();
         which.sort_unstable();
         which.dedup();
@@ -633,8 +641,8 @@ impl Simulation {
     }
 
     /// On a decomposed model, every node's position at the last full contact detection from
-    /// its owner (a rank records only those within reach of its own nodes): what a
-    /// checkpoint and a new split need (a collective, once per detection).
+    /// its owner (a rank records only those within reach of its own nodes): what a new split
+    /// needs (a collective, once per detection; a checkpoint gathers them to rank 0 alone).
     pub fn synchronize_detection(&mut self) {
         if let Some(par) = &mut self.parallel {
             let cd = &mut self.contact_detection;
@@ -1888,8 +1896,6 @@ impl Simulation {
             .all(|c| c.is_finite())
     }
 
-    /// Check the current configuration for inverted elements (stage 1 checks only on energy
-    /// samples); called at the end of every run so that no run ends silently broken.
     /// [`Simulation::check_configuration`] on a decomposed model whose nodes are current only
     /// where each rank computes: each rank checks the tets of its piece (the tets whose
     /// first node it owns, every tet on one rank) and the counts are added (a collective).
@@ -1912,6 +1918,8 @@ impl Simulation {
         self.check_configuration()
     }
 
+    /// Check the current configuration for inverted elements (stage 1 checks only on energy
+    /// samples); called at the end of every run so that no run ends silently broken.
     pub fn check_configuration(&self) -> Result<(), SimError> {
         let inverted = (0..self.tets.len())
             .into_par_iter()

@@ -135,37 +135,10 @@ pub fn write(
     st: &mut SimState,
     run_start: Option<(f64, u64)>,
 ) -> Result<PathBuf, String> {
-    // The frames a checkpoint lists must be on disk when it is.
-    st.vtk.flush()?;
-    st.cracks_vtk.flush()?;
-    st.bars_vtk.flush()?;
     let path = st.out_dir.join(FILE_NAME);
-    let monitors = st
-        .monitors
-        .iter()
-        .map(monitor_state)
-        .collect::<Result<Vec<_>, String>>()?;
-    let script_state = ScriptState {
-        runs: st.runs,
-        wall: st.wall,
-        steps_in_runs: st.steps_in_runs,
-        events_dispatched: st.events_dispatched,
-        balance_warned: st.balance_warned,
-        penetration_warned: st.penetration_warned,
-        printed_dt: st.printed_dt.clone(),
-        energy_rows: st.energy_rows,
-        crack_rows: st.crack_rows,
-        energy_csv_bytes: st.energy_csv.as_ref().map(|c| c.bytes()).transpose()?,
-        cracks_csv_bytes: st.cracks_csv.as_ref().map(|c| c.bytes()).transpose()?,
-        monitors,
-        hook_times: st.hooks.iter().map(|h| h.next_time).collect(),
-        frames: [
-            st.vtk.entries.clone(),
-            st.cracks_vtk.entries.clone(),
-            st.bars_vtk.entries.clone(),
-        ],
-        rest_results: st.rest_results.clone(),
-    };
+    // What may fail on rank 0 alone (it writes the files) is only reported after the
+    // ranks' collective below, which every rank must reach.
+    let script_state = script_state(st);
     let (simulation, runs_completed) = (st.name.clone(), st.runs);
     // Rank 0 encodes and writes the whole model, which it gathers (a collective); the other
     // ranks send their part and go on from the state they had.
@@ -187,12 +160,46 @@ pub fn write(
             time: sim.time,
             step: sim.step,
             fingerprint: Fingerprint::of(sim),
-            script_state,
+            script_state: script_state?,
         };
         checkpoint::write(&path, &head, sim)
     });
     written.transpose()?;
     Ok(path)
+}
+
+/// The script layer's state for a checkpoint, after putting every queued frame on disk (the
+/// frames a checkpoint lists must be on disk when it is).
+fn script_state(st: &mut SimState) -> Result<ScriptState, String> {
+    st.vtk.flush()?;
+    st.cracks_vtk.flush()?;
+    st.bars_vtk.flush()?;
+    let monitors = st
+        .monitors
+        .iter()
+        .map(monitor_state)
+        .collect::<Result<Vec<_>, String>>()?;
+    Ok(ScriptState {
+        runs: st.runs,
+        wall: st.wall,
+        steps_in_runs: st.steps_in_runs,
+        events_dispatched: st.events_dispatched,
+        balance_warned: st.balance_warned,
+        penetration_warned: st.penetration_warned,
+        printed_dt: st.printed_dt.clone(),
+        energy_rows: st.energy_rows,
+        crack_rows: st.crack_rows,
+        energy_csv_bytes: st.energy_csv.as_ref().map(|c| c.bytes()).transpose()?,
+        cracks_csv_bytes: st.cracks_csv.as_ref().map(|c| c.bytes()).transpose()?,
+        monitors,
+        hook_times: st.hooks.iter().map(|h| h.next_time).collect(),
+        frames: [
+            st.vtk.entries.clone(),
+            st.cracks_vtk.entries.clone(),
+            st.bars_vtk.entries.clone(),
+        ],
+        rest_results: st.rest_results.clone(),
+    })
 }
 
 fn monitor_state(m: &MonitorHandle) -> Result<MonitorState, String> {

@@ -777,35 +777,32 @@ pub fn write_vtk(s: &SimHandle) -> RhaiResult<()> {
     if st.dry || st.restore_pending {
         return Ok(());
     }
+    // No frame shows inverted elements: the last step's motion is checked before it is
+    // written (stage 1 of the next step would find them, but a frame may come first). Each
+    // rank checks its piece, the tets current on it, and every rank learns the count.
+    if st.sim.step > 0 {
+        st.sim
+            .check_configuration_by_pieces()
+            .map_err(|e| format!("write_vtk(): {e}"))?;
+    }
     // Rank 0 writes whole frames, cracks and bars, from what it gathers (the other ranks
     // send their part and are done); with pieces every rank writes its piece, from its own
-    // state and what its neighbours send of the joints and pairs at its piece.
+    // state and what its neighbours send of the joints and pairs at its piece, and rank 0
+    // the crack and bar frames, whole, from the nodes they read (gathered first: a piece
+    // may fail on one rank alone).
     let reads = if st.vtk_pieces {
-        st.sim.piece_frame_reads()
+        let reads = st.sim.piece_frame_reads();
+        st.sim.gather_whole_series_nodes_to_root();
+        reads
     } else {
         match st.sim.gather_frame_to_root() {
             Some(reads) => reads,
             None => return Ok(()),
         }
     };
-    // No frame shows inverted elements: the last step's motion is checked before it is
-    // written (stage 1 of the next step would find them, but a frame may come first).
-    // (Frames in pieces: each rank checks its piece, the only tets current on it.)
-    if st.sim.step > 0 {
-        let checked = if st.vtk_pieces {
-            st.sim.check_configuration_by_pieces()
-        } else {
-            st.sim.check_configuration()
-        };
-        checked.map_err(|e| format!("write_vtk(): {e}"))?;
-    }
     let t = st.sim.time;
     if st.vtk_pieces {
         write_vtk_piece(&mut st, &reads)?;
-        // The crack frame is whole, from rank 0: the broken faces' nodes go there.
-        if !st.sim.break_events.is_empty() {
-            st.sim.gather_crack_nodes_to_root();
-        }
     } else {
         let bytes = encode_frame(&st.sim, &reads, st.stress_output, st.vtk_encoding)
             .map_err(|e| format!("write_vtk(): {e}"))?;
