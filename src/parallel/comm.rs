@@ -335,14 +335,7 @@ impl Comm for MpiComm {
         let mut counts = vec![0 as mpi::Count; n];
         self.world
             .all_gather_into(&(mine.len() as mpi::Count), &mut counts[..]);
-        let displs: Vec<mpi::Count> = counts
-            .iter()
-            .scan(0, |acc, &c| {
-                let d = *acc;
-                *acc += c;
-                Some(d)
-            })
-            .collect();
+        let displs = displacements(&counts);
         let total = counts.iter().sum::<mpi::Count>() as usize;
         if total == 0 {
             return vec![Vec::new(); n];
@@ -356,9 +349,7 @@ impl Comm for MpiComm {
             let mut part = PartitionMut::new(&mut all[..], &counts[..], &displs[..]);
             self.world.all_gather_varcount_into(send, &mut part);
         }
-        (0..n)
-            .map(|r| all[displs[r] as usize..(displs[r] + counts[r]) as usize].to_vec())
-            .collect()
+        split_at_displacements(&all, &counts, &displs)
     }
     fn gather_bytes_to_root(&self, mine: &[u8]) -> Vec<Vec<u8>> {
         use mpi::datatype::PartitionMut;
@@ -374,14 +365,7 @@ impl Comm for MpiComm {
         }
         let mut counts = vec![0 as mpi::Count; n];
         root.gather_into_root(&count, &mut counts[..]);
-        let displs: Vec<mpi::Count> = counts
-            .iter()
-            .scan(0, |acc, &c| {
-                let d = *acc;
-                *acc += c;
-                Some(d)
-            })
-            .collect();
+        let displs = displacements(&counts);
         let total = counts.iter().sum::<mpi::Count>() as usize;
         // (As in allgather_bytes: nothing empty is sent from a dangling pointer, and the
         // receive buffer has at least one byte.)
@@ -392,9 +376,7 @@ impl Comm for MpiComm {
             let mut part = PartitionMut::new(&mut all[..], &counts[..], &displs[..]);
             root.gather_varcount_into_root(send, &mut part);
         }
-        (0..n)
-            .map(|r| all[displs[r] as usize..(displs[r] + counts[r]) as usize].to_vec())
-            .collect()
+        split_at_displacements(&all, &counts, &displs)
     }
     fn allgather_ranges_f64(&self, data: &mut [f64], ranges: &[Range<usize>]) {
         use mpi::datatype::PartitionMut;
@@ -443,6 +425,31 @@ impl Comm for MpiComm {
             }
         });
     }
+}
+
+/// Where each rank's part starts in a gathered buffer of parts of `counts` bytes, in rank
+/// order.
+#[cfg(feature = "mpi")]
+fn displacements(counts: &[mpi::Count]) -> Vec<mpi::Count> {
+    (counts.iter())
+        .scan(0, |acc, &c| {
+            let d = *acc;
+            *acc += c;
+            Some(d)
+        })
+        .collect()
+}
+
+/// Each rank's part of a gathered buffer, in rank order.
+#[cfg(feature = "mpi")]
+fn split_at_displacements(
+    all: &[u8],
+    counts: &[mpi::Count],
+    displs: &[mpi::Count],
+) -> Vec<Vec<u8>> {
+    (counts.iter().zip(displs))
+        .map(|(&c, &d)| all[d as usize..(d + c) as usize].to_vec())
+        .collect()
 }
 
 /// The bytes of an f64 slice in little-endian order.
