@@ -738,6 +738,13 @@ impl ContactInteraction {
         tet_pressures_of(self.outputs(), n_tets)
     }
 
+    /// Contact is on and the mask is made for the pair list held (on a decomposed model: the
+    /// rank holds only its own pairs, not the whole list shared). The same on every rank,
+    /// so it may decide a collective.
+    pub fn is_masked(&self) -> bool {
+        self.is_enabled() && self.mask.is_for(self.slots.len())
+    }
+
     /// The outputs of the last step's touching pairs designated to this rank (all of them
     /// on one process), each with its pair's key ([`pair_key`] of `pairs`, stage 4's list),
     /// in pair order: what rank 0 needs of this rank's pairs for a whole frame, put

@@ -1112,10 +1112,7 @@ impl Parallel {
     where
         T: serde::Serialize + serde::de::DeserializeOwned,
     {
-        let bytes =
-            postcard::to_allocvec(&mine).unwrap_or_else(|e| panic!("{what} serialize: {e}"));
-        drop(mine);
-        self.gather_bytes_each(bytes, what, false, take);
+        self.gather_vec_each(mine, what, false, take);
     }
 
     /// [`Parallel::gather_each`] to rank 0 only: `take` sees every rank's items there and is
@@ -1124,10 +1121,23 @@ impl Parallel {
     where
         T: serde::Serialize + serde::de::DeserializeOwned,
     {
+        self.gather_vec_each(mine, what, true, take);
+    }
+
+    /// `mine` serialized once and dropped, then [`Parallel::gather_bytes_each`].
+    fn gather_vec_each<T>(
+        &mut self,
+        mine: Vec<T>,
+        what: &str,
+        to_root: bool,
+        take: impl FnMut(Vec<T>),
+    ) where
+        T: serde::Serialize + serde::de::DeserializeOwned,
+    {
         let bytes =
             postcard::to_allocvec(&mine).unwrap_or_else(|e| panic!("{what} serialize: {e}"));
         drop(mine);
-        self.gather_bytes_each(bytes, what, true, take);
+        self.gather_bytes_each(bytes, what, to_root, take);
     }
 
     fn gather_bytes_each<T>(

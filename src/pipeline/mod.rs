@@ -462,9 +462,9 @@ impl Simulation {
     /// returns, and in the queries that read them, only theirs for a node or element set; a
     /// whole frame gathers what it shows to rank 0 alone,
     /// [`Simulation::gather_frame_to_root`], a frame in pieces exchanges what crosses
-    /// pieces, [`Simulation::piece_frame_reads`], and a checkpoint gathers the whole state to
-    /// rank 0 alone, [`Simulation::with_whole_state_on_root`]). While stepping, ranks share only break events
-    /// and the nodes other ranks read (`Parallel::halo`).
+    /// pieces, [`Simulation::piece_frame_reads`], and a checkpoint gathers the whole state
+    /// to rank 0 alone, [`Simulation::with_whole_state_on_root`]). While stepping, ranks
+    /// share only break events and the nodes other ranks read (`Parallel::halo`).
     pub fn synchronize(&mut self) {
         self.synchronize_nodes();
         self.synchronize_joints();
@@ -492,8 +492,7 @@ impl Simulation {
         } else {
             par.gather_joint_damage_to_root(&self.joints)
         };
-        let masked =
-            self.contact.is_enabled() && self.contact.mask.is_for(self.contact.slots.len());
+        let masked = self.contact.is_masked();
         let outputs = if par.contact_shared_at == Some(step) || !masked {
             None
         } else {
@@ -507,10 +506,7 @@ impl Simulation {
         }
         let joint_damage = joint_damage.unwrap_or_else(|| FrameReads::joint_damage(self));
         let (contact_force, contact_pressure) = match outputs {
-            Some(o) => (
-                contact_interaction::node_forces_of(o.iter(), self.nodes.len()),
-                contact_interaction::tet_pressures_of(o.iter(), self.tets.len()),
-            ),
+            Some(o) => FrameReads::contact_from(&o, self),
             None => FrameReads::contact(self),
         };
         Some(FrameReads {
@@ -533,14 +529,11 @@ impl Simulation {
             return FrameReads::of(self);
         };
         let joints_whole = par.joints_shared_at == Some(step) || self.joints.is_empty();
-        let masked =
-            self.contact.is_enabled() && self.contact.mask.is_for(self.contact.slots.len());
+        let masked = self.contact.is_masked();
         let contact_whole = par.contact_shared_at == Some(step) || !masked;
-        let par = self.parallel.as_mut().expect("decomposed");
-        let joint_damage = if joints_whole {
-            FrameReads::joint_damage(self)
-        } else {
-            par.joint_damage_for_piece(&self.joints, &self.tets)
+        let joint_damage = match (&mut self.parallel, joints_whole) {
+            (Some(par), false) => par.joint_damage_for_piece(&self.joints, &self.tets),
+            _ => FrameReads::joint_damage(self),
         };
         let par = self.parallel.as_mut().expect("decomposed");
         let (contact_force, contact_pressure) = if contact_whole {
@@ -551,10 +544,7 @@ impl Simulation {
                 .contact
                 .designated_outputs(&self.contact_detection.pairs);
             let outputs = par.pair_outputs_for_piece(mine, &ranks);
-            (
-                contact_interaction::node_forces_of(outputs.iter(), self.nodes.len()),
-                contact_interaction::tet_pressures_of(outputs.iter(), self.tets.len()),
-            )
+            FrameReads::contact_from(&outputs, self)
         };
         FrameReads {
             joint_damage,
@@ -612,8 +602,7 @@ impl Simulation {
         if par.joints_shared_at != Some(step) {
             par.gather_joint_histories_to_root(&mut self.joints);
         }
-        let masked =
-            self.contact.is_enabled() && self.contact.mask.is_for(self.contact.slots.len());
+        let masked = self.contact.is_masked();
         let contact = par.contact_shared_at != Some(step) && masked;
         let detection = !self.contact_detection.detector.current.is_empty();
         // (Rank 0's lists as they are, to be put back: only the checkpoint sees the whole.)
@@ -700,8 +689,7 @@ impl Simulation {
     pub fn contact_force_on(&mut self, body: usize) -> Vec3 {
         let range = self.bodies[body].nodes.clone();
         let step = self.step;
-        let masked =
-            self.contact.is_enabled() && self.contact.mask.is_for(self.contact.slots.len());
+        let masked = self.contact.is_masked();
         match &mut self.parallel {
             Some(par)
                 if par.partition.is_split() && par.contact_shared_at != Some(step) && masked =>
@@ -735,8 +723,7 @@ impl Simulation {
         if let Some(par) = &mut self.parallel {
             if par.contact_shared_at != Some(step)
                 && par.partition.is_split()
-                && self.contact.is_enabled()
-                && self.contact.mask.is_for(self.contact.slots.len())
+                && self.contact.is_masked()
             {
                 par.share_contact_histories(&mut self.contact_detection, &mut self.contact);
                 par.contact_shared_at = Some(step);
@@ -1973,6 +1960,18 @@ impl FrameReads {
         (0..sim.joints.len())
             .map(|j| sim.joints.largest_damage(j))
             .collect()
+    }
+
+    /// The contact force per node and pressure per tet from touching pairs' `outputs` in
+    /// pair order (what a decomposed model's ranks gathered or exchanged).
+    fn contact_from(
+        outputs: &[contact_interaction::PairOut],
+        sim: &Simulation,
+    ) -> (Vec<Vec3>, Vec<Real>) {
+        (
+            contact_interaction::node_forces_of(outputs.iter(), sim.nodes.len()),
+            contact_interaction::tet_pressures_of(outputs.iter(), sim.tets.len()),
+        )
     }
 
     fn contact(sim: &Simulation) -> (Vec<Vec3>, Vec<Real>) {
