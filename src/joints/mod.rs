@@ -625,6 +625,26 @@ impl Joints {
             self.colour(n_nodes);
         }
         self.index_units();
+        self.shrink_to_fit();
+    }
+
+    /// Drop the spare capacity that inserting joints one by one left (up to as much again as
+    /// the arrays hold: about 190 B a joint).
+    fn shrink_to_fit(&mut self) {
+        self.faces.shrink_to_fit();
+        self.tets.shrink_to_fit();
+        self.law.shrink_to_fit();
+        self.size.shrink_to_fit();
+        self.area0.shrink_to_fit();
+        self.state.shrink_to_fit();
+        self.anchor.shrink_to_fit();
+        self.slid.shrink_to_fit();
+        self.offset.shrink_to_fit();
+        self.last_energy.shrink_to_fit();
+        self.keeps_faces.shrink_to_fit();
+        self.broken.shrink_to_fit();
+        self.handed_over.shrink_to_fit();
+        self.rate.shrink_to_fit();
     }
 
     /// [`Joints::first_unit`] from the blocks (also after a restart, which does not store

@@ -1169,6 +1169,10 @@ impl Simulation {
                 "the model has no bodies: add one with sim.add_body(..)".into(),
             ));
         }
+        // The arrays were built by pushing: give back what doubling reserved (a no-op once
+        // they are tight, as after the first prepare).
+        self.nodes.shrink_to_fit();
+        self.tets.shrink_to_fit();
         elements::lumped_masses(&mut self.nodes, &self.tets, &self.materials);
         elements::bar2::lumped_masses(&mut self.nodes, &self.bars, &self.steels);
         self.elements_ws = ElementsWorkspace::new(&self.bodies, &self.tets);

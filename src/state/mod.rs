@@ -46,6 +46,20 @@ impl Nodes {
         self.v_prescribed.push(Vec3::zeros());
         self.reaction.push(Vec3::zeros());
     }
+
+    /// Drop the spare capacity that building the model by `push` left (up to as much again
+    /// as the arrays hold).
+    pub(crate) fn shrink_to_fit(&mut self) {
+        self.x0.shrink_to_fit();
+        self.x.shrink_to_fit();
+        self.v.shrink_to_fit();
+        self.f.shrink_to_fit();
+        self.m.shrink_to_fit();
+        self.body.shrink_to_fit();
+        self.constraint.shrink_to_fit();
+        self.v_prescribed.shrink_to_fit();
+        self.reaction.shrink_to_fit();
+    }
 }
 
 /// Bit of [`Nodes::constraint`] set on the nodes of rigid bodies (by the rigid-body prepare;
@@ -73,6 +87,16 @@ impl Tets {
     }
     pub fn is_empty(&self) -> bool {
         self.nodes.is_empty()
+    }
+
+    /// Drop the spare capacity that building the model left ([`Nodes::shrink_to_fit`]).
+    pub(crate) fn shrink_to_fit(&mut self) {
+        self.nodes.shrink_to_fit();
+        self.dm_inv.shrink_to_fit();
+        self.vol0.shrink_to_fit();
+        self.material.shrink_to_fit();
+        self.body.shrink_to_fit();
+        self.rigid.shrink_to_fit();
     }
 }
 
