@@ -97,21 +97,34 @@ fn same_on_any_rank_count(build: impl Fn() -> Simulation + Sync, steps: usize) -
                     sim.synchronize();
                 }
             }
-            // Each rank holds only the candidate pairs it computes.
+            // Each rank holds only the candidate pairs it computes, and the histories of the
+            // joints of its units.
             let cd = &sim.contact_detection;
             let pairs = (cd.pairs.len(), cd.candidate_pairs());
+            let joints = sim.joints.state.held();
             sim.synchronize();
             let (rank, size) = sim.rank_and_size();
             assert_eq!(size, ranks);
-            (rank, outcome(&sim), pairs)
+            (rank, outcome(&sim), pairs, joints)
         });
         let held: usize = runs.iter().map(|r| r.2 .0).sum();
         let each: Vec<usize> = runs.iter().map(|r| r.2 .0).collect();
+        let joints_each: Vec<usize> = runs.iter().map(|r| r.3).collect();
+        let n_joints = reference.broken.len();
         println!(
-            "{ranks} ranks hold {each:?} of {} pairs",
+            "{ranks} ranks hold {each:?} of {} pairs, the histories of {joints_each:?} of {n_joints} joints",
             reference.pairs.len()
         );
-        for (rank, o, (mine, all)) in runs {
+        // Every joint's history is held by some rank, and with more than two units' worth
+        // of joints (512 each) no rank holds them all.
+        assert!(joints_each.iter().sum::<usize>() >= n_joints);
+        if n_joints > 2 * 512 {
+            assert!(
+                joints_each.iter().all(|&h| h < n_joints),
+                "{ranks} ranks hold the histories of {joints_each:?} of {n_joints} joints"
+            );
+        }
+        for (rank, o, (mine, all), _) in runs {
             let place = format!("rank {rank} of {ranks}");
             assert_eq!(
                 all,

@@ -27,6 +27,7 @@ pub mod law;
 use crate::math::SyncPtr;
 use crate::math::{Real, Vec3};
 use crate::mesh::TET_FACES;
+use crate::state::held::{Held, Slots};
 use crate::state::{Body, Layout, Nodes};
 use law::{
     Cohesive, CohesiveConsts, PointHistory, PointKinematics, PointState, PointTraction, RateEffects,
@@ -213,27 +214,27 @@ pub struct Joints {
     /// Reference area [m²].
     pub area0: Vec<Real>,
     /// Damage and maxima of the three integration points.
-    pub state: Vec<[PointHistory; 3]>,
+    pub state: Held<[PointHistory; 3]>,
     /// Anchors of the three points: a softening point's plastic slip, a broken point's
     /// friction anchor ([`PointState::anchor`]). Stored in the joint's own axes
     /// ([`joint_axes`]: components along t₁, t₂ and n), so that they turn with the joint: a
     /// joint spun about its normal carries its anchors along instead of straining its springs
     /// by the spin. Read and write them in global coordinates with [`Joints::anchor_global`]
     /// and [`Joints::set_anchor_global`].
-    pub anchor: Vec<[Vec3; 3]>,
+    pub anchor: Held<[Vec3; 3]>,
     /// Each point's accumulated plastic slip [m]: of its cohesive shear while it softens, of
     /// its friction since it broke (see [`PointState::slid`]).
     #[serde(default)]
-    pub slid: Vec<[Real; 3]>,
+    pub slid: Held<[Real; 3]>,
     /// Each broken point's net plastic slip since it broke ([`PointState::offset`], the
     /// dilatancy's measure), in the joint's own axes as the anchors.
     #[serde(default)]
-    pub offset: Vec<[Vec3; 3]>,
+    pub offset: Held<[Vec3; 3]>,
     /// Each point's energy at the last step [J/m²]: ψ₀ while softening, the friction
     /// spring's ½k_t|e|² once broken and closed, NaN otherwise (see
     /// [`PointState::last_energy`]).
     #[serde(default)]
-    pub last_energy: Vec<[Real; 3]>,
+    pub last_energy: Held<[Real; 3]>,
     /// Broken joints of a dilatant law that still hold their faces (set by stage 2 each
     /// step): a point's asperities are within reach (it opened less than twice the law's
     /// `dilatancy_opening` beyond its dilation), so stage 5 does not take them over.
@@ -247,7 +248,7 @@ pub struct Joints {
     pub laws: Vec<JointLaw>,
     /// Strain rates and strength factors of every joint, when a law is rate-dependent
     /// (empty otherwise).
-    pub rate: Vec<RateState>,
+    pub rate: Held<RateState>,
     consts: Vec<CohesiveConsts>,
     /// Blocks of joints by colour: blocks of one colour share no node.
     color_blocks: Vec<Vec<std::ops::Range<usize>>>,
@@ -477,6 +478,9 @@ impl Joints {
     /// Append one joint: faces A and B (paired vertices), their tets, its law, and face A's
     /// reference vertices (for the area and the size h = mean edge length).
     fn push_joint(&mut self, faces: [[u32; 3]; 2], tets: [u32; 2], law: u32, p: &[Vec3; 3]) {
+        // (A rank's model edited between steps: its histories whole again until the next
+        // split; the joints it did not hold are shared to it before that split.)
+        self.hold_all();
         self.faces.push(faces);
         self.tets.push(tets);
         self.law.push(law);
@@ -626,6 +630,55 @@ impl Joints {
         }
         self.index_units();
         self.shrink_to_fit();
+    }
+
+    /// Hold only the histories (damage, maxima, anchors, slips, last energies, rate factors)
+    /// of the joints of the work units this process computes ([`Joints::compute`]), as a
+    /// rank of a decomposed model does between splits: 264 B a joint (more with rate
+    /// effects) for the joints of its part only. Every joint's on one process.
+    pub fn hold_computed(&mut self) {
+        if self.compute.is_empty() || self.colored != self.len() {
+            self.hold_all();
+            return;
+        }
+        let mut keep = vec![false; self.len()];
+        for (u, &c) in self.units().zip(&self.compute) {
+            if c {
+                keep[u].fill(true);
+            }
+        }
+        if keep.iter().all(|&k| k) {
+            self.hold_all();
+            return;
+        }
+        let slots = Slots::keeping(self.len(), |j| keep[j]);
+        let n = self.len();
+        self.state.hold(&slots, n);
+        self.anchor.hold(&slots, n);
+        self.slid.hold(&slots, n);
+        self.offset.hold(&slots, n);
+        self.last_energy.hold(&slots, n);
+        if !(self.rate.is_whole() && self.rate.is_empty()) {
+            self.rate.hold(&slots, n);
+        }
+    }
+
+    /// Every joint's history held again: those this process held kept, the others at
+    /// their initial values until they are shared to it
+    /// ([`Joints::hold_computed`]).
+    pub fn hold_all(&mut self) {
+        let n = self.len();
+        self.state.make_whole(n, [PointHistory::default(); 3]);
+        self.anchor.make_whole(n, [Vec3::zeros(); 3]);
+        self.slid.make_whole(n, [0.0; 3]);
+        self.offset.make_whole(n, [Vec3::zeros(); 3]);
+        self.last_energy.make_whole(n, [Real::NAN; 3]);
+        self.rate.make_whole(n, RateState::STATIC);
+    }
+
+    /// Every joint's history is held here.
+    pub fn holds_all(&self) -> bool {
+        self.state.is_whole()
     }
 
     /// Drop the spare capacity that inserting joints one by one left (up to as much again as
@@ -1095,14 +1148,18 @@ pub fn add_joint_forces(
     let hp = SyncPtr(handed_over.as_mut_ptr());
     let x = &nodes.x;
     let fp = SyncPtr(nodes.f.as_mut_ptr());
-    let sp = SyncPtr(state.as_mut_ptr());
-    let ap = SyncPtr(anchor.as_mut_ptr());
-    let slp = SyncPtr(slid.as_mut_ptr());
-    let op = SyncPtr(offset.as_mut_ptr());
-    let lp = SyncPtr(last_energy.as_mut_ptr());
+    let sp = SyncPtr(state.as_mut_slice().as_mut_ptr());
+    let ap = SyncPtr(anchor.as_mut_slice().as_mut_ptr());
+    let slp = SyncPtr(slid.as_mut_slice().as_mut_ptr());
+    let op = SyncPtr(offset.as_mut_slice().as_mut_ptr());
+    let lp = SyncPtr(last_energy.as_mut_slice().as_mut_ptr());
     let kp = SyncPtr(keeps_faces.as_mut_ptr());
-    let rp = SyncPtr(rate.as_mut_ptr());
+    let rp = SyncPtr(rate.as_mut_slice().as_mut_ptr());
     let has_rate = !rate.is_empty();
+    // Where joint j's history is stored: at j + `base` within a unit this process computes
+    // (a rank holds the histories of its units only, packed in joint order).
+    let slots = state.slots().clone();
+    let base_of = |start: usize| slots.at(start) as isize - start as isize;
     let audit = audit::on().then(|| audit::Recorder::begin(faces.len()));
     let n_units = unit_count(color_blocks);
     unit_partials.clear();
@@ -1121,6 +1178,7 @@ pub fn add_joint_forces(
         let mut unit = first_unit;
         let mut unit_end = (range.start + UNIT).min(range.end);
         let mut skip = !*compute.get(unit).unwrap_or(&true);
+        let mut base = if skip { 0 } else { base_of(range.start) };
         for j in range.clone() {
             if j == unit_end {
                 // SAFETY: unit `unit` belongs to this block alone.
@@ -1128,10 +1186,13 @@ pub fn add_joint_forces(
                 unit += 1;
                 unit_end = (j + UNIT).min(range.end);
                 skip = !*compute.get(unit).unwrap_or(&true);
+                base = if skip { 0 } else { base_of(j) };
             }
             if skip {
                 continue;
             }
+            // Joint j's history slot.
+            let h = (j as isize + base) as usize;
             #[cfg(target_arch = "x86_64")]
             if let Some(ahead) = faces.get(j + 8) {
                 use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
@@ -1150,13 +1211,13 @@ pub fn add_joint_forces(
             }
             // SAFETY: blocks are disjoint ranges of joints, so each state is
             // borrowed by one iteration only.
-            let st = unsafe { &mut *sp.get().add(j) };
+            let st = unsafe { &mut *sp.get().add(h) };
             let (mut lw, mut cs) = (&laws[law[j] as usize], &consts[law[j] as usize]);
             let inv_h = inv_size[j];
             if let (true, JointLaw::Cohesive(c)) = (has_rate, lw) {
                 if let RateEffects::Fib2010 { young } = c.rate {
                     // SAFETY: as for the state.
-                    let r = unsafe { &mut *rp.get().add(j) };
+                    let r = unsafe { &mut *rp.get().add(h) };
                     if st.iter().all(|p| p.damage == 0.0) {
                         let pose = joint_kinematics(&faces[j], x);
                         let dr = update_rate_factors(c, r, &pose, size[j], young, time);
@@ -1210,13 +1271,13 @@ pub fn add_joint_forces(
             // neither read nor write them.
             let cohesive = matches!(lw, JointLaw::Cohesive(_));
             // SAFETY: as for the state.
-            let anchors = unsafe { &mut *ap.get().add(j) };
+            let anchors = unsafe { &mut *ap.get().add(h) };
             // SAFETY: as for the state.
-            let (slids, keeps) = unsafe { (&mut *slp.get().add(j), &mut *kp.get().add(j)) };
+            let (slids, keeps) = unsafe { (&mut *slp.get().add(h), &mut *kp.get().add(j)) };
             // SAFETY: as for the state.
-            let lasts = unsafe { &mut *lp.get().add(j) };
+            let lasts = unsafe { &mut *lp.get().add(h) };
             // SAFETY: as for the state.
-            let offsets = unsafe { &mut *op.get().add(j) };
+            let offsets = unsafe { &mut *op.get().add(h) };
             // The anchors in global coordinates for the law, and back into the joint's axes
             // after it (objective: they turn with the joint).
             let axes = joint_axes(&faces[j], x, &n);

@@ -1988,6 +1988,10 @@ impl Parallel {
             })
             .collect();
         let before = self.bytes;
+        // (The receivers' arrays whole first: a rank holds its units' histories only.)
+        if !root || self.rank() == 0 {
+            joints.hold_all();
+        }
         let take = |of_rank: Vec<JointHistory>| {
             for h in of_rank {
                 let j = h.joint as usize;

@@ -599,7 +599,8 @@ impl Simulation {
         if par.nodes_shared_at != Some(step) {
             par.gather_nodes_to_root(&mut self.nodes, true);
         }
-        if par.joints_shared_at != Some(step) {
+        let par_joints_gathered = par.joints_shared_at != Some(step);
+        if par_joints_gathered {
             par.gather_joint_histories_to_root(&mut self.joints);
         }
         let masked = self.contact.is_masked();
@@ -625,6 +626,9 @@ impl Simulation {
         if let Some((cd, ci)) = kept {
             self.contact_detection = cd;
             self.contact = ci;
+        }
+        if par_joints_gathered {
+            self.joints.hold_computed();
         }
         Some(written)
     }
@@ -702,6 +706,18 @@ impl Simulation {
                 contact_interaction::ContactInteraction::force_from_shares(&digits)
             }
             _ => self.contact.force_on(range),
+        }
+    }
+
+    /// On a decomposed model whose joint histories were shared since the split (a query
+    /// or frame read them whole), hold again only those of this rank's units: they are
+    /// current nowhere else once it steps.
+    fn hold_own_joint_histories(&mut self) {
+        if let Some(par) = &mut self.parallel {
+            if par.joints_shared_at.is_some() && par.partition.is_split() {
+                self.joints.hold_computed();
+                par.joints_shared_at = None;
+            }
         }
     }
 
@@ -1232,6 +1248,10 @@ impl Simulation {
         self.contact_detection.own_surface_nodes = None;
         self.elements_ws.compute = par.elements.compute.clone();
         self.joints.compute = par.joint_blocks.compute.clone();
+        // Each rank holds the joint histories of its own units from here on: a later
+        // whole-model read gathers them.
+        self.joints.hold_computed();
+        par.joints_shared_at = None;
         Ok(())
     }
 
@@ -1318,6 +1338,7 @@ impl Simulation {
     /// Advance one time step through the seven stages, each timed; then the energy account.
     pub fn step(&mut self) -> Result<(), SimError> {
         self.prepare()?;
+        self.hold_own_joint_histories();
         self.check_mass_damping()?;
         let sample = self.step == 0
             || self.sample_next

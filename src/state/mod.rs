@@ -1,5 +1,7 @@
 //! Structure-of-arrays state: nodes, tetrahedra, bodies.
 
+pub mod held;
+
 use crate::math::{Mat3, Real, Vec3};
 use crate::mesh::BoundaryFace;
 use std::ops::Range;
