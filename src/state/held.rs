@@ -202,6 +202,15 @@ impl<T> IndexMut<usize> for Held<T> {
     }
 }
 
+/// The entries stored here, in id order (every entry when whole).
+impl<'a, T> IntoIterator for &'a Held<T> {
+    type Item = &'a T;
+    type IntoIter = std::slice::Iter<'a, T>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.data.iter()
+    }
+}
+
 impl<T: Serialize> Serialize for Held<T> {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         if !self.slots.is_all() {
