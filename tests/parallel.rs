@@ -1087,7 +1087,8 @@ fn a_launch_on_several_ranks_without_mpi_is_refused() {
 
 /// The summary's load balance: after `gather_rank_timings` every rank holds every rank's
 /// stage and exchange times, each rank's entry equal to that rank's own timers (the values
-/// are sent as they are, in one exact sum with one rank non-zero per entry).
+/// are sent as they are, in one exact sum with one rank non-zero per entry), and every
+/// rank's peak resident memory (on Linux).
 #[test]
 fn every_rank_sees_every_ranks_stage_times() {
     check_halo();
@@ -1103,9 +1104,27 @@ fn every_rank_sees_every_ranks_stage_times() {
             stages: sim.timers.seconds,
             exchange: sim.exchanged().seconds,
             pairs_held: 0.0,
+            peak_memory: 0.0,
         };
         (rank, own, sim.rank_seconds().to_vec())
     });
+    // (The ranks are threads of this process here: their peak memory is the process's,
+    // read by each at its own moment; it is compared apart.)
+    let linux = std::path::Path::new("/proc/self/status").exists();
+    let runs: Vec<_> = runs
+        .into_iter()
+        .map(|(rank, own, mut seen)| {
+            for r in &mut seen {
+                assert!(
+                    !linux || r.peak_memory > 1e6,
+                    "rank {rank} sees a peak memory of {} B",
+                    r.peak_memory
+                );
+                r.peak_memory = 0.0;
+            }
+            (rank, own, seen)
+        })
+        .collect();
     let own: Vec<_> = {
         let mut v: Vec<_> = runs.iter().map(|(r, o, _)| (*r, *o)).collect();
         v.sort_by_key(|(r, _)| *r);

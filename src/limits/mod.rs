@@ -34,6 +34,15 @@ pub fn available_memory() -> Option<f64> {
     Some(kb * 1024.0)
 }
 
+/// The most memory this process has held resident so far [B]: `VmHWM` of
+/// `/proc/self/status` (None where there is no such file).
+pub fn peak_resident_memory() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = text.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024.0)
+}
+
 /// Bytes for people: `1.5 GB`, `300 MB`.
 pub fn format_bytes(b: f64) -> String {
     if !b.is_finite() {

@@ -581,6 +581,8 @@ pub struct RankSeconds {
     pub stages: [f64; 7],
     pub exchange: f64,
     pub pairs_held: f64,
+    /// The rank's peak resident memory so far [B] (0: not known on this system).
+    pub peak_memory: f64,
 }
 
 impl std::fmt::Debug for Parallel {
@@ -1206,16 +1208,18 @@ impl Parallel {
         v[0]
     }
 
-    /// Every rank's stage times, exchange time and most pairs held into
-    /// [`Parallel::rank_seconds`] (a collective: one sum of 9 numbers per rank). The exchange
-    /// time is this rank's up to the call; the gather itself is not counted.
-    pub fn gather_timings(&mut self, stages: &[f64; 7]) {
-        const PER_RANK: usize = 9;
+    /// Every rank's stage times, exchange time, most pairs held and peak resident memory
+    /// (`peak_memory` [B], 0 if not known) into [`Parallel::rank_seconds`] (a collective:
+    /// one sum of 10 numbers per rank). The exchange time is this rank's up to the call; the
+    /// gather itself is not counted.
+    pub fn gather_timings(&mut self, stages: &[f64; 7], peak_memory: f64) {
+        const PER_RANK: usize = 10;
         let (n, rank) = (self.comm.size(), self.comm.rank());
         let mut buf = vec![0.0; n * PER_RANK];
         buf[rank * PER_RANK..rank * PER_RANK + 7].copy_from_slice(stages);
         buf[rank * PER_RANK + 7] = self.seconds;
         buf[rank * PER_RANK + 8] = self.pairs_held as f64;
+        buf[rank * PER_RANK + 9] = peak_memory;
         self.comm.sum_f64(&mut buf);
         self.rank_seconds = buf
             .chunks_exact(PER_RANK)
@@ -1223,6 +1227,7 @@ impl Parallel {
                 stages: c[..7].try_into().expect("7 stages"),
                 exchange: c[7],
                 pairs_held: c[8],
+                peak_memory: c[9],
             })
             .collect();
     }

@@ -847,13 +847,14 @@ impl Simulation {
         work
     }
 
-    /// On a decomposed model, every rank's stage and exchange times to every rank
-    /// ([`crate::parallel::Parallel::rank_seconds`], for the summary's load balance). A
+    /// On a decomposed model, every rank's stage and exchange times and peak memory to every
+    /// rank ([`crate::parallel::Parallel::rank_seconds`], for the summary's load balance). A
     /// collective: the script layer calls it when a run returns normally, on every rank.
     pub fn gather_rank_timings(&mut self) {
         if let Some(par) = &mut self.parallel {
             if par.partition.is_split() {
-                par.gather_timings(&self.timers.seconds);
+                let peak = crate::limits::peak_resident_memory().unwrap_or(0.0);
+                par.gather_timings(&self.timers.seconds, peak);
             }
         }
     }

@@ -1090,6 +1090,14 @@ fn rank_table(ranks: &[crate::parallel::RankSeconds]) -> String {
         s.push_str(&line);
         s.push_str("   (candidate contact pairs: each rank holds those it computes)\n");
     }
+    if ranks.iter().all(|r| r.peak_memory > 0.0) {
+        let mut line = format!("   {:<20}", "peak memory [MB]");
+        for r in ranks {
+            line.push_str(&format!(" {:>9.1}", r.peak_memory / 1e6));
+        }
+        s.push_str(&line);
+        s.push_str("   (resident, each rank's most so far: what a node must hold for its ranks)\n");
+    }
     let slowest = ranks.iter().map(total).fold(0.0, f64::max);
     let mean = ranks.iter().map(total).sum::<f64>() / ranks.len() as f64;
     if mean > 0.0 {
