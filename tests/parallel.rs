@@ -1141,3 +1141,82 @@ fn every_rank_sees_every_ranks_stage_times() {
         );
     }
 }
+
+/// A fracture criterion that keeps fully damaged joints pending (`when: "damaged"`: they
+/// break once they opened to a limit) across a restart onto ranks: a one-process checkpoint
+/// taken while joints wait, restored on 2 and 3 ranks, goes on as the one process does (the
+/// same positions, broken joints and break events, the waiting joints breaking after the
+/// restart). A rank's list of waiting joints is made again at each split from the joints it
+/// holds; the restored list was the writing process's, and named joints a rank does not hold
+/// (it panicked there once ranks held only their own joint histories; before that, such a
+/// rank asked the criterion about stale histories).
+#[test]
+fn joints_a_criterion_keeps_waiting_go_on_alike_after_a_restart_on_ranks() {
+    check_halo();
+    let with_criterion = || {
+        let mut sim = pulled_jointed_bar();
+        let src = "fn criterion(j, p) { j.max_opening > p.limit }";
+        let ast = rhai::Engine::new_raw().compile(src).unwrap();
+        let mut p = rhai::Map::new();
+        p.insert("limit".into(), 4e-4.into());
+        let law =
+            fdem::compiled::compile_with(&ast, "criterion", &p, fdem::fracture::CRITERION).unwrap();
+        sim.fracture_criterion = Some(fdem::fracture::FractureCriterion::new(
+            std::sync::Arc::new(law),
+            fdem::fracture::CriterionWhen::Damaged,
+        ));
+        sim
+    };
+    let waiting = |sim: &Simulation| {
+        (0..sim.joints.len())
+            .filter(|&j| {
+                !sim.joints.broken[j] && sim.joints.state[j].iter().all(|p| p.damage >= 1.0)
+            })
+            .count()
+    };
+    let mut one = with_criterion();
+    while waiting(&one) < 8 {
+        one.step().unwrap();
+        assert!(one.step < 20_000, "no joint failed");
+    }
+    let (at, broken_at) = (one.step, one.break_events.len());
+    let bytes = postcard::to_allocvec(&one).unwrap();
+    let steps = 1500;
+    for _ in 0..steps {
+        one.step().unwrap();
+    }
+    println!(
+        "checkpoint at step {at} with {} joints waiting and {broken_at} broken; {} broken {steps} steps later",
+        8,
+        one.break_events.len()
+    );
+    assert!(
+        one.break_events.len() > broken_at,
+        "no waiting joint broke after the restart: the test would not see them"
+    );
+    for ranks in [2, 3] {
+        let runs = ThreadComm::run(ranks, |comm| {
+            let mut sim = with_criterion();
+            sim.decompose(comm);
+            sim.step().unwrap();
+            sim.restore(postcard::from_bytes(&bytes).unwrap());
+            for _ in 0..steps {
+                sim.step().unwrap();
+            }
+            sim.synchronize();
+            let (rank, _) = sim.rank_and_size();
+            (
+                rank,
+                sim.nodes.x.clone(),
+                sim.joints.broken.clone(),
+                sim.break_events.clone(),
+            )
+        });
+        for (rank, x, broken, events) in runs {
+            let place = format!("rank {rank} of {ranks}");
+            assert!(x == one.nodes.x, "{place}: positions differ");
+            assert_eq!(broken, one.joints.broken, "{place}: broken joints differ");
+            assert_eq!(events, one.break_events, "{place}: break events differ");
+        }
+    }
+}

@@ -51,6 +51,7 @@ use crate::compiled::Frame;
 use crate::contact_detection::{Aabb, ContactDetection, PairOrigin};
 use crate::material::Material;
 use crate::math::{ExactSum, Mat3, Real, Vec3};
+use crate::state::held::Held;
 use crate::state::{Nodes, Tets};
 use potential::{overlapping_tet_tet, separating_axis, TetGeom, OVERLAPPED};
 use rayon::prelude::*;
@@ -466,10 +467,17 @@ pub struct ContactInteraction {
     /// Broken joints whose faces contact took over in the last step (stage 2 drops them).
     pub handover: Vec<u32>,
     /// Per surface tet: current geometry, box (the cheap first test of every pair) and
-    /// 1/(smallest height).
-    geom: Vec<Option<TetGeom>>,
-    current_boxes: Vec<Aabb>,
-    inv_h: Vec<Real>,
+    /// 1/(smallest height), computed at the start of each step (not in checkpoints). A rank
+    /// of a decomposed model holds those of the surface tets of its pairs only
+    /// ([`PairMask::surface`], the list `geom_for`): 416 B a surface tet.
+    #[serde(skip)]
+    geom: Held<Option<TetGeom>>,
+    #[serde(skip)]
+    current_boxes: Held<Aabb>,
+    #[serde(skip)]
+    inv_h: Held<Real>,
+    #[serde(skip)]
+    geom_for: Vec<u32>,
     /// Per chunk of pairs: the history entries of the pairs that touched in the last step,
     /// in pair order ([`NEW_FLAG`] set for those that started touching), and handovers.
     chunk_out: Vec<Vec<u32>>,
@@ -546,8 +554,9 @@ impl ContactInteraction {
     }
 
     /// Stage 4 detected: carry the history over to the new pair list (`origins`, one per new
-    /// pair: stage 4's remap) and size the per-surface and per-chunk buffers.
-    pub fn carry_history(&mut self, origins: Vec<PairOrigin>, n_surface: usize) {
+    /// pair: stage 4's remap) and size the per-chunk buffers (stage 5 sizes the per-surface
+    /// ones).
+    pub fn carry_history(&mut self, origins: Vec<PairOrigin>) {
         let old_slots = std::mem::take(&mut self.slots);
         let old_hist = std::mem::take(&mut self.hist);
         let n_chunks = origins.len().div_ceil(CHUNK);
@@ -585,10 +594,6 @@ impl ContactInteraction {
         self.free = vec![Vec::new(); n_chunks];
         // The outputs point into the old histories.
         self.chunk_out.iter_mut().for_each(Vec::clear);
-        self.geom.resize(n_surface, None);
-        self.current_boxes
-            .resize(n_surface, Aabb::of_points(&[Vec3::zeros()]));
-        self.inv_h.resize(n_surface, 0.0);
         self.chunk_out.resize_with(n_chunks, Vec::new);
         self.chunk_handover.resize_with(n_chunks, Vec::new);
         self.chunk_records.resize_with(n_chunks, Vec::new);
@@ -802,7 +807,8 @@ impl ContactInteraction {
                 let p = self
                     .laws
                     .props_of(tet_material[ea as usize], tet_material[eb as usize]);
-                Some((self.geom[a as usize]?, self.geom[b as usize]?, p.penalty))
+                let geom = |s: u32| *self.geom.get(s as usize)?;
+                Some((geom(a)?, geom(b)?, p.penalty))
             })
             .collect()
     }
@@ -967,9 +973,9 @@ pub fn contact_nodal_stiffness(dm_inv: &Mat3, vol0: Real, p: Real) -> Real {
 struct StepInputs<'a> {
     surface: &'a [u32],
     pairs: &'a [[u32; 2]],
-    geom: &'a [Option<TetGeom>],
-    boxes: &'a [Aabb],
-    inv_h: &'a [Real],
+    geom: &'a Held<Option<TetGeom>>,
+    boxes: &'a Held<Aabb>,
+    inv_h: &'a Held<Real>,
     laws: &'a ContactLaws,
     tet_mass: &'a [Real],
     tet_nodes: &'a [[u32; 4]],
@@ -996,6 +1002,11 @@ pub fn add_contact_forces(
 ) -> ContactSums {
     let needed = std::mem::take(&mut ci.mask.surface);
     let decomposed = ci.mask.decomposed;
+    size_surface_geometry(
+        ci,
+        decomposed.then_some(&needed[..]),
+        detection.surface.len(),
+    );
     update_surface_geometry(
         ci,
         decomposed.then_some(&needed[..]),
@@ -1382,6 +1393,31 @@ impl ContactInteraction {
     }
 }
 
+/// The per-surface-tet geometry arrays for `n_surface` surface tets: every one's, or only
+/// those `needed` (a decomposed model's rank; packed again when its list changed).
+fn size_surface_geometry(ci: &mut ContactInteraction, needed: Option<&[u32]>, n_surface: usize) {
+    let no_box = Aabb::of_points(&[Vec3::zeros()]);
+    match needed {
+        Some(needed) => {
+            if ci.geom.is_whole() || ci.geom_for != needed {
+                ci.geom = Held::of_ids(n_surface, needed, None);
+                ci.current_boxes = Held::of_ids(n_surface, needed, no_box);
+                ci.inv_h = Held::of_ids(n_surface, needed, 0.0);
+                ci.geom_for = needed.to_vec();
+            }
+        }
+        None => {
+            if !ci.geom.is_whole() {
+                (ci.geom, ci.current_boxes, ci.inv_h) = Default::default();
+                ci.geom_for = Vec::new();
+            }
+            ci.geom.resize(n_surface, None);
+            ci.current_boxes.resize(n_surface, no_box);
+            ci.inv_h.resize(n_surface, 0.0);
+        }
+    }
+}
+
 /// Current geometry, box and 1/(smallest height) of the surface tets (only those `needed`,
 /// when given: a decomposed model's rank reads only the tets of its pairs), in one pass.
 fn update_surface_geometry(
@@ -1415,9 +1451,10 @@ fn update_surface_geometry(
         return;
     }
     ci.geom
+        .as_mut_slice()
         .par_iter_mut()
-        .zip(ci.current_boxes.par_iter_mut())
-        .zip(ci.inv_h.par_iter_mut())
+        .zip(ci.current_boxes.as_mut_slice().par_iter_mut())
+        .zip(ci.inv_h.as_mut_slice().par_iter_mut())
         .zip(surface.par_iter())
         .enumerate()
         .with_min_len(256)
@@ -1696,7 +1733,7 @@ mod tests {
             neighbours: false,
             joint: u32::MAX,
         };
-        ci.carry_history(vec![new], cd.surface.len());
+        ci.carry_history(vec![new]);
         let tets = Tets {
             nodes: vec![[0, 1, 2, 3], [4, 5, 6, 7]],
             material: vec![0, 0],

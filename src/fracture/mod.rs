@@ -103,6 +103,24 @@ impl FractureCriterion {
         }
     }
 
+    /// The joints it keeps from breaking, from the joints' state: those `relevant` (every
+    /// joint on one process; a rank's own after a split), fully damaged and not broken, in
+    /// joint order. A decomposed model calls it at each split, when every joint's history
+    /// is whole: the list before was the old split's (or, after a restart, the process's
+    /// that wrote the checkpoint), and a joint it names may no longer be this rank's.
+    pub fn pending_again(&mut self, joints: &Joints, relevant: impl Fn(usize) -> bool) {
+        if matches!(self.when, CriterionWhen::Always { .. }) {
+            // (Such a criterion keeps none: it breaks every fully damaged joint at once.)
+            self.pending.clear();
+            return;
+        }
+        self.pending = (0..joints.len())
+            .filter(|&j| {
+                relevant(j) && !joints.broken[j] && joints.state[j].iter().all(|p| p.damage >= 1.0)
+            })
+            .collect();
+    }
+
     /// Ask the criterion about joint `j`.
     fn says_break(&self, joints: &Joints, j: usize, x: &[Vec3], time: Real) -> bool {
         let (_, _, pts) = joint_kinematics(&joints.faces[j], x);
@@ -172,6 +190,7 @@ pub fn break_joints(
         relevant(j) && !joints.broken[j] && joints.state[j].iter().all(|p| p.damage >= 1.0)
     };
     let mut released = ExactSum::default();
+    let first_event = events.len();
     // The joints that failed this step, in joint order, from the units that counted them
     // (not a look at every joint: on a rank of a large model that was a pass over the whole
     // model's joint states at every step where one broke).
@@ -239,6 +258,10 @@ pub fn break_joints(
             }
         }
     }
+    // A step's events in joint order, whoever broke them and in whatever order (a
+    // criterion's waiting joints, its `always` checks, the failed joints): the order a
+    // decomposed model's ranks merge them in.
+    events[first_event..].sort_by_key(|e| e.joint);
     released
 }
 

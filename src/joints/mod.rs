@@ -637,7 +637,10 @@ impl Joints {
     /// rank of a decomposed model does between splits: 264 B a joint (more with rate
     /// effects) for the joints of its part only. Every joint's on one process.
     pub fn hold_computed(&mut self) {
-        if self.compute.is_empty() || self.colored != self.len() {
+        if self.compute.is_empty()
+            || self.colored != self.len()
+            || self.compute.len() != unit_count(&self.color_blocks)
+        {
             self.hold_all();
             return;
         }
@@ -791,7 +794,9 @@ impl Joints {
                 .copied()
                 .unwrap_or_default(),
         );
-        if let (JointLaw::Cohesive(c), Some(r)) = (&law, self.rate.get(j)) {
+        if let (JointLaw::Cohesive(c), Some(r)) =
+            (&law, (!self.rate.is_empty()).then(|| &self.rate[j]))
+        {
             if c.rate != RateEffects::None {
                 let scaled = c.scaled(r.dif_t, r.dif_c);
                 consts = scaled.consts();
@@ -1159,6 +1164,18 @@ pub fn add_joint_forces(
     // Where joint j's history is stored: at j + `base` within a unit this process computes
     // (a rank holds the histories of its units only, packed in joint order).
     let slots = state.slots().clone();
+    debug_assert!(
+        [
+            anchor.slots(),
+            slid.slots(),
+            offset.slots(),
+            last_energy.slots()
+        ]
+        .iter()
+        .all(|s| **s == slots)
+            && (rate.is_empty() || *rate.slots() == slots),
+        "the joint history arrays share one slot map"
+    );
     let base_of = |start: usize| slots.at(start) as isize - start as isize;
     let audit = audit::on().then(|| audit::Recorder::begin(faces.len()));
     let n_units = unit_count(color_blocks);

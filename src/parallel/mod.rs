@@ -1989,7 +1989,7 @@ impl Parallel {
                 last_energy: joints.last_energy[j],
                 keeps_faces: get(&joints.keeps_faces, j),
                 handed_over: get(&joints.handed_over, j),
-                rate: joints.rate.get(j).copied(),
+                rate: (!joints.rate.is_empty()).then(|| joints.rate[j]),
             })
             .collect();
         let before = self.bytes;

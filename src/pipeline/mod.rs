@@ -1249,6 +1249,11 @@ impl Simulation {
         self.contact_detection.own_surface_nodes = None;
         self.elements_ws.compute = par.elements.compute.clone();
         self.joints.compute = par.joint_blocks.compute.clone();
+        // The joints a fracture criterion keeps pending, this rank's of them (while every
+        // history is still whole here).
+        if let Some(c) = &mut self.fracture_criterion {
+            c.pending_again(&self.joints, |j| par.joints.relevant[j]);
+        }
         // Each rank holds the joint histories of its own units from here on: a later
         // whole-model read gathers them.
         self.joints.hold_computed();
@@ -1609,8 +1614,7 @@ impl Simulation {
                 let computes = &par.partition.tet_relevant;
                 if contact_detection::keep_this_ranks_pairs(&mut self.contact_detection, computes) {
                     let remap = self.contact_detection.take_remap();
-                    let n_surface = self.contact_detection.surface.len();
-                    self.contact.carry_history(remap, n_surface);
+                    self.contact.carry_history(remap);
                 }
             }
             let incremental_before = self.contact_detection.detector.incremental;
@@ -1638,8 +1642,7 @@ impl Simulation {
                     }
                 }
                 let remap = self.contact_detection.take_remap();
-                let n_surface = self.contact_detection.surface.len();
-                self.contact.carry_history(remap, n_surface);
+                self.contact.carry_history(remap);
             }
             if let Some(par) = &mut self.parallel {
                 let cd = &mut self.contact_detection;

@@ -172,6 +172,23 @@ impl<T: Clone> Held<T> {
         self.slots = slots.clone();
     }
 
+    /// Of ids `0..n`, only `ids` (ascending) held, each `fill`.
+    pub fn of_ids(n: usize, ids: &[u32], fill: T) -> Self {
+        let mut slot = vec![NOT_HELD; n];
+        for (k, &id) in ids.iter().enumerate() {
+            slot[id as usize] = k as u32;
+        }
+        Held {
+            data: vec![fill; ids.len()],
+            slots: Slots(Some(slot.into())),
+        }
+    }
+
+    /// Entries the storage has room for.
+    pub fn capacity(&self) -> usize {
+        self.data.capacity()
+    }
+
     /// Every entry again, ids `0..n`: the held ones kept, the others `fill` (to be filled by
     /// whoever holds them).
     pub fn make_whole(&mut self, n: usize, fill: T) {
@@ -255,5 +272,7 @@ mod tests {
         );
         let back: Held<u64> = postcard::from_bytes(&postcard::to_allocvec(&a).unwrap()).unwrap();
         assert_eq!(back, a);
+        let b = Held::of_ids(10, &[2, 3, 9], 7u64);
+        assert_eq!((b.held(), b[2], b[3], b[9], b.get(4)), (3, 7, 7, 7, None));
     }
 }
