@@ -115,9 +115,7 @@ impl FractureCriterion {
             return;
         }
         self.pending = (0..joints.len())
-            .filter(|&j| {
-                relevant(j) && !joints.broken[j] && joints.state[j].iter().all(|p| p.damage >= 1.0)
-            })
+            .filter(|&j| relevant(j) && failed_unbroken(joints, j))
             .collect();
     }
 
@@ -168,6 +166,11 @@ impl JointMask {
     }
 }
 
+/// Joint `j` is fully damaged (D = 1 at every point) and not broken yet.
+fn failed_unbroken(joints: &Joints, j: usize) -> bool {
+    !joints.broken[j] && joints.state[j].iter().all(|p| p.damage >= 1.0)
+}
+
 /// Stage 3: break the joints whose points all reached D = 1 (subject to a user criterion, if
 /// any) and record the events. Returns the energy released by joints a criterion broke before
 /// they were fully damaged [J] (their stored energy, counted as fracture dissipation), as an
@@ -186,9 +189,7 @@ pub fn break_joints(
     mask: Option<&JointMask>,
 ) -> ExactSum {
     let relevant = |j: usize| mask.is_none_or(|m| m.relevant[j]);
-    let failed = |joints: &Joints, j: usize| {
-        relevant(j) && !joints.broken[j] && joints.state[j].iter().all(|p| p.damage >= 1.0)
-    };
+    let failed = |joints: &Joints, j: usize| relevant(j) && failed_unbroken(joints, j);
     let mut released = ExactSum::default();
     let first_event = events.len();
     // The joints that failed this step, in joint order, from the units that counted them

@@ -679,11 +679,6 @@ impl Joints {
         self.rate.make_whole(n, RateState::STATIC);
     }
 
-    /// Every joint's history is held here.
-    pub fn holds_all(&self) -> bool {
-        self.state.is_whole()
-    }
-
     /// Drop the spare capacity that inserting joints one by one left (up to as much again as
     /// the arrays hold: about 190 B a joint).
     fn shrink_to_fit(&mut self) {

@@ -26,19 +26,21 @@ pub const MAX_TEXT_INPUT: u64 = 256 << 20;
 /// (None where there is no such file).
 pub fn available_memory() -> Option<f64> {
     let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text
-        .lines()
-        .find(|l| l.starts_with("MemAvailable:"))
-        .or_else(|| text.lines().find(|l| l.starts_with("MemTotal:")))?;
-    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024.0)
+    kilobytes(&text, "MemAvailable:").or_else(|| kilobytes(&text, "MemTotal:"))
 }
 
 /// The most memory this process has held resident so far [B]: `VmHWM` of
 /// `/proc/self/status` (None where there is no such file).
 pub fn peak_resident_memory() -> Option<f64> {
-    let text = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = text.lines().find(|l| l.starts_with("VmHWM:"))?;
+    kilobytes(
+        &std::fs::read_to_string("/proc/self/status").ok()?,
+        "VmHWM:",
+    )
+}
+
+/// The value [B] of the line `key  N kB` of a `/proc` file's `text`.
+fn kilobytes(text: &str, key: &str) -> Option<f64> {
+    let line = text.lines().find(|l| l.starts_with(key))?;
     let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb * 1024.0)
 }
