@@ -153,7 +153,7 @@ fn cantilever_converges_to_beam_theory() {
             .sum::<Real>()
             / tip.len() as Real;
         // At rest: the applied load equals the support reaction (equilibrium check).
-        let reaction: Real = sim.nodes.reaction.iter().map(|r| r.z).sum();
+        let reaction: Real = sim.nodes.constrained.reaction.iter().map(|r| r.z).sum();
         assert!(
             (reaction - p).abs() < 1e-3 * p,
             "n = {n}: reaction {reaction} vs load {p}"

@@ -1505,7 +1505,7 @@ fn fuzz_vtu_frames() {
             Encoding::Base64
         };
         let frame = VtuFrame {
-            points: &points,
+            points: DataArray::VectorF64(&points),
             tets: &tets,
             triangles: &triangles,
             lines: &lines,
@@ -1683,7 +1683,7 @@ fn regression_vtu_field_names_xml_cannot_hold_are_refused() {
     let v = [1.0];
     for name in ["\u{fffe}", "a\u{ffff}"] {
         let frame = VtuFrame {
-            points: &[[0.0; 3]],
+            points: DataArray::VectorF64(&[[0.0; 3]]),
             tets: &[],
             triangles: &[],
             lines: &[],

@@ -119,7 +119,7 @@ impl Rig {
         let r: Vec3 = self
             .b_nodes
             .iter()
-            .map(|&i| self.sim.nodes.reaction[i as usize])
+            .map(|&i| self.sim.nodes.reaction_sum(&[i]))
             .sum();
         (r.dot(&self.n) / self.area, r.dot(&t_dir) / self.area)
     }
@@ -411,10 +411,7 @@ fn jointed_bar(p_over_e: Real) -> BarResult {
     let (mut peak, mut e_eff, mut fragments) = (0.0 as Real, 0.0, 1);
     while sim.time < 1.5 * t_load {
         sim.step().unwrap();
-        let f: Real = right
-            .iter()
-            .map(|&n| sim.nodes.reaction[n as usize].x)
-            .sum();
+        let f: Real = right.iter().map(|&n| sim.nodes.reaction_sum(&[n]).x).sum();
         let u = right
             .iter()
             .map(|&n| sim.nodes.x[n as usize].x - l)
@@ -831,7 +828,7 @@ fn joints_between_bodies_glue_and_release_them() {
     let mut fragments = 1;
     while sim.time < 2.0 * t_load {
         sim.step().unwrap();
-        peak = peak.max(top.iter().map(|&n| sim.nodes.reaction[n as usize].z).sum());
+        peak = peak.max(top.iter().map(|&n| sim.nodes.reaction_sum(&[n]).z).sum());
         if !sim.break_events.is_empty() && sim.step.is_multiple_of(100) {
             fragments = fdem::fracture::fragments(&sim.tets.nodes, &sim.joints, sim.nodes.len())
                 .into_iter()
@@ -960,10 +957,7 @@ fn rate_bar_held(rate: Real, rate_effects: bool, hold_at: Option<Real>) -> RateB
     let mut held = false;
     while sim.time < t_end {
         sim.step().unwrap();
-        let f: Real = right
-            .iter()
-            .map(|&n| sim.nodes.reaction[n as usize].x)
-            .sum();
+        let f: Real = right.iter().map(|&n| sim.nodes.reaction_sum(&[n]).x).sum();
         if t_start.is_nan() && f > 0.01 * ft * a * a {
             t_start = sim.time;
         }

@@ -582,7 +582,7 @@ fn vtkio_0_6_import_stops_raw_appended_data_at_byte_0x3c() {
     ];
     let write = |points: &[[f64; 3]], name: &str| {
         let bytes = encode_vtu(&VtuFrame {
-            points,
+            points: fdem::io::vtu::DataArray::VectorF64(points),
             tets: &[[0, 1, 2, 3]],
             triangles: &[],
             lines: &[],
@@ -705,7 +705,7 @@ fn meshio_reads_every_array_under_its_own_name() {
         let body: Vec<i32> = (0..n as i32).map(|c| -1 - c).collect();
         let joint: Vec<i32> = (0..n as i32).map(|c| 1000 + 7 * c).collect();
         let bytes = encode_vtu(&VtuFrame {
-            points: &points,
+            points: DataArray::VectorF64(&points),
             tets: &[],
             triangles: &triangles,
             lines: &[],

@@ -22,7 +22,8 @@ use fdem::{Layout, Simulation};
 struct Outcome {
     x: Vec<Vec3>,
     v: Vec<Vec3>,
-    reaction: Vec<Vec3>,
+    /// The constrained nodes and their reactions.
+    reaction: Vec<(u32, Vec3)>,
     damage: Vec<Real>,
     broken: Vec<bool>,
     events: Vec<fdem::fracture::BreakEvent>,
@@ -41,7 +42,9 @@ fn outcome(sim: &Simulation) -> Outcome {
     Outcome {
         x: sim.nodes.x.clone(),
         v: sim.nodes.v.clone(),
-        reaction: sim.nodes.reaction.clone(),
+        reaction: (sim.nodes.constrained.node.iter().copied())
+            .zip(sim.nodes.constrained.reaction.iter().copied())
+            .collect(),
         damage: sim
             .joints
             .state

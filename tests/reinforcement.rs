@@ -130,7 +130,7 @@ fn steel_bar_in_tension_yields_hardens_unloads_elastically_and_ruptures() {
             ruptured_at = Some(eps);
             break;
         }
-        let n = sim.nodes.reaction[n1 as usize].x;
+        let n = sim.nodes.reaction_sum(&[n1]).x;
         let (sigma, alpha) = (sim.bars.stress[0], sim.bars.history[0]);
         // The force the constraint exerts on the pulled end is the bar's axial force (but in
         // the steps where the end's velocity reverses: there it also stops the end's mass).
@@ -248,7 +248,7 @@ fn pull_out_force_follows_the_bond_law_integrated_over_the_bond_length() {
         let weight: Real = b.area.iter().sum();
         let mean_slip = -(0..b.len()).map(|p| b.slip[p] * b.area[p]).sum::<Real>() / weight;
         if mean_slip >= targets[next] {
-            let force = sim.nodes.reaction[end as usize].x.abs();
+            let force = sim.nodes.reaction_sum(&[end]).x.abs();
             let expected = area * fib.envelope(mean_slip);
             checked.push((mean_slip, force, expected));
             next += 1;

@@ -142,17 +142,42 @@ pub fn central_difference(
         f,
         m,
         constraint,
-        v_prescribed,
-        reaction,
+        constrained,
         ..
     } = nodes;
-    let (x0, m, constraint, v_prescribed) = (&*x0, &*m, &*constraint, &*v_prescribed);
+    let (x0, m, constraint) = (&*x0, &*m, &*constraint);
+    // The reactions first, from the forces and velocities before the step (the constrained
+    // nodes are few, listed apart: `Constrained`), R = m·((v_p − v_old)/dt̄ − g − b) − f on
+    // each constrained component, then read by the nodes' loop for their work.
+    let owns = |n: usize| owned_chunks.is_none_or(|o| o[n / CHUNK]);
+    let crate::state::Constrained {
+        node: listed,
+        v_prescribed,
+        reaction,
+    } = constrained;
+    (listed.par_iter())
+        .zip(&*v_prescribed)
+        .zip(&mut *reaction)
+        .with_min_len(CHUNK)
+        .for_each(|((&n, v_p), r)| {
+            let n = n as usize;
+            if !owns(n) {
+                return;
+            }
+            let (mask, mass, v_old) = (constraint[n], m[n], v[n]);
+            *r = Vec3::zeros();
+            for k in 0..3 {
+                if mask & (1 << k) != 0 {
+                    r[k] = mass * ((v_p[k] - v_old[k]) / dt_bar - body[k]) - f[n][k];
+                }
+            }
+        });
+    let (listed, v_prescribed, reaction) = (&*listed, &*v_prescribed, &*reaction);
     x.par_chunks_mut(CHUNK)
         .zip(v.par_chunks_mut(CHUNK))
         .zip(f.par_chunks_mut(CHUNK))
-        .zip(reaction.par_chunks_mut(CHUNK))
         .enumerate()
-        .map(|(chunk, (((xs, vs), fs), rs))| {
+        .map(|(chunk, ((xs, vs), fs))| {
             let base = chunk * CHUNK;
             let mut s = IntegrationSums::default();
             if owned_chunks.is_some_and(|o| !o[chunk]) {
@@ -160,6 +185,8 @@ pub fn central_difference(
                 return s;
             }
             let mut finite_probe = 0.0;
+            // The chunk's constrained nodes, met in node order.
+            let mut slot = listed.partition_point(|&c| (c as usize) < base);
             for i in 0..xs.len() {
                 let n = base + i;
                 let mask = constraint[n];
@@ -178,19 +205,19 @@ pub fn central_difference(
                 };
                 let mut v_new = (v_old * c_old + (acc + push) * dt_bar) * c_inv;
                 if mask != 0 {
-                    let mut r = Vec3::zeros();
+                    debug_assert_eq!(listed[slot] as usize, n);
+                    let r = reaction[slot];
                     for k in 0..3 {
                         if mask & (1 << k) != 0 {
-                            v_new[k] = v_prescribed[n][k];
-                            r[k] = mass * ((v_new[k] - v_old[k]) / dt_bar - body[k]) - fs[i][k];
+                            v_new[k] = v_prescribed[slot][k];
                         }
                     }
+                    slot += 1;
                     s.reaction_work_before += r.dot(&v_old) * half_before;
                     // A constraint may start with a velocity jump: its impulse works at the
                     // mean of the velocities before and after the jump.
                     let v_after = if first { (v_old + v_new) * 0.5 } else { v_new };
                     s.reaction_work_after += r.dot(&v_after) * half_after;
-                    rs[i] = r;
                 }
                 if p.mass_damping > 0.0 {
                     // The damping force −α·m·((v_old + v_new)/2 − v_f), free components only.

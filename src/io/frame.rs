@@ -22,16 +22,11 @@ pub fn encode_frame(
     encoding: Encoding,
 ) -> Result<Vec<u8>, String> {
     let all = |n: usize| (0..n as u32).collect::<Vec<u32>>();
-    let data = FrameData::of(
-        sim,
-        reads,
-        extra,
-        &all(sim.tets.len()),
-        &all(sim.nodes.len()),
-    );
+    let (tets, nodes) = (all(sim.tets.len()), all(sim.nodes.len()));
+    let data = FrameData::of(sim, reads, extra, &tets, &nodes);
     let extra_name = format!("stress_{}", extra.name());
     let frame = VtuFrame {
-        points: &data.points,
+        points: data.points(),
         tets: &sim.tets.nodes,
         triangles: &[],
         lines: &[],
@@ -90,7 +85,7 @@ pub fn encode_frame_piece(
         data: DataArray::ScalarI32(&tet_id),
     });
     let frame = VtuFrame {
-        points: &piece.points,
+        points: piece.points(),
         tets: &cells,
         triangles: &[],
         lines: &[],
@@ -103,14 +98,24 @@ pub fn encode_frame_piece(
     ))
 }
 
-/// The arrays of one frame of [`encode_frame`], owned here and lent to the [`VtuFrame`].
-struct FrameData {
+/// Values computed as the frame's bytes are written ([`DataArray::VectorF64Of`]).
+type Gather<'s, T> = Box<dyn Fn(usize) -> T + 's>;
+
+/// The fields of one frame of [`encode_frame`], lent to the [`VtuFrame`]. The stresses are
+/// computed here (in parallel, the principal stresses and von Mises from the Cauchy stress);
+/// the nodes' fields (positions, displacements, velocities, contact forces) and the tets'
+/// ids, damage, fragment and contact pressure are gathered from the model's arrays as they
+/// are written, so a frame holds no copy of them beside its bytes (on the 61 440-tet bar
+/// 17.7 MB less at the frame's peak; docs/performance.md).
+struct FrameData<'s> {
+    n_points: usize,
+    n_cells: usize,
     /// Current node positions [m].
-    points: Vec<[f64; 3]>,
+    points: Gather<'s, [f64; 3]>,
     /// Node displacements from the reference positions [m].
-    displacement: Vec<[f64; 3]>,
+    displacement: Gather<'s, [f64; 3]>,
     /// Node velocities (half-step) [m/s].
-    velocity: Vec<[f64; 3]>,
+    velocity: Gather<'s, [f64; 3]>,
     /// Cauchy stress per tetrahedron, 9 components row-major [Pa].
     cauchy: Vec<[f64; 9]>,
     /// Principal stresses σ1 ≥ σ2 ≥ σ3 per tetrahedron [Pa].
@@ -118,95 +123,71 @@ struct FrameData {
     /// Von Mises stress per tetrahedron [Pa].
     von_mises: Vec<f64>,
     /// Body id per tetrahedron.
-    body: Vec<i32>,
+    body: Gather<'s, i32>,
     /// Material id per tetrahedron.
-    material: Vec<i32>,
+    material: Gather<'s, i32>,
     /// The `extra` stress measure per tetrahedron [Pa], unless it is Cauchy.
     extra_stress: Option<Vec<[f64; 9]>>,
-    /// Largest joint damage per tetrahedron (empty without joints).
-    damage: Vec<f64>,
-    /// Fragment id per tetrahedron (empty without joints).
-    fragment: Vec<i32>,
-    /// Whether the model has joints (then `damage` and `fragment` are written).
-    joints_on: bool,
-    /// Whether contact is enabled (then the two contact arrays are filled).
-    contact_on: bool,
-    /// Largest mean contact pressure per tetrahedron over the last step [Pa].
-    contact_pressure: Vec<f64>,
-    /// Contact force per node over the last step [N].
-    contact_force: Vec<[f64; 3]>,
+    /// Largest joint damage and fragment id per tetrahedron (None without joints).
+    joints: Option<(Gather<'s, f64>, Gather<'s, i32>)>,
+    /// With contact: the largest mean contact pressure per tetrahedron [Pa] and the contact
+    /// force per node [N] over the last step.
+    contact: Option<(Gather<'s, f64>, Gather<'s, [f64; 3]>)>,
 }
 
-impl FrameData {
-    /// Compute the arrays of the tets `tets` and the nodes `nodes` (both by global id, in
-    /// file order) from the current state of `sim` and `reads`. Only those are computed: a
-    /// piece of a frame costs its own tets.
+impl<'s> FrameData<'s> {
+    /// The fields of the tets `tets` and the nodes `nodes` (both by global id, in file
+    /// order) from the current state of `sim` and `reads`. Only those are computed: a piece
+    /// of a frame costs its own tets.
     fn of(
-        sim: &Simulation,
-        reads: &FrameReads,
+        sim: &'s Simulation,
+        reads: &'s FrameReads,
         extra: StressMeasure,
-        tets: &[u32],
-        nodes: &[u32],
+        tets: &'s [u32],
+        nodes: &'s [u32],
     ) -> Self {
-        fn pick<T: Copy>(v: &[T], ids: &[u32]) -> Vec<T> {
-            if v.is_empty() {
-                return Vec::new();
-            }
-            ids.iter().map(|&i| v[i as usize]).collect()
-        }
         let n = &sim.nodes;
-        let points: Vec<[f64; 3]> = nodes.iter().map(|&i| n.x[i as usize].into()).collect();
-        let displacement: Vec<[f64; 3]> = nodes
-            .iter()
-            .map(|&i| (n.x[i as usize] - n.x0[i as usize]).into())
-            .collect();
-        let velocity: Vec<[f64; 3]> = nodes.iter().map(|&i| n.v[i as usize].into()).collect();
         let cauchy = stresses(sim, tets, StressMeasure::Cauchy);
         let principal = principal_stresses(&cauchy);
         let von_mises: Vec<f64> = cauchy
             .iter()
             .map(|s| von_mises(&crate::math::Mat3::from_row_slice(s)))
             .collect();
-        let body: Vec<i32> = tets
-            .iter()
-            .map(|&e| sim.tets.body[e as usize] as i32)
-            .collect();
-        let material: Vec<i32> = tets
-            .iter()
-            .map(|&e| sim.tets.material[e as usize] as i32)
-            .collect();
         let extra_stress = (extra != StressMeasure::Cauchy).then(|| stresses(sim, tets, extra));
-        let (damage, fragment) = joint_fields(sim, &reads.joint_damage);
-        let contact_on = sim.contact.is_enabled();
-        let contact_force: Vec<[f64; 3]> = pick(&reads.contact_force, nodes)
-            .into_iter()
-            .map(Into::into)
-            .collect();
+        let joints = joint_fields(sim, &reads.joint_damage).map(|(damage, fragment)| {
+            let damage: Gather<f64> = Box::new(move |i| damage[tets[i] as usize]);
+            let fragment: Gather<i32> = Box::new(move |i| fragment[tets[i] as usize]);
+            (damage, fragment)
+        });
+        let contact = sim.contact.is_enabled().then(|| {
+            let (pressure, force) = (&reads.contact_pressure, &reads.contact_force);
+            let pressure: Gather<f64> = Box::new(move |i| pressure[tets[i] as usize]);
+            let force: Gather<[f64; 3]> = Box::new(move |i| force[nodes[i] as usize].into());
+            (pressure, force)
+        });
         FrameData {
-            points,
-            displacement,
-            velocity,
+            n_points: nodes.len(),
+            n_cells: tets.len(),
+            points: Box::new(move |i| n.x[nodes[i] as usize].into()),
+            displacement: Box::new(move |i| {
+                let k = nodes[i] as usize;
+                (n.x[k] - n.x0[k]).into()
+            }),
+            velocity: Box::new(move |i| n.v[nodes[i] as usize].into()),
             cauchy,
             principal,
             von_mises,
-            body,
-            material,
+            body: Box::new(move |i| sim.tets.body[tets[i] as usize] as i32),
+            material: Box::new(move |i| sim.tets.material[tets[i] as usize] as i32),
             extra_stress,
-            joints_on: !damage.is_empty(),
-            damage: pick(&damage, tets),
-            fragment: pick(&fragment, tets),
-            contact_on,
-            contact_pressure: if contact_on {
-                pick(&reads.contact_pressure, tets)
-            } else {
-                Vec::new()
-            },
-            contact_force: if contact_on {
-                contact_force
-            } else {
-                Vec::new()
-            },
+            joints,
+            contact,
         }
+    }
+
+    /// The node positions.
+    fn points(&self) -> DataArray<'_> {
+        DataArray::VectorF64Of(self.n_points, &*self.points)
     }
 
     /// Point data: `displacement`, `velocity` and, with contact, `contact_force`.
@@ -214,17 +195,17 @@ impl FrameData {
         let mut fields = vec![
             Field {
                 name: "displacement",
-                data: DataArray::VectorF64(&self.displacement),
+                data: DataArray::VectorF64Of(self.n_points, &*self.displacement),
             },
             Field {
                 name: "velocity",
-                data: DataArray::VectorF64(&self.velocity),
+                data: DataArray::VectorF64Of(self.n_points, &*self.velocity),
             },
         ];
-        if self.contact_on {
+        if let Some((_, force)) = &self.contact {
             fields.push(Field {
                 name: "contact_force",
-                data: DataArray::VectorF64(&self.contact_force),
+                data: DataArray::VectorF64Of(self.n_points, &**force),
             });
         }
         fields
@@ -247,27 +228,27 @@ impl FrameData {
             },
             Field {
                 name: "body",
-                data: DataArray::ScalarI32(&self.body),
+                data: DataArray::ScalarI32Of(self.n_cells, &*self.body),
             },
             Field {
                 name: "material",
-                data: DataArray::ScalarI32(&self.material),
+                data: DataArray::ScalarI32Of(self.n_cells, &*self.material),
             },
         ];
-        if self.joints_on {
+        if let Some((damage, fragment)) = &self.joints {
             fields.push(Field {
                 name: "damage",
-                data: DataArray::ScalarF64(&self.damage),
+                data: DataArray::ScalarF64Of(self.n_cells, &**damage),
             });
             fields.push(Field {
                 name: "fragment",
-                data: DataArray::ScalarI32(&self.fragment),
+                data: DataArray::ScalarI32Of(self.n_cells, &**fragment),
             });
         }
-        if self.contact_on {
+        if let Some((pressure, _)) = &self.contact {
             fields.push(Field {
                 name: "contact_pressure",
-                data: DataArray::ScalarF64(&self.contact_pressure),
+                data: DataArray::ScalarF64Of(self.n_cells, &**pressure),
             });
         }
         if let Some(s) = &self.extra_stress {
@@ -314,10 +295,10 @@ fn principal_stresses(cauchy: &[[f64; 9]]) -> Vec<[f64; 3]> {
         .collect()
 }
 
-/// Per tet: the largest damage of its joints and its fragment id (both empty without joints).
-fn joint_fields(sim: &Simulation, joint_damage: &[f64]) -> (Vec<f64>, Vec<i32>) {
+/// Per tet: the largest damage of its joints and its fragment id (None without joints).
+fn joint_fields(sim: &Simulation, joint_damage: &[f64]) -> Option<(Vec<f64>, Vec<i32>)> {
     if sim.joints.is_empty() {
-        return (Vec::new(), Vec::new());
+        return None;
     }
     let mut d = vec![0.0f64; sim.tets.len()];
     for (tets, &dj) in sim.joints.tets.iter().zip(joint_damage) {
@@ -326,7 +307,7 @@ fn joint_fields(sim: &Simulation, joint_damage: &[f64]) -> (Vec<f64>, Vec<i32>) 
         }
     }
     let frag = crate::fracture::fragments(&sim.tets.nodes, &sim.joints, sim.nodes.len());
-    (d, frag.into_iter().map(|f| f as i32).collect())
+    Some((d, frag.into_iter().map(|f| f as i32).collect()))
 }
 
 /// Encode the crack surface as `.vtu` bytes: one triangle per broken joint (face A at its
@@ -355,7 +336,7 @@ pub fn encode_cracks(sim: &Simulation, encoding: Encoding) -> Result<Vec<u8>, St
         joint.push(e.joint as i32);
     }
     let frame = VtuFrame {
-        points: &points,
+        points: DataArray::VectorF64(&points),
         tets: &[],
         triangles: &triangles,
         lines: &[],
@@ -420,7 +401,7 @@ pub fn encode_bars(sim: &Simulation, encoding: Encoding) -> Result<Vec<u8>, Stri
         moment[n[1] as usize - first] = bars.hinges.moment[h];
     }
     let frame = VtuFrame {
-        points: &points,
+        points: DataArray::VectorF64(&points),
         tets: &[],
         triangles: &[],
         lines: &lines,

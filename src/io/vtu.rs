@@ -57,7 +57,7 @@ const VTK_TRIANGLE: u8 = 5;
 const VTK_LINE: u8 = 3;
 
 /// Values of one field: one entry per point (point data) or per tet (cell data).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy)]
 pub enum DataArray<'a> {
     /// n scalars
     ScalarF64(&'a [f64]),
@@ -67,6 +67,25 @@ pub enum DataArray<'a> {
     TensorF64(&'a [[f64; 9]]),
     /// n integer scalars (e.g. material or body ids)
     ScalarI32(&'a [i32]),
+    /// n scalars, value i computed as it is written: no array is held beside the file's
+    /// bytes (a frame's fields gathered from the model's arrays).
+    ScalarF64Of(usize, &'a dyn Fn(usize) -> f64),
+    /// n vectors, 3 components, computed as they are written.
+    VectorF64Of(usize, &'a dyn Fn(usize) -> [f64; 3]),
+    /// n integer scalars, computed as they are written.
+    ScalarI32Of(usize, &'a dyn Fn(usize) -> i32),
+}
+
+impl std::fmt::Debug for DataArray<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "DataArray({} × {} {})",
+            self.len(),
+            self.components(),
+            self.vtk_type()
+        )
+    }
 }
 
 impl DataArray<'_> {
@@ -77,6 +96,9 @@ impl DataArray<'_> {
             DataArray::VectorF64(v) => v.len(),
             DataArray::TensorF64(v) => v.len(),
             DataArray::ScalarI32(v) => v.len(),
+            DataArray::ScalarF64Of(n, _)
+            | DataArray::VectorF64Of(n, _)
+            | DataArray::ScalarI32Of(n, _) => *n,
         }
     }
 
@@ -87,25 +109,26 @@ impl DataArray<'_> {
 
     fn vtk_type(&self) -> &'static str {
         match self {
-            DataArray::ScalarI32(_) => "Int32",
+            DataArray::ScalarI32(_) | DataArray::ScalarI32Of(..) => "Int32",
             _ => "Float64",
         }
     }
 
     fn components(&self) -> usize {
         match self {
-            DataArray::ScalarF64(_) | DataArray::ScalarI32(_) => 1,
-            DataArray::VectorF64(_) => 3,
+            DataArray::ScalarF64(_)
+            | DataArray::ScalarI32(_)
+            | DataArray::ScalarF64Of(..)
+            | DataArray::ScalarI32Of(..) => 1,
+            DataArray::VectorF64(_) | DataArray::VectorF64Of(..) => 3,
             DataArray::TensorF64(_) => 9,
         }
     }
 
     /// Bytes of the array's data, without the block header.
     fn byte_len(&self) -> usize {
-        match self {
-            DataArray::ScalarI32(v) => v.len() * 4,
-            _ => self.len() * self.components() * 8,
-        }
+        let bytes = if self.vtk_type() == "Int32" { 4 } else { 8 };
+        self.len() * self.components() * bytes
     }
 
     fn put(&self, out: &mut Vec<u8>) {
@@ -117,6 +140,11 @@ impl DataArray<'_> {
                 for x in v.iter() {
                     out.extend_from_slice(&x.to_le_bytes());
                 }
+            }
+            DataArray::ScalarF64Of(n, value) => (0..*n).for_each(|i| put_f64s(out, &[value(i)])),
+            DataArray::VectorF64Of(n, value) => (0..*n).for_each(|i| put_f64s(out, &value(i))),
+            DataArray::ScalarI32Of(n, value) => {
+                (0..*n).for_each(|i| out.extend_from_slice(&value(i).to_le_bytes()))
             }
         }
     }
@@ -136,8 +164,8 @@ pub struct Field<'a> {
 /// one of `tets`, `triangles` and `lines` is non-empty (none: a frame without cells).
 #[derive(Clone, Debug)]
 pub struct VtuFrame<'a> {
-    /// Node coordinates.
-    pub points: &'a [[f64; 3]],
+    /// Node coordinates: a `VectorF64` or `VectorF64Of` array.
+    pub points: DataArray<'a>,
     /// Four node indices (into `points`) per tetrahedron.
     pub tets: &'a [[u32; 4]],
     /// Three node indices per triangle (surfaces such as cracks).
@@ -204,6 +232,12 @@ pub fn encode_vtu_into_with(
 ) -> Result<(), String> {
     out.clear();
     let n_points = frame.points.len();
+    if frame.points.components() != 3 || frame.points.vtk_type() != "Float64" {
+        return Err(format!(
+            "the points are {:?}, not 3 Float64 components each",
+            frame.points
+        ));
+    }
     let cells = Cells::of(frame)?;
     validate_fields("point", &frame.point_data, n_points)?;
     validate_fields("cell", &frame.cell_data, cells.count)?;
@@ -224,7 +258,7 @@ pub fn encode_vtu_into_with(
     }
 
     put_header(out, n_points * 24);
-    put_f64s(out, frame.points.as_flattened());
+    frame.points.put(out);
 
     for f in frame.point_data.iter().chain(frame.cell_data.iter()).rev() {
         put_header(out, f.data.byte_len());
@@ -685,7 +719,7 @@ mod tests {
         let s = [0.1, 0.2, 0.3, 0.4, f64::NAN];
         let ids = [7, -3];
         let frame = VtuFrame {
-            points: &points,
+            points: DataArray::VectorF64(&points),
             tets: &tets,
             triangles: &[],
             lines: &[],
@@ -746,7 +780,7 @@ mod tests {
         let good = [1.0; 5];
         let short = [[0.0; 3]; 4];
         let frame = VtuFrame {
-            points: &points,
+            points: DataArray::VectorF64(&points),
             tets: &tets,
             triangles: &[],
             lines: &[],
@@ -769,7 +803,7 @@ mod tests {
 
         let ids = [1, 2, 3];
         let frame = VtuFrame {
-            points: &points,
+            points: DataArray::VectorF64(&points),
             tets: &tets,
             triangles: &[],
             lines: &[],
@@ -789,7 +823,7 @@ mod tests {
         let (points, mut tets) = two_tets();
         tets[1][2] = 5;
         let frame = VtuFrame {
-            points: &points,
+            points: DataArray::VectorF64(&points),
             tets: &tets,
             triangles: &[],
             lines: &[],
@@ -809,7 +843,7 @@ mod tests {
             (["a\nb", "c"], "control character"),
         ] {
             let frame = VtuFrame {
-                points: &points,
+                points: DataArray::VectorF64(&points),
                 tets: &tets,
                 triangles: &[],
                 lines: &[],
@@ -830,7 +864,7 @@ mod tests {
     #[test]
     fn names_are_escaped_and_empty_mesh_is_valid() {
         let frame = VtuFrame {
-            points: &[],
+            points: DataArray::VectorF64(&[]),
             tets: &[],
             triangles: &[],
             lines: &[],

@@ -128,7 +128,8 @@ pub struct Loads {
 
 impl Loads {
     /// Rebuild the per-node constraint masks from the prescriptions (later ones win per
-    /// component; nodes following a base motion are constrained in all three).
+    /// component; nodes following a base motion are constrained in all three), and the list
+    /// of constrained nodes ([`Nodes::index_constrained`]).
     pub fn apply_constraint_masks(&self, nodes: &mut Nodes) {
         nodes.constraint.iter_mut().for_each(|c| *c = 0);
         for p in &self.prescribed {
@@ -144,6 +145,7 @@ impl Loads {
                 }
             }
         }
+        nodes.index_constrained();
     }
 }
 
@@ -172,12 +174,19 @@ pub fn add_external_forces(loads: &mut Loads, nodes: &mut Nodes, t: Real, dt_pre
     }
     loads.force_work += work;
     let t_half = t + 0.5 * dt;
+    let constrained = &mut nodes.constrained;
     for p in &loads.prescribed {
-        for k in 0..3 {
-            if let Some(tf) = &p.components[k] {
-                let value = tf.eval(t_half);
-                for &n in &p.nodes {
-                    nodes.v_prescribed[n as usize][k] = value;
+        let value = p
+            .components
+            .each_ref()
+            .map(|c| c.as_ref().map(|tf| tf.eval(t_half)));
+        for &n in &p.nodes {
+            let Some(s) = constrained.slot(n) else {
+                continue; // (listed at prepare: a prescription added since applies from then)
+            };
+            for k in 0..3 {
+                if let Some(value) = value[k] {
+                    constrained.v_prescribed[s][k] = value;
                 }
             }
         }
@@ -191,7 +200,9 @@ pub fn add_external_forces(loads: &mut Loads, nodes: &mut Nodes, t: Real, dt_pre
             ShakingKind::Relative => loads.body_acceleration -= a,
             ShakingKind::Base(base) => {
                 for &n in base {
-                    nodes.v_prescribed[n as usize] = s.velocity;
+                    if let Some(slot) = constrained.slot(n) {
+                        constrained.v_prescribed[slot] = s.velocity;
+                    }
                 }
                 if !frame_set {
                     loads.frame_velocity = s.velocity_at_step();

@@ -939,7 +939,13 @@ impl Parallel {
             // Every node not kept current poisoned; the halo's are written just below.
             let stale = Vec3::repeat(Real::NAN);
             for n in (0..current.len()).filter(|&n| !current[n]) {
-                (nodes.x[n], nodes.v[n], nodes.reaction[n]) = (stale, stale, stale);
+                (nodes.x[n], nodes.v[n]) = (stale, stale);
+            }
+            let c = &mut nodes.constrained;
+            for (&n, r) in c.node.iter().zip(&mut c.reaction) {
+                if !current[n as usize] {
+                    *r = stale;
+                }
             }
         }
         for ((_, which), buf) in halo.recv.iter().zip(&halo.recv_buf) {
@@ -1254,12 +1260,12 @@ impl Parallel {
         which: &[u32],
         reactions: bool,
     ) {
-        let per_node: usize = if reactions { 9 } else { 6 };
+        const PER_NODE: usize = 6;
         let t = std::time::Instant::now();
         let (p, me) = (&self.partition, self.comm.rank());
         let mut at = vec![0usize; self.comm.size() + 1];
         for &n in which {
-            at[p.owner(n as usize) + 1] += per_node;
+            at[p.owner(n as usize) + 1] += PER_NODE;
         }
         for r in 0..self.comm.size() {
             at[r + 1] += at[r];
@@ -1271,26 +1277,29 @@ impl Parallel {
         let mut next = at.clone();
         for &n in which.iter().filter(|&&n| p.owner(n as usize) == me) {
             let k = &mut next[me];
-            let fields = [&nodes.x, &nodes.v, &nodes.reaction];
-            for (f, field) in fields.iter().take(per_node / 3).enumerate() {
-                buf[*k + 3 * f..*k + 3 * f + 3].copy_from_slice(field[n as usize].as_slice());
-            }
-            *k += per_node;
+            buf[*k..*k + 3].copy_from_slice(nodes.x[n as usize].as_slice());
+            buf[*k + 3..*k + 6].copy_from_slice(nodes.v[n as usize].as_slice());
+            *k += PER_NODE;
         }
         self.comm.allgather_ranges_f64(buf, &segments);
         for &n in which {
             let r = p.owner(n as usize);
             if r != me {
                 let k = &mut next[r];
-                let mut fields = [&mut nodes.x, &mut nodes.v, &mut nodes.reaction];
-                for (f, field) in fields.iter_mut().take(per_node / 3).enumerate() {
-                    let v = &buf[*k + 3 * f..*k + 3 * f + 3];
-                    field[n as usize] = Vec3::new(v[0], v[1], v[2]);
-                }
-                *k += per_node;
+                let v = &buf[*k..*k + PER_NODE];
+                nodes.x[n as usize] = Vec3::new(v[0], v[1], v[2]);
+                nodes.v[n as usize] = Vec3::new(v[3], v[4], v[5]);
+                *k += PER_NODE;
             }
         }
         self.bytes += (8 * (at[self.comm.size()] - segments[me].len())) as u64;
+        if reactions {
+            let c = &nodes.constrained;
+            let mut slots: Vec<usize> = which.iter().filter_map(|&n| c.slot(n)).collect();
+            slots.sort_unstable();
+            slots.dedup();
+            self.bytes += self.share_reactions(&mut nodes.constrained, &slots, false);
+        }
         self.seconds += t.elapsed().as_secs_f64();
     }
 
@@ -1301,14 +1310,11 @@ impl Parallel {
     pub fn gather_nodes_to_root(&mut self, nodes: &mut crate::state::Nodes, reactions: bool) {
         let t = std::time::Instant::now();
         let me = self.comm.rank();
-        let per_node = if reactions { 9 } else { 6 };
+        let per_node = 6;
         let mut own: Vec<f64> = Vec::new();
         for n in self.partition.nodes_of(me).flatten() {
             own.extend_from_slice(nodes.x[n].as_slice());
             own.extend_from_slice(nodes.v[n].as_slice());
-            if reactions {
-                own.extend_from_slice(nodes.reaction[n].as_slice());
-            }
         }
         let before = self.bytes;
         let mut received: Vec<Vec<f64>> = Vec::new();
@@ -1318,10 +1324,11 @@ impl Parallel {
             for (n, s) in nodes_of_r.zip(values.chunks_exact(per_node)) {
                 nodes.x[n] = Vec3::new(s[0], s[1], s[2]);
                 nodes.v[n] = Vec3::new(s[3], s[4], s[5]);
-                if reactions {
-                    nodes.reaction[n] = Vec3::new(s[6], s[7], s[8]);
-                }
             }
+        }
+        if reactions {
+            let all: Vec<usize> = (0..nodes.constrained.len()).collect();
+            self.bytes += self.share_reactions(&mut nodes.constrained, &all, true);
         }
         self.whole_bytes += self.bytes - before;
         self.seconds += t.elapsed().as_secs_f64();
@@ -1353,10 +1360,70 @@ impl Parallel {
     /// a new split).
     pub fn share_nodes(&mut self, nodes: &mut crate::state::Nodes) {
         let t = std::time::Instant::now();
-        let received = self.gather_owned(&mut [&mut nodes.x, &mut nodes.v, &mut nodes.reaction]);
+        let mut received = self.gather_owned(&mut [&mut nodes.x, &mut nodes.v]);
+        let all: Vec<usize> = (0..nodes.constrained.len()).collect();
+        received += self.share_reactions(&mut nodes.constrained, &all, false);
         self.bytes += received;
         self.whole_bytes += received;
         self.seconds += t.elapsed().as_secs_f64();
+    }
+
+    /// The reactions of the constrained nodes at `slots` of [`crate::state::Constrained`]
+    /// (ascending, the same on every rank, as the list is) from the ranks owning their nodes,
+    /// to every rank, or to rank 0 alone with `to_root` (a collective: each rank sends its
+    /// own in slot order). Returns the bytes received.
+    fn share_reactions(
+        &mut self,
+        c: &mut crate::state::Constrained,
+        slots: &[usize],
+        to_root: bool,
+    ) -> u64 {
+        let (me, size) = (self.comm.rank(), self.comm.size());
+        let p = &self.partition;
+        let owners: Vec<usize> = (slots.iter())
+            .map(|&s| p.owner(c.node[s] as usize))
+            .collect();
+        let mut at = vec![0usize; size + 1];
+        for &r in &owners {
+            at[r + 1] += 3;
+        }
+        for r in 0..size {
+            at[r + 1] += at[r];
+        }
+        let segments: Vec<Range<usize>> = at.windows(2).map(|w| w[0]..w[1]).collect();
+        let buf = &mut self.buffer;
+        buf.clear();
+        buf.resize(at[size], 0.0);
+        let mut k = segments[me].start;
+        for (&s, _) in slots.iter().zip(&owners).filter(|(_, &r)| r == me) {
+            buf[k..k + 3].copy_from_slice(c.reaction[s].as_slice());
+            k += 3;
+        }
+        if to_root {
+            let mine = buf[segments[me].clone()].to_vec();
+            let mut received: Vec<Vec<f64>> = Vec::new();
+            let before = self.bytes;
+            self.gather_each_to_root(mine, "reactions", |of_rank| received.push(of_rank));
+            let bytes = self.bytes - before;
+            self.bytes = before;
+            for (r, values) in received.iter().enumerate().filter(|(r, _)| *r != me) {
+                let of_r = slots.iter().zip(&owners).filter(|(_, &o)| o == r);
+                for ((&s, _), v) in of_r.zip(values.chunks_exact(3)) {
+                    c.reaction[s] = Vec3::new(v[0], v[1], v[2]);
+                }
+            }
+            return bytes;
+        }
+        self.comm.allgather_ranges_f64(buf, &segments);
+        let mut next: Vec<usize> = segments.iter().map(|r| r.start).collect();
+        for (&s, &r) in slots.iter().zip(&owners) {
+            if r != me {
+                let k = &mut next[r];
+                c.reaction[s] = Vec3::new(buf[*k], buf[*k + 1], buf[*k + 2]);
+                *k += 3;
+            }
+        }
+        (8 * (at[size] - segments[me].len())) as u64
     }
 
     /// Every node's value of each of `fields` from the rank that owns it, on every rank (one

@@ -98,7 +98,7 @@ impl Simulation {
     /// Sum of the constraint forces (fixed and prescribed-velocity components) on `nodes` in
     /// the last step [N]; zero for an empty set.
     pub fn reaction_sum(&self, nodes: &[u32]) -> Vec3 {
-        nodes.iter().map(|&i| self.nodes.reaction[i as usize]).sum()
+        self.nodes.reaction_sum(nodes)
     }
 
     /// Cauchy stress of tet `e` at the current positions [Pa] (elastic part, as its

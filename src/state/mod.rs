@@ -24,10 +24,8 @@ pub struct Nodes {
     /// Constrained components: bit 0 = x, 1 = y, 2 = z; [`RIGID_NODE`] marks a node moved by
     /// its rigid body (stage 7's central difference skips it).
     pub constraint: Vec<u8>,
-    /// Prescribed velocity of constrained components at t + dt/2 [m/s] (set by stage 6).
-    pub v_prescribed: Vec<Vec3>,
-    /// Force the constraints exert on constrained components in the last step [N].
-    pub reaction: Vec<Vec3>,
+    /// The nodes with a constrained component, their prescribed velocities and reactions.
+    pub constrained: Constrained,
 }
 
 impl Nodes {
@@ -45,8 +43,6 @@ impl Nodes {
         self.m.push(0.0);
         self.body.push(body);
         self.constraint.push(0);
-        self.v_prescribed.push(Vec3::zeros());
-        self.reaction.push(Vec3::zeros());
     }
 
     /// Drop the spare capacity that building the model by `push` left (up to as much again
@@ -59,8 +55,73 @@ impl Nodes {
         self.m.shrink_to_fit();
         self.body.shrink_to_fit();
         self.constraint.shrink_to_fit();
-        self.v_prescribed.shrink_to_fit();
-        self.reaction.shrink_to_fit();
+    }
+
+    /// List the nodes with a constrained component (bits 0–2 of [`Nodes::constraint`]) in
+    /// [`Nodes::constrained`], keeping the prescribed velocity and reaction of those listed
+    /// before; a node no longer constrained drops out (its reaction reads zero).
+    pub(crate) fn index_constrained(&mut self) {
+        let old = std::mem::take(&mut self.constrained);
+        let mut c = Constrained::default();
+        let mut at = 0;
+        for (n, &mask) in self.constraint.iter().enumerate() {
+            if mask & 0b111 == 0 {
+                continue;
+            }
+            let n = n as u32;
+            while at < old.node.len() && old.node[at] < n {
+                at += 1;
+            }
+            let kept = (old.node.get(at) == Some(&n)).then_some(at);
+            c.node.push(n);
+            c.v_prescribed
+                .push(kept.map_or(Vec3::zeros(), |i| old.v_prescribed[i]));
+            c.reaction
+                .push(kept.map_or(Vec3::zeros(), |i| old.reaction[i]));
+        }
+        self.constrained = c;
+    }
+
+    /// Sum of the reactions of `nodes` (zero for a node without a constrained component) [N].
+    pub fn reaction_sum(&self, nodes: &[u32]) -> Vec3 {
+        (nodes.iter())
+            .filter_map(|&n| self.constrained.slot(n))
+            .map(|s| self.constrained.reaction[s])
+            .sum()
+    }
+}
+
+/// The nodes with a constrained component (a fixed or prescribed-velocity component, or a
+/// base motion), in node order, with what stages 6 and 7 keep for them: 52 B a constrained
+/// node, where arrays over every node cost 48 B a node (most nodes are free). Listed again
+/// when the constraints are ([`Nodes::index_constrained`], at prepare).
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
+pub struct Constrained {
+    /// Node ids, ascending.
+    pub node: Vec<u32>,
+    /// Prescribed velocity of the constrained components at t + dt/2 [m/s] (set by stage 6).
+    pub v_prescribed: Vec<Vec3>,
+    /// Force the constraints exerted on the constrained components in the last step [N]
+    /// (set by stage 7; zero on free components).
+    pub reaction: Vec<Vec3>,
+}
+
+impl Constrained {
+    pub fn len(&self) -> usize {
+        self.node.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.node.is_empty()
+    }
+    /// Where node `n` is listed, if it has a constrained component.
+    #[inline]
+    pub fn slot(&self, n: u32) -> Option<usize> {
+        self.node.binary_search(&n).ok()
+    }
+    /// The first slot of a node `n` or later.
+    #[inline]
+    pub fn first_from(&self, n: u32) -> usize {
+        self.node.partition_point(|&m| m < n)
     }
 }
 
