@@ -117,6 +117,8 @@ impl StepParams {
 /// `p.frame_velocity`: a body's translation is then not damped, only its deformation and
 /// rotation. `owned_chunks` (a rank of a decomposed model): the chunks of `CHUNK` nodes this
 /// process advances; the other chunks' forces are only cleared (`None`: all).
+/// Kept whole: one pass over every node, its body the central difference and the energy terms
+/// it books; split, its parts would pass a dozen arrays and coefficients each.
 pub fn central_difference(
     nodes: &mut Nodes,
     p: StepParams,
@@ -146,33 +148,15 @@ pub fn central_difference(
         ..
     } = nodes;
     let (x0, m, constraint) = (&*x0, &*m, &*constraint);
-    // The reactions first, from the forces and velocities before the step (the constrained
-    // nodes are few, listed apart: `Constrained`), R = m·((v_p − v_old)/dt̄ − g − b) − f on
-    // each constrained component, then read by the nodes' loop for their work.
-    let owns = |n: usize| owned_chunks.is_none_or(|o| o[n / CHUNK]);
-    let crate::state::Constrained {
-        node: listed,
-        v_prescribed,
-        reaction,
-    } = constrained;
-    (listed.par_iter())
-        .zip(&*v_prescribed)
-        .zip(&mut *reaction)
-        .with_min_len(CHUNK)
-        .for_each(|((&n, v_p), r)| {
-            let n = n as usize;
-            if !owns(n) {
-                return;
-            }
-            let (mask, mass, v_old) = (constraint[n], m[n], v[n]);
-            *r = Vec3::zeros();
-            for k in 0..3 {
-                if mask & (1 << k) != 0 {
-                    r[k] = mass * ((v_p[k] - v_old[k]) / dt_bar - body[k]) - f[n][k];
-                }
-            }
-        });
-    let (listed, v_prescribed, reaction) = (&*listed, &*v_prescribed, &*reaction);
+    // The reactions first (read by the nodes' loop for their work).
+    constraint_reactions(
+        constrained,
+        (v, f, m, constraint),
+        dt_bar,
+        body,
+        owned_chunks,
+    );
+    let c = &*constrained;
     x.par_chunks_mut(CHUNK)
         .zip(v.par_chunks_mut(CHUNK))
         .zip(f.par_chunks_mut(CHUNK))
@@ -186,7 +170,7 @@ pub fn central_difference(
             }
             let mut finite_probe = 0.0;
             // The chunk's constrained nodes, met in node order.
-            let mut slot = listed.partition_point(|&c| (c as usize) < base);
+            let mut slot = c.node.partition_point(|&c| (c as usize) < base);
             for i in 0..xs.len() {
                 let n = base + i;
                 let mask = constraint[n];
@@ -205,11 +189,11 @@ pub fn central_difference(
                 };
                 let mut v_new = (v_old * c_old + (acc + push) * dt_bar) * c_inv;
                 if mask != 0 {
-                    debug_assert_eq!(listed[slot] as usize, n);
-                    let r = reaction[slot];
+                    debug_assert_eq!(c.node[slot] as usize, n);
+                    let r = c.reaction[slot];
                     for k in 0..3 {
                         if mask & (1 << k) != 0 {
-                            v_new[k] = v_prescribed[slot][k];
+                            v_new[k] = c.v_prescribed[slot][k];
                         }
                     }
                     slot += 1;
@@ -256,4 +240,38 @@ pub fn central_difference(
         })
         .collect_into_vec(partials);
     IntegrationSums::total(partials)
+}
+
+/// The reactions of the constrained nodes (listed apart, [`crate::state::Constrained`]) this
+/// process advances, from the forces and velocities before the step:
+/// R = m·((v_p − v_old)/dt̄ − g − b) − f on each constrained component, zero on the others.
+fn constraint_reactions(
+    constrained: &mut crate::state::Constrained,
+    (v, f, m, constraint): (&[Vec3], &[Vec3], &[Real], &[u8]),
+    dt_bar: Real,
+    body: Vec3,
+    owned_chunks: Option<&[bool]>,
+) {
+    let crate::state::Constrained {
+        node: listed,
+        v_prescribed,
+        reaction,
+    } = constrained;
+    (listed.par_iter())
+        .zip(&*v_prescribed)
+        .zip(&mut *reaction)
+        .with_min_len(CHUNK)
+        .for_each(|((&n, v_p), r)| {
+            let n = n as usize;
+            if owned_chunks.is_some_and(|o| !o[n / CHUNK]) {
+                return;
+            }
+            let (mask, mass, v_old) = (constraint[n], m[n], v[n]);
+            *r = Vec3::zeros();
+            for k in 0..3 {
+                if mask & (1 << k) != 0 {
+                    r[k] = mass * ((v_p[k] - v_old[k]) / dt_bar - body[k]) - f[n][k];
+                }
+            }
+        });
 }
