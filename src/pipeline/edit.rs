@@ -103,7 +103,8 @@ impl Simulation {
 
     /// Prescribe the velocity [m/s] of the given components of `nodes`, each a function of
     /// time (None leaves a component free). A later prescription wins per component; the
-    /// constraint force is reported in `nodes.reaction`.
+    /// constraint force is reported in `nodes.constrained.reaction`
+    /// ([`crate::state::Nodes::reaction_sum`]).
     pub fn prescribe_velocity(&mut self, nodes: &[u32], components: [Option<TimeFunction>; 3]) {
         self.loads.prescribed.push(PrescribedVelocity {
             nodes: nodes.to_vec(),
